@@ -1,0 +1,474 @@
+"""One serial-chain abstraction with three parameterisations.
+
+T(q) = base · links(q) · flange · tool, with links in one of
+
+* ``"dh"``  (standard Denavit–Hartenberg): Rz(theta + q) Tz(d) Tx(a) Rx(alpha) Ry(beta)
+* ``"mdh"`` (Craig's modified DH):         Rx(alpha) Tx(a) Ry(beta) Rz(theta + q) Tz(d)
+* ``"poe"`` (product of exponentials):     exp([S_i](q_i + theta_i)) ... M, each joint
+  given by a unit axis and a point on it in the base frame at the zero configuration and
+  M the flange pose there.
+
+``beta`` is Hayati's extra rotation, zero in nominal models; it keeps near-parallel axes
+identifiable and converts exactly between DH and MDH.  Prismatic joints translate along z
+by q + d (DH/MDH) or along the axis by q + theta (POE).
+
+Units inside: mm and radians.  Joint values ``q`` are the controller's (rad or mm); the model
+variable is ``q_model = q @ joint_map.T`` (a per-joint sign on the diagonal, a coupling such
+as FANUC's J2/J3 off it).
+"""
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+
+import numpy as np
+
+from ..errors import InputError
+from ..spatial import invert, make_transform, matrix_to_rpy, so3_exp, translation
+from . import program
+from .program import Op
+
+CONVENTIONS = ("dh", "mdh", "poe")
+LINK_PARAMETERS = {
+    "dh": ("theta", "d", "a", "alpha", "beta"),
+    "mdh": ("theta", "d", "a", "alpha", "beta"),
+    # POE axis placement: shift along the joint frame's x / y, tilt about its x / y.
+    "poe": ("theta", "ux", "uy", "wx", "wy"),
+}
+FRAME_SUFFIXES = ("x", "y", "z", "rx", "ry", "rz")
+_ANGULAR_LINK = {"alpha", "beta", "wx", "wy"}
+
+
+def _as_array(values, n, default=0.0):
+    if values is None:
+        return np.full(n, default, dtype=float)
+    out = np.array(values, dtype=float).reshape(-1)
+    if out.shape != (n,):
+        raise InputError(f"expected {n} values, got {out.size}")
+    return out
+
+
+def _axis_frame(axis, point):
+    """A frame whose z is ``axis`` and origin ``point`` (x chosen deterministically)."""
+    z = axis / np.linalg.norm(axis)
+    helper = np.eye(3)[np.argmin(np.abs(z))]
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    return make_transform(np.column_stack([x, np.cross(z, x), z]), point)
+
+
+@dataclass(frozen=True, eq=False)
+class Chain:
+    """A serial robot: geometry, joint map and limits, base and tool.  Immutable."""
+
+    name: str
+    convention: str
+    joint_types: tuple
+    theta: np.ndarray
+    d: np.ndarray | None = None
+    a: np.ndarray | None = None
+    alpha: np.ndarray | None = None
+    beta: np.ndarray | None = None
+    axes: np.ndarray | None = None
+    points: np.ndarray | None = None
+    home: np.ndarray | None = None
+    joint_map: np.ndarray | None = None
+    lower: np.ndarray | None = None
+    upper: np.ndarray | None = None
+    base: np.ndarray = field(default_factory=lambda: np.eye(4))
+    flange: np.ndarray = field(default_factory=lambda: np.eye(4))
+    tool: np.ndarray = field(default_factory=lambda: np.eye(4))
+
+    def __post_init__(self):
+        if self.convention not in CONVENTIONS:
+            raise InputError(
+                f"unknown convention {self.convention!r}: use one of {', '.join(CONVENTIONS)}"
+            )
+        n = len(self.joint_types)
+        if n == 0:
+            raise InputError(f"robot {self.name!r} has no joints")
+        bad = [t for t in self.joint_types if t not in ("revolute", "prismatic")]
+        if bad:
+            raise InputError(f"joint type {bad[0]!r} is not 'revolute' or 'prismatic'")
+        set_ = object.__setattr__
+        set_(self, "joint_types", tuple(self.joint_types))
+        set_(self, "theta", _as_array(self.theta, n))
+        if self.convention == "poe":
+            axes = np.array(self.axes, dtype=float).reshape(n, 3)
+            norms = np.linalg.norm(axes, axis=1)
+            if np.any(norms < 1e-9):
+                raise InputError(f"robot {self.name!r}: a POE joint axis has zero length")
+            set_(self, "axes", axes / norms[:, None])
+            set_(self, "points", np.array(self.points, dtype=float).reshape(n, 3))
+            set_(self, "home", np.array(self.home if self.home is not None else np.eye(4), float))
+        else:
+            for key in ("d", "a", "alpha", "beta"):
+                set_(self, key, _as_array(getattr(self, key), n))
+        jm = np.eye(n) if self.joint_map is None else np.array(self.joint_map, dtype=float)
+        if jm.shape != (n, n):
+            raise InputError(f"robot {self.name!r}: joint_map must be {n}x{n}")
+        set_(self, "joint_map", jm)
+        set_(self, "lower", _as_array(self.lower, n, -np.inf))
+        set_(self, "upper", _as_array(self.upper, n, np.inf))
+        if np.any(self.lower > self.upper):
+            j = int(np.argmax(self.lower > self.upper)) + 1
+            raise InputError(f"robot {self.name!r}: joint {j} has min > max")
+        for key in ("base", "flange", "tool"):
+            set_(self, key, np.array(getattr(self, key), dtype=float).reshape(4, 4))
+
+    # ----------------------------------------------------------------- basic facts
+    @property
+    def n_joints(self):
+        return len(self.joint_types)
+
+    @property
+    def revolute(self):
+        """Boolean mask of revolute joints."""
+        return np.array([t == "revolute" for t in self.joint_types])
+
+    def replace(self, **changes):
+        """A copy with some fields changed (the chain itself is immutable)."""
+        return replace(self, **changes)
+
+    def joints_from_file(self, values):
+        """Joint values in file units (deg, mm) -> internal units (rad, mm)."""
+        values = np.array(values, dtype=float)
+        values[..., self.revolute] = np.radians(values[..., self.revolute])
+        return values
+
+    def joints_to_file(self, values):
+        """Joint values in internal units (rad, mm) -> file units (deg, mm)."""
+        values = np.array(values, dtype=float)
+        values[..., self.revolute] = np.degrees(values[..., self.revolute])
+        return values
+
+    def within_limits(self, q, tol=1e-9):
+        """(N,) mask of configurations inside the joint limits."""
+        q = np.atleast_2d(q)
+        return np.all((q >= self.lower - tol) & (q <= self.upper + tol), axis=-1)
+
+    def random_configurations(self, count, rng=None):
+        """Uniform joint vectors within the limits (±pi for unlimited revolute joints)."""
+        rng = np.random.default_rng(rng)
+        lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
+        hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
+        return lo + rng.random((count, self.n_joints)) * (hi - lo)
+
+    def model_joints(self, q):
+        """Controller joint values -> the model variables of the link transforms."""
+        return np.atleast_2d(np.asarray(q, dtype=float)) @ self.joint_map.T
+
+    def _check_q(self, q):
+        q = np.asarray(q, dtype=float)
+        single = q.ndim == 1
+        q2 = np.atleast_2d(q)
+        if q2.ndim != 2 or q2.shape[1] != self.n_joints:
+            raise InputError(
+                f"robot {self.name!r} has {self.n_joints} joints; got joint values of shape {q.shape}"
+            )
+        return q2, single
+
+    # ------------------------------------------------------------ compiled program
+    def poe_frames(self):
+        """(n, 4, 4) joint frames F_i of a POE chain (z = axis, origin = point)."""
+        return np.stack([_axis_frame(w, p) for w, p in zip(self.axes, self.points)])
+
+    @cached_property
+    def _compiled(self):
+        """(ops, tags): the factor program and, per parameter, where it acts.
+
+        A tag is (mark, 'rot' | 'trans', axis 0/1/2, coefficient): the parameter rotates
+        about / translates along that axis of the frame snapshot ``mark``.
+        """
+        ops, tags = [], {}
+
+        def emit(kind, value=0.0, **kw):
+            if kind in ("mark", "joint") or (kind == "const" and not np.allclose(kw["matrix"], np.eye(4), rtol=0, atol=0)) or (kind not in ("const",) and value != 0.0):
+                ops.append(Op(kind, value, **kw))
+
+        def tag(name, mark, motion, axis, coef=1.0):
+            tags.setdefault(name, []).append((mark, motion, axis, coef))
+
+        # Base: translation then rotation, with a mark between them so base rotations act
+        # about world axes through the base origin.
+        emit("const", matrix=translation(*self.base[:3, 3]))
+        emit("mark", name="W")
+        emit("const", matrix=make_transform(self.base[:3, :3]))
+        for k, s in enumerate(FRAME_SUFFIXES):
+            tag(f"base_{s}", "W", "trans" if k < 3 else "rot", k % 3)
+
+        if self.convention == "poe":
+            self._compile_poe(emit, tag)
+        else:
+            for i in range(self.n_joints):
+                (self._compile_dh_joint if self.convention == "dh" else self._compile_mdh_joint)(
+                    i, emit, tag
+                )
+        emit("const", matrix=self.flange)
+        emit("const", matrix=self.tool)
+        emit("mark", name="T")
+        for k, s in enumerate(FRAME_SUFFIXES):
+            tag(f"tool_{s}", "T", "trans" if k < 3 else "rot", k % 3)
+        return tuple(ops), tags
+
+    def _joint_op(self, i, emit, offset_if_revolute, offset_if_prismatic):
+        revolute = self.joint_types[i] == "revolute"
+        if revolute:
+            emit("joint", offset_if_revolute, index=i, revolute=True)
+        else:
+            emit("rz", offset_if_revolute)
+            emit("joint", offset_if_prismatic, index=i, revolute=False)
+
+    def _compile_dh_joint(self, i, emit, tag):
+        k = i + 1
+        revolute = self.joint_types[i] == "revolute"
+        self._joint_op(i, emit, self.theta[i], self.d[i])
+        emit("mark", name=f"J{k}")
+        if revolute:
+            emit("tz", self.d[i])
+        emit("tx", self.a[i])
+        emit("mark", name=f"A{k}")
+        emit("rx", self.alpha[i])
+        emit("mark", name=f"B{k}")
+        emit("ry", self.beta[i])
+        tag(f"theta{k}", f"J{k}", "rot", 2)
+        tag(f"d{k}", f"J{k}", "trans", 2)
+        tag(f"a{k}", f"J{k}", "trans", 0)
+        tag(f"alpha{k}", f"A{k}", "rot", 0)
+        tag(f"beta{k}", f"B{k}", "rot", 1)
+
+    def _compile_mdh_joint(self, i, emit, tag):
+        k = i + 1
+        revolute = self.joint_types[i] == "revolute"
+        emit("mark", name=f"P{k}")
+        emit("rx", self.alpha[i])
+        emit("tx", self.a[i])
+        emit("mark", name=f"A{k}")
+        emit("ry", self.beta[i])
+        self._joint_op(i, emit, self.theta[i], self.d[i])
+        emit("mark", name=f"J{k}")
+        if revolute:
+            emit("tz", self.d[i])
+        tag(f"alpha{k}", f"P{k}", "rot", 0)
+        tag(f"a{k}", f"P{k}", "trans", 0)
+        tag(f"beta{k}", f"A{k}", "rot", 1)
+        tag(f"theta{k}", f"J{k}", "rot", 2)
+        tag(f"d{k}", f"J{k}", "trans", 2)
+
+    def _compile_poe(self, emit, tag):
+        frames = self.poe_frames()
+        previous_inv = np.eye(4)
+        for i in range(self.n_joints):
+            k = i + 1
+            emit("const", matrix=previous_inv @ frames[i])
+            emit("mark", name=f"P{k}")
+            revolute = self.joint_types[i] == "revolute"
+            emit("joint", self.theta[i], index=i, revolute=revolute)
+            emit("mark", name=f"J{k}")
+            previous_inv = invert(frames[i])
+            tag(f"theta{k}", f"J{k}", "rot" if revolute else "trans", 2)
+            # Moving the axis moves F_i on both sides of the joint: F E Rz(q) E^-1 F^-1.
+            for name, motion, axis in (("ux", "trans", 0), ("uy", "trans", 1),
+                                       ("wx", "rot", 0), ("wy", "rot", 1)):
+                tag(f"{name}{k}", f"P{k}", motion, axis, 1.0)
+                tag(f"{name}{k}", f"J{k}", motion, axis, -1.0)
+        emit("const", matrix=previous_inv @ self.home)
+        emit("mark", name="H")
+        for k, s in enumerate(FRAME_SUFFIXES):
+            tag(f"home_{s}", "H", "trans" if k < 3 else "rot", k % 3)
+
+    # ---------------------------------------------------------- forward kinematics
+    def fk(self, q):
+        """Pose of the TCP in the world frame: (N, n) -> (N, 4, 4), or (n,) -> (4, 4)."""
+        q2, single = self._check_q(q)
+        out = program.forward(self._compiled[0], self.model_joints(q2))
+        return out[0] if single else out
+
+    def fk_positions(self, q):
+        """TCP positions only: (N, n) -> (N, 3), or (n,) -> (3,).  Faster than :meth:`fk`."""
+        q2, single = self._check_q(q)
+        out = program.positions(self._compiled[0], self.model_joints(q2))
+        return out[0] if single else out
+
+    def joint_frames(self, q):
+        """Frames right after each joint's motion: rotations (N, n, 3, 3), origins (N, n, 3),
+        and the TCP pose (N, 4, 4).  Joint i turns about the z column of its frame."""
+        q2, _ = self._check_q(q)
+        frame, marks = program.run(self._compiled[0], self.model_joints(q2), marks=True)
+        rot = np.stack(
+            [np.stack([marks[f"J{k}"].x, marks[f"J{k}"].y, marks[f"J{k}"].z], axis=-1)
+             for k in range(1, self.n_joints + 1)], axis=1
+        )  # (3, n, N, 3)? reorder below
+        rot = np.transpose(rot, (2, 1, 0, 3))
+        origins = np.stack([marks[f"J{k}"].t for k in range(1, self.n_joints + 1)], axis=0)
+        origins = np.transpose(origins, (2, 0, 1))
+        tcp = np.zeros((q2.shape[0], 4, 4))
+        tcp[:, :3, 0], tcp[:, :3, 1], tcp[:, :3, 2] = frame.x.T, frame.y.T, frame.z.T
+        tcp[:, :3, 3] = frame.t.T
+        tcp[:, 3, 3] = 1.0
+        return rot, origins, tcp
+
+    # ---------------------------------------------------------------- parameters
+    def parameter_names(self, groups=("links", "base", "tool")):
+        """Names of the model parameters, in a fixed order.
+
+        groups: 'links' (per-joint parameters), 'offsets' (theta only), 'base', 'tool',
+        'home' (POE flange pose).
+        """
+        names = []
+        n = self.n_joints
+        for g in groups:
+            if g == "links":
+                names += [f"{p}{k}" for k in range(1, n + 1) for p in LINK_PARAMETERS[self.convention]]
+            elif g == "offsets":
+                names += [f"theta{k}" for k in range(1, n + 1)]
+            elif g in ("base", "tool"):
+                names += [f"{g}_{s}" for s in FRAME_SUFFIXES]
+            elif g == "home":
+                if self.convention != "poe":
+                    raise InputError("'home' parameters exist only in POE models")
+                names += [f"home_{s}" for s in FRAME_SUFFIXES]
+            else:
+                raise InputError(f"unknown parameter group {g!r}")
+        return names
+
+    def is_angular(self, name):
+        """True for parameters measured in radians (reported in degrees)."""
+        stem = name.rstrip("0123456789")
+        if stem == "theta":
+            return self.joint_types[int(name[5:]) - 1] == "revolute"
+        return stem in _ANGULAR_LINK or name.endswith(("_rx", "_ry", "_rz"))
+
+    def parameter_values(self, names=None):
+        """Current values of named parameters (frames as xyz and rpy)."""
+        names = self.parameter_names() if names is None else names
+        out = []
+        frames = {"base": self.base, "tool": self.tool, "home": self.home}
+        for name in names:
+            if "_" in name:
+                group, s = name.split("_")
+                T = frames[group]
+                k = FRAME_SUFFIXES.index(s)
+                out.append(T[k, 3] if k < 3 else matrix_to_rpy(T[:3, :3])[k - 3])
+            else:
+                stem = name.rstrip("0123456789")
+                i = int(name[len(stem):]) - 1
+                out.append(getattr(self, stem)[i] if stem in ("theta", "d", "a", "alpha", "beta") else 0.0)
+        return np.array(out, dtype=float)
+
+    def identification_jacobian(self, q, names=None):
+        """d[TCP position; TCP orientation] / d(parameter deviation): (N, 6, P).
+
+        The orientation rows are the world-frame rotation vector.  Deviations are those
+        :meth:`perturbed` applies, so a Gauss–Newton step on them is consistent.
+        """
+        names = self.parameter_names() if names is None else list(names)
+        q2, _ = self._check_q(q)
+        ops, tags = self._compiled
+        frame, marks = program.run(ops, self.model_joints(q2), marks=True)
+        tcp = frame.t
+        n_conf = q2.shape[0]
+        out = np.zeros((n_conf, 6, len(names)))
+        cache = {}
+        for j, name in enumerate(names):
+            if name not in tags:
+                raise InputError(
+                    f"parameter {name!r} does not exist in a {self.convention} model; "
+                    f"known: {', '.join(self.parameter_names(self._groups()))}"
+                )
+            col = out[:, :, j]
+            for mark, motion, axis, coef in tags[name]:
+                if mark == "W":
+                    axis_vec = np.broadcast_to(np.eye(3)[:, axis, None], (3, n_conf))
+                    origin = self.base[:3, 3, None]
+                else:
+                    snap = marks[mark]
+                    axis_vec, origin = snap.column(axis), snap.t
+                if motion == "trans":
+                    col[:, :3] += coef * axis_vec.T
+                else:
+                    key = (mark, axis)
+                    if key not in cache:
+                        cache[key] = np.cross(axis_vec.T, (tcp - origin).T)
+                    col[:, :3] += coef * cache[key]
+                    col[:, 3:] += coef * axis_vec.T
+        return out
+
+    def _groups(self):
+        return ("links", "base", "tool", "home") if self.convention == "poe" else ("links", "base", "tool")
+
+    def perturbed(self, names, deviations=None):
+        """A new chain with parameter deviations applied.
+
+        ``names`` is a list with ``deviations`` the matching values (rad, mm), or a dict.
+        Link parameters add; base rotations turn about world axes through the base origin;
+        tool and POE home deviations act in their own frame; POE axis deviations move the
+        joint frame F_i by Trans(ux, uy, 0) · Rot([wx, wy, 0]).
+        """
+        if deviations is None:
+            items = dict(names)
+        else:
+            deviations = np.asarray(deviations, dtype=float).reshape(-1)
+            if len(names) != deviations.size:
+                raise InputError(f"{len(names)} parameter names but {deviations.size} deviations")
+            items = dict(zip(names, deviations))
+        link = {k: np.array(getattr(self, k), dtype=float) for k in ("theta", "d", "a", "alpha", "beta")
+                if getattr(self, k) is not None}
+        frame_dev = {"base": np.zeros(6), "tool": np.zeros(6), "home": np.zeros(6)}
+        poe_dev = np.zeros((self.n_joints, 4))
+        valid = set(self._compiled[1])
+        for name, value in items.items():
+            if name not in valid:
+                raise InputError(f"parameter {name!r} does not exist in a {self.convention} model")
+            if "_" in name:
+                group, s = name.split("_")
+                frame_dev[group][FRAME_SUFFIXES.index(s)] += value
+                continue
+            stem = name.rstrip("0123456789")
+            i = int(name[len(stem):]) - 1
+            if stem in link:
+                link[stem][i] += value
+            else:
+                poe_dev[i, ("ux", "uy", "wx", "wy").index(stem)] += value
+        changes = dict(link)
+        dev = frame_dev["base"]
+        if np.any(dev):
+            base = self.base.copy()
+            base[:3, :3] = so3_exp(dev[3:]) @ base[:3, :3]
+            base[:3, 3] += dev[:3]
+            changes["base"] = base
+        for group in ("tool", "home"):
+            dev = frame_dev[group]
+            if np.any(dev):
+                changes[group] = getattr(self, group) @ make_transform(so3_exp(dev[3:]), dev[:3])
+        if np.any(poe_dev):
+            frames = self.poe_frames()
+            moved = frames @ make_transform(
+                so3_exp(np.column_stack([poe_dev[:, 2:], np.zeros(self.n_joints)])),
+                np.column_stack([poe_dev[:, :2], np.zeros(self.n_joints)]),
+            )
+            changes["axes"] = moved[:, :3, 2]
+            changes["points"] = moved[:, :3, 3]
+        if self.convention == "poe":
+            for key in ("d", "a", "alpha", "beta"):
+                changes.pop(key, None)
+        return self.replace(**changes)
+
+    # ----------------------------------------------------------------- Jacobian
+    def jacobian(self, q):
+        """Geometric Jacobian of the TCP, world frame, w.r.t. controller joints: (N, 6, n)."""
+        return self.fk_jacobian(q)[1]
+
+    def fk_jacobian(self, q):
+        """TCP pose and geometric Jacobian in one pass: ((N, 4, 4), (N, 6, n))."""
+        q2, single = self._check_q(q)
+        rot, origins, tcp = self.joint_frames(q2)
+        z = rot[..., 2]  # (N, n, 3)
+        jac = np.zeros((q2.shape[0], 6, self.n_joints))
+        rev = self.revolute
+        p = tcp[:, None, :3, 3]
+        lin = np.where(rev[None, :, None], np.cross(z, p - origins), z)
+        jac[:, :3, :] = np.swapaxes(lin, 1, 2)
+        jac[:, 3:, :] = np.swapaxes(np.where(rev[None, :, None], z, 0.0), 1, 2)
+        jac = jac @ self.joint_map
+        if single:
+            return tcp[0], jac[0]
+        return tcp, jac

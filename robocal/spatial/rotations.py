@@ -1,0 +1,53 @@
+"""Rotation matrices and the rpy convention of the file formats.
+
+rpy = [rx, ry, rz] means R = Rz(rz) @ Ry(ry) @ Rx(rx): fixed axes X, then Y, then Z, as in
+URDF and equal to KUKA's (A, B, C) = (rz, ry, rx).
+"""
+import warnings
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+
+def rot_x(angle):
+    """Rotation about x by ``angle`` (rad); batched over the shape of ``angle``."""
+    c, s = np.cos(angle), np.sin(angle)
+    o, z = np.ones_like(c), np.zeros_like(c)
+    return np.stack([o, z, z, z, c, -s, z, s, c], axis=-1).reshape(np.shape(c) + (3, 3))
+
+
+def rot_y(angle):
+    """Rotation about y by ``angle`` (rad)."""
+    c, s = np.cos(angle), np.sin(angle)
+    o, z = np.ones_like(c), np.zeros_like(c)
+    return np.stack([c, z, s, z, o, z, -s, z, c], axis=-1).reshape(np.shape(c) + (3, 3))
+
+
+def rot_z(angle):
+    """Rotation about z by ``angle`` (rad)."""
+    c, s = np.cos(angle), np.sin(angle)
+    o, z = np.ones_like(c), np.zeros_like(c)
+    return np.stack([c, -s, z, s, c, z, z, z, o], axis=-1).reshape(np.shape(c) + (3, 3))
+
+
+def rpy_to_matrix(rpy):
+    """(..., 3) roll, pitch, yaw (rad) -> (..., 3, 3) rotation matrices."""
+    rpy = np.asarray(rpy, dtype=float)
+    flat = rpy.reshape(-1, 3)
+    # Extrinsic 'xyz' in SciPy is exactly Rz @ Ry @ Rx.
+    mats = Rotation.from_euler("xyz", flat).as_matrix()
+    return mats.reshape(rpy.shape[:-1] + (3, 3))
+
+
+def matrix_to_rpy(matrix):
+    """(..., 3, 3) rotation matrices -> (..., 3) roll, pitch, yaw (rad).
+
+    At pitch = ±90 deg roll and yaw are not separable; SciPy then sets one of them to zero,
+    which still reproduces the matrix exactly.
+    """
+    matrix = np.asarray(matrix, dtype=float)
+    flat = matrix.reshape(-1, 3, 3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # gimbal-lock notice: handled above
+        angles = Rotation.from_matrix(flat).as_euler("xyz")
+    return angles.reshape(matrix.shape[:-2] + (3,))
