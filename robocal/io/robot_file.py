@@ -1,0 +1,234 @@
+"""Robot files (TOML, mm and degrees) <-> :class:`~robocal.kinematics.Chain`.
+
+Keys beyond DESIGN.md, all optional:
+
+* per joint: ``type = "revolute" | "prismatic"``, ``sign = -1`` (the controller's axis turns
+  the other way from the model's), ``beta`` (Hayati rotation about y, deg);
+* POE joints (``convention = "poe"``): ``axis = [x, y, z]`` (direction, normalised on load) and
+  ``point = [x, y, z]`` (mm, any point on the axis), both in the robot base frame at the zero
+  configuration, with ``theta`` the joint zero offset; ``[home]`` ``xyz``/``rpy`` is the
+  flange pose at the zero configuration;
+* ``[flange]`` ``xyz``/``rpy``: last joint frame -> mechanical flange (DH/MDH);
+* ``joint_map = [[...], ...]``: a full n x n matrix with q_model = joint_map @ q_controller,
+  for coupled axes such as FANUC's J2/J3 (``sign`` is its diagonal special case; give one or
+  the other).  Joint zero offsets of the model live in ``theta``.
+"""
+import difflib
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FileFormatError, InputError
+from ..kinematics import Chain
+from ..spatial import compose_pose, pose_to_xyz_rpy
+from .atomic import write_text_atomic
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised on Python 3.10 only
+    import tomli as tomllib
+
+_LINK_KEYS = {"dh": ("a", "alpha", "d", "theta"), "mdh": ("a", "alpha", "d", "theta"),
+              "poe": ("axis", "point", "theta")}
+_OPTIONAL_JOINT_KEYS = ("min", "max", "type", "sign", "beta", "name")
+_TOP_KEYS = ("name", "convention", "description", "joints", "tool", "base", "flange", "home",
+             "joint_map", "notes")
+
+
+def _fail(path, message):
+    raise FileFormatError(f"{path}: {message}")
+
+
+def _number(path, where, value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        _fail(path, f"{where} must be a number, got {value!r}")
+    if not np.isfinite(value):
+        _fail(path, f"{where} must be finite, got {value!r}")
+    return float(value)
+
+
+def _vector(path, where, value):
+    if not isinstance(value, list) or len(value) != 3:
+        _fail(path, f"{where} must be a list of three numbers, got {value!r}")
+    return np.array([_number(path, f"{where}[{i}]", v) for i, v in enumerate(value)])
+
+
+def _frame(path, table, key):
+    """An optional [key] table with xyz (mm) and rpy (deg) -> 4x4 (mm, rad)."""
+    if key not in table:
+        return np.eye(4)
+    sub = table[key]
+    if not isinstance(sub, dict):
+        _fail(path, f"[{key}] must be a table with xyz and rpy")
+    unknown = set(sub) - {"xyz", "rpy"}
+    if unknown:
+        _fail(path, f"[{key}] has unknown key {sorted(unknown)[0]!r}: use xyz = [...] (mm) and rpy = [...] (deg)")
+    xyz = _vector(path, f"[{key}] xyz", sub.get("xyz", [0.0, 0.0, 0.0]))
+    rpy = _vector(path, f"[{key}] rpy", sub.get("rpy", [0.0, 0.0, 0.0]))
+    return compose_pose(xyz, np.radians(rpy))
+
+
+def _check_keys(path, where, keys, allowed):
+    for key in keys:
+        if key not in allowed:
+            close = difflib.get_close_matches(key, allowed, n=1)
+            hint = f": did you mean {close[0]!r}?" if close else f"; known keys: {', '.join(allowed)}"
+            _fail(path, f"{where} has unknown key {key!r}{hint}")
+
+
+def chain_from_dict(doc, path="<robot>"):
+    """Build a Chain from a parsed robot document (file units)."""
+    _check_keys(path, "the robot file", doc, _TOP_KEYS)
+    convention = doc.get("convention")
+    if convention not in _LINK_KEYS:
+        _fail(path, f"convention must be one of 'dh', 'mdh', 'poe', got {convention!r}")
+    joints = doc.get("joints")
+    if not isinstance(joints, list) or not joints:
+        _fail(path, "no [[joints]] tables: list one per joint, base to tip")
+    required = _LINK_KEYS[convention]
+    allowed = required + _OPTIONAL_JOINT_KEYS + (() if convention == "poe" else ("beta",))
+    columns = {k: [] for k in ("theta", "d", "a", "alpha", "beta", "axis", "point", "min", "max")}
+    types, signs = [], []
+    for j, joint in enumerate(joints, start=1):
+        where = f"joint {j}"
+        _check_keys(path, where, joint, allowed)
+        missing = [k for k in required if k not in joint]
+        if missing:
+            _fail(path, f"{where} is missing {', '.join(missing)} (a {convention} joint needs {', '.join(required)})")
+        kind = joint.get("type", "revolute")
+        if kind not in ("revolute", "prismatic"):
+            _fail(path, f"{where}: type must be 'revolute' or 'prismatic', got {kind!r}")
+        types.append(kind)
+        angle = np.radians if kind == "revolute" else (lambda v: v)
+        sign = _number(path, f"{where} sign", joint.get("sign", 1.0))
+        if sign not in (1.0, -1.0):
+            _fail(path, f"{where}: sign must be 1 or -1, got {sign}")
+        signs.append(sign)
+        if convention == "poe":
+            columns["axis"].append(_vector(path, f"{where} axis", joint["axis"]))
+            columns["point"].append(_vector(path, f"{where} point", joint["point"]))
+            columns["theta"].append(angle(_number(path, f"{where} theta", joint["theta"])))
+        else:
+            columns["theta"].append(np.radians(_number(path, f"{where} theta", joint["theta"])))
+            for key in ("d", "a"):
+                columns[key].append(_number(path, f"{where} {key}", joint[key]))
+            for key in ("alpha", "beta"):
+                columns[key].append(np.radians(_number(path, f"{where} {key}", joint.get(key, 0.0))))
+        lo = angle(_number(path, f"{where} min", joint.get("min", -np.inf))) if "min" in joint else -np.inf
+        hi = angle(_number(path, f"{where} max", joint.get("max", np.inf))) if "max" in joint else np.inf
+        if lo > hi:
+            _fail(path, f"{where}: min {joint['min']} is above max {joint['max']}")
+        columns["min"].append(lo)
+        columns["max"].append(hi)
+    n = len(joints)
+    if "joint_map" in doc:
+        if any(s != 1.0 for s in signs):
+            _fail(path, "give either per-joint sign or a joint_map, not both")
+        try:
+            joint_map = np.array(doc["joint_map"], dtype=float)
+        except (TypeError, ValueError):
+            _fail(path, "joint_map must be a list of lists of numbers")
+        if joint_map.shape != (n, n):
+            _fail(path, f"joint_map must be {n}x{n} for {n} joints, got shape {joint_map.shape}")
+        if abs(np.linalg.det(joint_map)) < 1e-9:
+            _fail(path, "joint_map is singular: every controller axis must drive the model")
+    else:
+        joint_map = np.diag(signs)
+    name = doc.get("name")
+    if not isinstance(name, str) or not name:
+        _fail(path, "name = \"...\" is missing")
+    fields = dict(
+        name=name, convention=convention, joint_types=tuple(types),
+        theta=columns["theta"], joint_map=joint_map, lower=columns["min"], upper=columns["max"],
+        base=_frame(path, doc, "base"), tool=_frame(path, doc, "tool"),
+    )
+    if convention == "poe":
+        if "flange" in doc:
+            _fail(path, "a POE robot has no [flange]: the flange pose is [home]")
+        fields.update(axes=columns["axis"], points=columns["point"], home=_frame(path, doc, "home"))
+    else:
+        if "home" in doc:
+            _fail(path, "[home] belongs to POE robots; a DH/MDH robot may have a [flange]")
+        fields.update(d=columns["d"], a=columns["a"], alpha=columns["alpha"], beta=columns["beta"],
+                      flange=_frame(path, doc, "flange"))
+    try:
+        return Chain(**fields)
+    except InputError as exc:
+        _fail(path, str(exc))
+
+
+def read_robot(path) -> Chain:
+    """Read a robot TOML file."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileFormatError(f"robot file {path} does not exist")
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise FileFormatError(f"{path}: not valid TOML ({exc}); fix the file or regenerate it with 'robocal export'") from None
+    except UnicodeDecodeError:
+        raise FileFormatError(f"{path}: not a text file; a robot file is TOML") from None
+    return chain_from_dict(doc, str(path))
+
+
+def _fmt(value):
+    return repr(float(value)) if np.isfinite(value) else None
+
+
+def _frame_lines(key, transform):
+    xyz, rpy = pose_to_xyz_rpy(transform)
+    if np.allclose(transform, np.eye(4), rtol=0, atol=0):
+        return []
+    return [f"[{key}]", f"xyz = [{', '.join(_fmt(v) for v in xyz)}]",
+            f"rpy = [{', '.join(_fmt(v) for v in np.degrees(rpy))}]", ""]
+
+
+def robot_to_toml(chain: Chain, description=None) -> str:
+    """Serialise a chain as a robot TOML document (mm, degrees, shortest exact floats)."""
+    lines = [f"name = {_toml_string(chain.name)}", f"convention = \"{chain.convention}\""]
+    if description:
+        lines.append(f"description = {_toml_string(description)}")
+    diag = np.diag(np.diag(chain.joint_map))
+    coupled = not np.array_equal(chain.joint_map, diag) or not np.all(np.isin(np.diag(chain.joint_map), (1.0, -1.0)))
+    if coupled:
+        rows = ", ".join("[" + ", ".join(_fmt(v) for v in row) + "]" for row in chain.joint_map)
+        lines.append(f"joint_map = [{rows}]")
+    lines.append("")
+    for i, kind in enumerate(chain.joint_types):
+        revolute = kind == "revolute"
+        angle = np.degrees if revolute else (lambda v: v)
+        lines.append("[[joints]]")
+        if not revolute:
+            lines.append('type = "prismatic"')
+        if chain.convention == "poe":
+            lines.append(f"axis = [{', '.join(_fmt(v) for v in chain.axes[i])}]")
+            lines.append(f"point = [{', '.join(_fmt(v) for v in chain.points[i])}]")
+            lines.append(f"theta = {_fmt(angle(chain.theta[i]))}")
+        else:
+            lines += [f"a = {_fmt(chain.a[i])}", f"alpha = {_fmt(np.degrees(chain.alpha[i]))}",
+                      f"d = {_fmt(chain.d[i])}", f"theta = {_fmt(np.degrees(chain.theta[i]))}"]
+            if chain.beta[i] != 0.0:
+                lines.append(f"beta = {_fmt(np.degrees(chain.beta[i]))}")
+        if not coupled and chain.joint_map[i, i] == -1.0:
+            lines.append("sign = -1")
+        for key, value in (("min", chain.lower[i]), ("max", chain.upper[i])):
+            if np.isfinite(value):
+                lines.append(f"{key} = {_fmt(angle(value))}")
+        lines.append("")
+    if chain.convention == "poe":
+        lines += _frame_lines("home", chain.home) or ["[home]", "xyz = [0.0, 0.0, 0.0]", ""]
+    else:
+        lines += _frame_lines("flange", chain.flange)
+    lines += _frame_lines("tool", chain.tool)
+    lines += _frame_lines("base", chain.base)
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def _toml_string(text):
+    return '"' + str(text).replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def write_robot(chain: Chain, path, description=None):
+    """Write a robot TOML file atomically."""
+    write_text_atomic(path, robot_to_toml(chain, description))
