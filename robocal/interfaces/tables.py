@@ -1,0 +1,53 @@
+"""Rich tables of robots and results for the terminal."""
+import numpy as np
+from rich.table import Table
+
+from ..spatial import pose_to_xyz_rpy
+
+
+def _fmt(value, digits=4):
+    if not np.isfinite(value):
+        return "-"
+    text = f"{value:.{digits}f}".rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def robot_tables(chain):
+    """Parameter table, limits and frames of a chain (file units: mm, deg)."""
+    title = f"{chain.name} — {chain.convention.upper()}, {chain.n_joints} joints"
+    table = Table(title=title)
+    table.add_column("joint")
+    table.add_column("type")
+    if chain.convention == "poe":
+        cols = ("axis", "point (mm)", "theta")
+    else:
+        cols = ("a (mm)", "alpha (deg)", "d (mm)", "theta (deg)", "beta (deg)")
+    for c in cols + ("min", "max", "sign"):
+        table.add_column(c, justify="right")
+    coupled = not np.allclose(chain.joint_map, np.diag(np.diag(chain.joint_map)))
+    for i, kind in enumerate(chain.joint_types):
+        revolute = kind == "revolute"
+        ang = np.degrees if revolute else (lambda v: v)
+        if chain.convention == "poe":
+            vals = (" ".join(_fmt(v) for v in chain.axes[i]), " ".join(_fmt(v, 3) for v in chain.points[i]),
+                    _fmt(ang(chain.theta[i])))
+        else:
+            vals = (_fmt(chain.a[i]), _fmt(np.degrees(chain.alpha[i])), _fmt(chain.d[i]),
+                    _fmt(ang(chain.theta[i])), _fmt(np.degrees(chain.beta[i])))
+        sign = "coupled" if coupled else ("-1" if chain.joint_map[i, i] < 0 else "+1")
+        table.add_row(str(i + 1), kind[0].upper(), *vals, _fmt(ang(chain.lower[i]), 2),
+                      _fmt(ang(chain.upper[i]), 2), sign)
+    frames = Table(title="frames (xyz mm, rpy deg)")
+    for c in ("frame", "x", "y", "z", "rx", "ry", "rz"):
+        frames.add_column(c, justify="right")
+    named = [("base", chain.base)]
+    named.append(("home" if chain.convention == "poe" else "flange", chain.home if chain.convention == "poe" else chain.flange))
+    named.append(("tool", chain.tool))
+    named.append(("TCP at q = 0", chain.fk(np.zeros(chain.n_joints))))
+    for label, T in named:
+        xyz, rpy = pose_to_xyz_rpy(T)
+        frames.add_row(label, *(_fmt(v, 3) for v in xyz), *(_fmt(v, 3) for v in np.degrees(rpy)))
+    out = [table, frames]
+    if coupled:
+        out.append("joint_map (q_model = joint_map @ q_controller):\n" + np.array2string(chain.joint_map))
+    return out
