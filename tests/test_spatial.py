@@ -49,3 +49,11 @@ def test_invert_and_transform_points(rng):
     np.testing.assert_allclose(T @ sp.invert(T), np.broadcast_to(np.eye(4), T.shape), atol=1e-13)
     p = rng.normal(size=(5, 3))
     np.testing.assert_allclose(sp.transform_points(sp.invert(T), sp.transform_points(T, p)), p, atol=1e-13)
+
+
+def test_rpy_round_trip_is_exact_near_gimbal_lock(rng):
+    pitch = np.pi / 2 - 10 ** rng.uniform(-12, -1, 400) * rng.choice([-1, 1], 400)
+    pitch[:200] *= -1
+    rpy = np.column_stack([rng.uniform(-3, 3, 400), pitch, rng.uniform(-3, 3, 400)])
+    R = sp.rpy_to_matrix(rpy)
+    np.testing.assert_allclose(sp.rpy_to_matrix(sp.matrix_to_rpy(R)), R, atol=2e-15)

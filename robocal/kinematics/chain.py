@@ -292,19 +292,13 @@ class Chain:
         """Frames right after each joint's motion: rotations (N, n, 3, 3), origins (N, n, 3),
         and the TCP pose (N, 4, 4).  Joint i turns about the z column of its frame."""
         q2, _ = self._check_q(q)
-        frame, marks = program.run(self._compiled[0], self.model_joints(q2), marks=True)
-        rot = np.stack(
-            [np.stack([marks[f"J{k}"].x, marks[f"J{k}"].y, marks[f"J{k}"].z], axis=-1)
-             for k in range(1, self.n_joints + 1)], axis=1
-        )  # (3, n, N, 3)? reorder below
-        rot = np.transpose(rot, (2, 1, 0, 3))
-        origins = np.stack([marks[f"J{k}"].t for k in range(1, self.n_joints + 1)], axis=0)
-        origins = np.transpose(origins, (2, 0, 1))
-        tcp = np.zeros((q2.shape[0], 4, 4))
-        tcp[:, :3, 0], tcp[:, :3, 1], tcp[:, :3, 2] = frame.x.T, frame.y.T, frame.z.T
-        tcp[:, :3, 3] = frame.t.T
-        tcp[:, 3, 3] = 1.0
-        return rot, origins, tcp
+        names = [f"J{k}" for k in range(1, self.n_joints + 1)]
+        frame, marks = program.run(self._compiled[0], self.model_joints(q2), marks=names)
+        # (n, 3 columns, 3 rows, N) -> (N, n, rows, columns)
+        cols = np.array([[marks[m].x, marks[m].y, marks[m].z] for m in names])
+        rot = np.transpose(cols, (3, 0, 2, 1))
+        origins = np.transpose(np.array([marks[m].t for m in names]), (2, 0, 1))
+        return rot, origins, _frame_to_matrix(frame)
 
     # ---------------------------------------------------------------- parameters
     def parameter_names(self, groups=("links", "base", "tool")):
@@ -460,15 +454,42 @@ class Chain:
     def fk_jacobian(self, q):
         """TCP pose and geometric Jacobian in one pass: ((N, 4, 4), (N, 6, n))."""
         q2, single = self._check_q(q)
-        rot, origins, tcp = self.joint_frames(q2)
-        z = rot[..., 2]  # (N, n, 3)
-        jac = np.zeros((q2.shape[0], 6, self.n_joints))
-        rev = self.revolute
-        p = tcp[:, None, :3, 3]
-        lin = np.where(rev[None, :, None], np.cross(z, p - origins), z)
-        jac[:, :3, :] = np.swapaxes(lin, 1, 2)
-        jac[:, 3:, :] = np.swapaxes(np.where(rev[None, :, None], z, 0.0), 1, 2)
-        jac = jac @ self.joint_map
+        q_model = self.model_joints(q2)
+        n_conf, n = q2.shape
+        tcp = np.empty((n_conf, 4, 4))
+        jac = np.empty((n_conf, 6, n))
+        names = [f"J{k}" for k in range(1, n + 1)]
+        for start in range(0, n_conf, program.CHUNK):
+            stop = min(start + program.CHUNK, n_conf)
+            frame, marks = program.run(self._compiled[0], q_model[start:stop], marks=names)
+            tcp[start:stop] = _frame_to_matrix(frame)
+            block = jac[start:stop]
+            for i, name in enumerate(names):
+                z, origin = marks[name].z, marks[name].t
+                if self.joint_types[i] == "revolute":
+                    block[:, :3, i] = _cross_rows(z, frame.t - origin).T
+                    block[:, 3:, i] = z.T
+                else:
+                    block[:, :3, i] = z.T
+                    block[:, 3:, i] = 0.0
+        if not np.array_equal(self.joint_map, np.eye(n)):
+            # One 2-D product (BLAS) rather than N tiny batched ones.
+            jac = (jac.reshape(-1, n) @ self.joint_map).reshape(jac.shape)
         if single:
             return tcp[0], jac[0]
         return tcp, jac
+
+def _frame_to_matrix(frame):
+    """Frame of (3, N) columns -> (N, 4, 4)."""
+    out = np.zeros((frame.t.shape[1], 4, 4))
+    out[:, :3, 0], out[:, :3, 1], out[:, :3, 2] = frame.x.T, frame.y.T, frame.z.T
+    out[:, :3, 3] = frame.t.T
+    out[:, 3, 3] = 1.0
+    return out
+
+
+def _cross_rows(u, v):
+    """Cross product of vectors stored along axis -2 (rows x, y, z), any leading/trailing axes."""
+    ux, uy, uz = u[..., 0, :], u[..., 1, :], u[..., 2, :]
+    vx, vy, vz = v[..., 0, :], v[..., 1, :], v[..., 2, :]
+    return np.stack([uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx], axis=-2)

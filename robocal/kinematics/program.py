@@ -108,11 +108,11 @@ def _joint_trig(ops, q_model):
     return half_angle_cos_sin(angles)
 
 
-def run(ops, q_model, marks=False):
+def run(ops, q_model, marks=()):
     """Evaluate the factor product for (N, n) model joint values.
 
-    Returns the final Frame and, when ``marks`` is true, a dict of Frame snapshots keyed by
-    the mark names.
+    Returns the final Frame and a dict of Frame snapshots for the mark names in ``marks``
+    (``True`` for all of them).
     """
     n_conf = q_model.shape[0]
     cos_q, sin_q = _joint_trig(ops, q_model)
@@ -121,7 +121,7 @@ def run(ops, q_model, marks=False):
     snapshots = {}
     for op in ops:
         if op.kind == "mark":
-            if marks:
+            if marks is True or op.name in marks:
                 snapshots[op.name] = frame.copy()
             continue
         _apply(frame, op, cos_q, sin_q, values)

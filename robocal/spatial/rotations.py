@@ -3,8 +3,6 @@
 rpy = [rx, ry, rz] means R = Rz(rz) @ Ry(ry) @ Rx(rx): fixed axes X, then Y, then Z, as in
 URDF and equal to KUKA's (A, B, C) = (rz, ry, rx).
 """
-import warnings
-
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -42,12 +40,14 @@ def rpy_to_matrix(rpy):
 def matrix_to_rpy(matrix):
     """(..., 3, 3) rotation matrices -> (..., 3) roll, pitch, yaw (rad).
 
-    At pitch = ±90 deg roll and yaw are not separable; SciPy then sets one of them to zero,
-    which still reproduces the matrix exactly.
+    Exact to rounding everywhere, including near pitch = ±90 deg where roll and yaw are
+    nearly dependent: pitch comes from a well-conditioned atan2, roll from the last row, and
+    yaw from what is left, Rz(yaw) = R Rx(roll)^T Ry(pitch)^T, so the triple rebuilds R even
+    where roll itself is ill-determined.
     """
-    matrix = np.asarray(matrix, dtype=float)
-    flat = matrix.reshape(-1, 3, 3)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # gimbal-lock notice: handled above
-        angles = Rotation.from_matrix(flat).as_euler("xyz")
-    return angles.reshape(matrix.shape[:-2] + (3,))
+    m = np.asarray(matrix, dtype=float)
+    pitch = np.arctan2(-m[..., 2, 0], np.hypot(m[..., 0, 0], m[..., 1, 0]))
+    roll = np.arctan2(m[..., 2, 1], m[..., 2, 2])
+    rest = m @ np.swapaxes(rot_x(roll), -1, -2) @ np.swapaxes(rot_y(pitch), -1, -2)
+    yaw = np.arctan2(rest[..., 1, 0], rest[..., 0, 0])
+    return np.stack([roll, pitch, yaw], axis=-1)
