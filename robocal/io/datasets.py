@@ -1,0 +1,108 @@
+"""Loaders for the public measured datasets in ``shared/data`` (see its README).
+
+Each loader returns the robot model the data were taken against and a
+:class:`~robocal.io.tables.Measurements` in robocal's units (deg, mm), so every method can be
+run on them exactly as on a user's own CSV.
+"""
+import csv
+import os
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..errors import FileFormatError, InputError
+from ..spatial import compose_pose, matrix_to_rpy
+from .library import builtin
+from .tables import Measurements
+
+_ENV = "ROBOCAL_SHARED_DATA"
+
+
+def shared_data_dir():
+    """The ``shared/data`` folder: $ROBOCAL_SHARED_DATA, or ``../shared/data`` beside the
+    checkout (or the current directory's parents)."""
+    if os.environ.get(_ENV):
+        return Path(os.environ[_ENV])
+    starts = [Path(__file__).resolve(), Path.cwd().resolve()]
+    for start in starts:
+        for parent in start.parents:
+            candidate = parent / "shared" / "data"
+            if candidate.is_dir():
+                return candidate
+    raise InputError(f"shared/data not found: set {_ENV} to the folder that holds the datasets")
+
+
+def _read_rows(path, delimiter):
+    if not path.is_file():
+        raise FileFormatError(f"dataset file {path} does not exist")
+    with open(path, newline="", encoding="utf-8") as handle:
+        rows = list(csv.reader(handle, delimiter=delimiter))
+    return rows[0], rows[1:]
+
+
+def _columns(path, header, rows, names, decimal_comma=False):
+    index = {name: i for i, name in enumerate(header)}
+    missing = [n for n in names if n not in index]
+    if missing:
+        raise FileFormatError(f"{path}: columns {', '.join(missing)} are missing")
+    text = np.array([[row[index[n]] for n in names] for row in rows])
+    if decimal_comma:
+        text = np.char.replace(text, ",", ".")
+    return text.astype(float)
+
+
+def ur5_tsinghua(root=None):
+    """UR5 with a GTS3800 tracker, positions in the robot base frame (1,000 grid poses).
+
+    The targets are nominal FK of the authors' UR5 model (their d5 = 94.56 mm, not UR's
+    94.65) plus a 31 mm tool along the flange z axis; measured = target + dif.
+    Returns (chain, measurements).
+    """
+    root = Path(root) if root else shared_data_dir()
+    path = root / "ur5_tsinghua" / "3D_UR5_uncalibrated_grid_cleaned.csv"
+    header, rows = _read_rows(path, ",")
+    joints = _columns(path, header, rows, [f"joint_{i}" for i in range(1, 7)])
+    target = _columns(path, header, rows, ["x_t", "y_t", "z_t"])
+    dif = _columns(path, header, rows, ["x_dif", "y_dif", "z_dif"])
+    ur5 = builtin("ur5")
+    d = ur5.d.copy()
+    d[4] = 94.56
+    chain = ur5.replace(name="UR5 (Tsinghua dataset model)", d=d, tool=compose_pose([0.0, 0.0, 31.0], np.zeros(3)))
+    data = Measurements(path=str(path), joints=joints, positions=target + dif,
+                        extra={"x_t": target[:, 0], "y_t": target[:, 1], "z_t": target[:, 2]})
+    return chain, data
+
+
+def ipa_ur10(series="B", root=None):
+    """UR10 with a Leica tracker and 6-DoF probe (ipa): Series 'A' (grid, 11,911 poses) or
+    'B' (joint configurations, 1,495 poses, with per-reading standard deviations).
+
+    Positions and orientations are in the tracker frame; base (tracker <- robot) and tool
+    (flange -> probe) are not given.  The chain's tool starts at the probe offset the
+    dataset README quotes, (0, 0.3, 93) mm, for registration to refine.
+    Returns (chain, measurements) with orientations as robocal rpy (deg).
+    """
+    root = Path(root) if root else shared_data_dir()
+    series = str(series).upper()
+    files = {"A": "Series_A/measurements_grid.csv", "B": "Series_B/measurements_joint_configurations.csv"}
+    if series not in files:
+        raise InputError(f"ipa UR10 series must be 'A' or 'B', got {series!r}")
+    path = root / "ipa_ur10" / files[series]
+    header, rows = _read_rows(path, ";")
+    joint_names = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
+                   "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
+    joints = np.degrees(_columns(path, header, rows, joint_names, decimal_comma=True))
+    xyz = _columns(path, header, rows, ["measurement_x", "measurement_y", "measurement_z"], decimal_comma=True)
+    euler = _columns(path, header, rows, ["measurement_rx", "measurement_ry", "measurement_rz"], decimal_comma=True)
+    # The tracker reports intrinsic X-Y-Z Euler angles; robocal's rpy is fixed-axis x, y, z.
+    rpy = np.degrees(matrix_to_rpy(Rotation.from_euler("XYZ", euler, degrees=True).as_matrix()))
+    sigmas = None
+    if series == "B":
+        sigmas = _columns(path, header, rows, ["measurement_std_x", "measurement_std_y", "measurement_std_z"],
+                          decimal_comma=True)
+        sigmas = np.maximum(sigmas, 1e-4)  # a reported 0 would mean infinite weight
+    chain = builtin("ur10").replace(name=f"UR10 (ipa series {series})",
+                                    tool=compose_pose([0.0, 0.3, 93.0], np.zeros(3)))
+    data = Measurements(path=str(path), joints=joints, positions=xyz, orientations=rpy, sigmas=sigmas)
+    return chain, data
