@@ -1,0 +1,238 @@
+"""A "true" robot: the hidden reality a calibration is scored against.
+
+A :class:`TrueRobot` couples a nominal chain (what the controller believes) with the
+actual geometry (every parameter, base and tool included, off by known deviations), joint
+compliance under gravity, gear backlash and measurement noise.  Its truth file (JSON)
+records all of it, so a test can compare an identified model with what was simulated.
+
+The defining numbers are kept in file units (mm, degrees; N·m/rad and kg) both here and in
+the file: a truth file read back then describes bit for bit the same robot.
+"""
+import json
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+import numpy as np
+
+from ..errors import FileFormatError, InputError
+from ..io.atomic import write_text_atomic
+from ..io.robot_file import chain_from_dict, robot_to_toml, tomllib
+from ..io.tables import Measurements
+from ..kinematics import Chain
+from ..spatial import matrix_to_rpy, so3_exp
+from .joint_effects import Compliance, backlash_offsets, to_controller
+
+TRUTH_FORMAT = "robocal-truth"
+TRUTH_VERSION = 1
+_UNITS = {
+    "lengths": "mm",
+    "angles": "deg",
+    "stiffness": "N*m/rad (N/mm for prismatic joints); null = rigid",
+    "masses": "kg",
+}
+
+
+def _file_to_internal(chain, name, value):
+    """A deviation in file units (mm or deg) -> the chain's internal units (mm or rad)."""
+    return np.radians(value) if chain.is_angular(name) else float(value)
+
+
+@dataclass(frozen=True, eq=False)
+class TrueRobot:
+    """The real robot behind a nominal model.
+
+    nominal: the chain the controller uses.
+    deviations: parameter name (``Chain.parameter_names``) -> deviation in mm or deg; the
+        actual chain is ``nominal.perturbed`` by them.
+    compliance: joint stiffness and mass model, or None for rigid joints.
+    backlash: (n,) half-width of each model joint's play in deg (mm for prismatic joints),
+        or None.
+    noise: standard deviation of measured positions, mm, per coordinate.
+    noise_orientation: standard deviation of measured orientations, deg, about each axis.
+    seed: the seed the deviations were drawn with (a record; None if not drawn).
+    preset: the preset name this robot was made from, or "custom".
+    actual: derived, the nominal chain with the deviations applied.
+    """
+
+    nominal: Chain
+    deviations: dict = field(default_factory=dict)
+    compliance: Compliance | None = None
+    backlash: np.ndarray | None = None
+    noise: float = 0.0
+    noise_orientation: float = 0.0
+    seed: int | None = None
+    preset: str = "custom"
+    actual: Chain = field(init=False)
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        chain = self.nominal
+        deviations = {str(k): float(v) for k, v in dict(self.deviations).items()}
+        set_(self, "deviations", MappingProxyType(deviations))
+        set_(self, "actual", chain.perturbed(
+            {name: _file_to_internal(chain, name, value) for name, value in deviations.items()}))
+        if self.compliance is not None:
+            self.compliance.check_robot(chain)
+        if self.backlash is not None:
+            backlash = np.array(self.backlash, dtype=float).reshape(-1)
+            if backlash.shape != (chain.n_joints,) or not np.all(np.isfinite(backlash)) or np.any(backlash < 0):
+                raise InputError(
+                    f"backlash needs {chain.n_joints} finite half-widths >= 0 (deg), got {np.ravel(self.backlash).tolist()}"
+                )
+            set_(self, "backlash", backlash)
+        for name in ("noise", "noise_orientation"):
+            value = float(getattr(self, name))
+            if not np.isfinite(value) or value < 0:
+                raise InputError(f"{name} must be a standard deviation >= 0, got {getattr(self, name)}")
+            set_(self, name, value)
+        if self.seed is not None:
+            set_(self, "seed", int(self.seed))
+
+    # ------------------------------------------------------------------- physics
+    def joints(self, q, previous=None):
+        """The controller joint values the links really take when ``q`` (N, n) is commanded
+        row by row: the command, plus backlash, plus the gravity deflection.
+
+        previous: (n,) the configuration the robot comes from before the first row
+        (default: the zero configuration); it sets the first row's direction of motion.
+        """
+        chain = self.actual
+        q2 = _commands(chain, q)
+        offset = np.zeros_like(q2)
+        if self.backlash is not None:
+            start = np.zeros(chain.n_joints) if previous is None else np.asarray(previous, dtype=float)
+            if start.shape != (chain.n_joints,):
+                raise InputError(f"previous must be one configuration of {chain.n_joints} joints, got shape {start.shape}")
+            half_width = chain.joints_from_file(self.backlash)
+            offset += backlash_offsets(chain.model_joints(q2), half_width, chain.model_joints(start)[0])
+        real = q2 + to_controller(chain, offset)
+        if self.compliance is not None:
+            # The torque is taken where the links are before they give way: the deflection is
+            # ~1e-4 rad, and the torque it would change is smaller by that much again.
+            real = real + to_controller(chain, self.compliance.deflection(chain, real))
+        return real
+
+    def pose(self, q, previous=None):
+        """True TCP poses (N, 4, 4) in the world frame for commands ``q`` (N, n), no noise.
+
+        See :meth:`joints` for ``previous``.
+        """
+        q = np.asarray(q, dtype=float)
+        poses = self.actual.fk(self.joints(np.atleast_2d(q), previous))
+        return poses[0] if q.ndim == 1 else poses
+
+    def error(self, q, previous=None):
+        """True minus nominal TCP positions (N, 3) mm for commands ``q``."""
+        q = np.asarray(q, dtype=float)
+        return self.pose(q, previous)[..., :3, 3] - self.nominal.fk_positions(q)
+
+    def measure(self, q, rng, previous=None, orientation=False):
+        """What an instrument reads: true TCP positions (N, 3) mm with Gaussian noise.
+
+        With ``orientation`` also the orientations as rpy (N, 3) in degrees, each turned by
+        a small random rotation (``noise_orientation`` deg about each world axis) so that
+        the noise stays isotropic near gimbal lock; returns (positions, rpy) then.
+        rng: a numpy Generator or a seed.
+        """
+        rng = np.random.default_rng(rng)
+        poses = self.pose(np.atleast_2d(q), previous)
+        positions = poses[:, :3, 3] + rng.normal(scale=self.noise, size=(poses.shape[0], 3))
+        if not orientation:
+            return positions
+        turn = so3_exp(rng.normal(scale=np.radians(self.noise_orientation), size=(poses.shape[0], 3)))
+        return positions, np.degrees(matrix_to_rpy(turn @ poses[:, :3, :3]))
+
+    def measurements(self, q, rng, previous=None, orientation=False):
+        """:meth:`measure` as a :class:`~robocal.io.tables.Measurements` table (file units),
+        with the position noise as each row's sigma when there is any."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        measured = self.measure(q, rng, previous, orientation)
+        positions, rpy = measured if orientation else (measured, None)
+        sigmas = np.full_like(positions, self.noise) if self.noise > 0 else None
+        return Measurements(path="", joints=self.nominal.joints_to_file(q), positions=positions,
+                            orientations=rpy, sigmas=sigmas)
+
+    # ------------------------------------------------------------------ truth file
+    def to_dict(self):
+        """A JSON-safe record (lists, floats, strings, null) of everything that was simulated."""
+        compliance = None
+        if self.compliance is not None:
+            c = self.compliance
+            compliance = {
+                "stiffness": [None if np.isinf(k) else float(k) for k in c.stiffness],
+                "link_masses": c.link_masses.tolist(),
+                "payload": c.payload,
+            }
+        return {
+            "format": TRUTH_FORMAT,
+            "version": TRUTH_VERSION,
+            "units": dict(_UNITS),
+            "preset": self.preset,
+            "seed": self.seed,
+            "robot": robot_to_toml(self.nominal),
+            "deviations": dict(self.deviations),
+            "compliance": compliance,
+            "backlash": None if self.backlash is None else self.backlash.tolist(),
+            "noise": self.noise,
+            "noise_orientation": self.noise_orientation,
+        }
+
+    @classmethod
+    def from_dict(cls, doc, where="<truth>"):
+        """The robot a :meth:`to_dict` record describes."""
+        if not isinstance(doc, dict) or doc.get("format") != TRUTH_FORMAT:
+            raise FileFormatError(f"{where}: not a robocal truth file (no \"format\": \"{TRUTH_FORMAT}\")")
+        if doc.get("version") != TRUTH_VERSION:
+            raise FileFormatError(
+                f"{where}: truth file version {doc.get('version')!r}; this robocal reads version {TRUTH_VERSION}"
+            )
+        try:
+            nominal = chain_from_dict(tomllib.loads(doc["robot"]), f"{where} (robot)")
+            compliance = doc.get("compliance")
+            if compliance is not None:
+                compliance = Compliance(
+                    stiffness=[np.inf if k is None else k for k in compliance["stiffness"]],
+                    link_masses=compliance["link_masses"],
+                    payload=compliance["payload"],
+                )
+            return cls(
+                nominal=nominal,
+                deviations=doc.get("deviations", {}),
+                compliance=compliance,
+                backlash=doc.get("backlash"),
+                noise=doc.get("noise", 0.0),
+                noise_orientation=doc.get("noise_orientation", 0.0),
+                seed=doc.get("seed"),
+                preset=doc.get("preset", "custom"),
+            )
+        except FileFormatError:
+            raise
+        except KeyError as missing:
+            raise FileFormatError(f"{where}: missing entry {missing}") from None
+        except (TypeError, ValueError, tomllib.TOMLDecodeError) as why:
+            raise FileFormatError(f"{where}: {why}") from None
+
+
+def _commands(chain, q):
+    """(N, n) float commands from (N, n) or (n,) values, or InputError."""
+    q2 = np.atleast_2d(np.asarray(q, dtype=float))
+    if q2.ndim != 2 or q2.shape[1] != chain.n_joints:
+        raise InputError(f"robot {chain.name!r} has {chain.n_joints} joints; got joint values of shape {np.shape(q)}")
+    return q2
+
+
+def write_truth(path, truth):
+    """Write ``truth`` (a :class:`TrueRobot`) as a JSON truth file, atomically."""
+    return write_text_atomic(path, json.dumps(truth.to_dict(), indent=2) + "\n")
+
+
+def read_truth(path):
+    """Read a truth file written by :func:`write_truth`."""
+    try:
+        with open(path, encoding="utf-8") as stream:
+            doc = json.load(stream)
+    except FileNotFoundError:
+        raise FileFormatError(f"truth file {path} does not exist") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as why:
+        raise FileFormatError(f"{path}: not a JSON truth file ({why})") from None
+    return TrueRobot.from_dict(doc, str(path))
