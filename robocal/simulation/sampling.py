@@ -71,7 +71,8 @@ def liu2022_plan(chain):
     """The published KR 150-2 experiment's 150 targets (see :mod:`robocal.simulation.liu2022`).
 
     Returns q (150, 6) rad, targets (150, 4, 4), and the indices of the 50 training points
-    (the first 50) and of the 100 test points (the rest).
+    (the first 50) and of the 100 test points (the rest).  The published errors before
+    compensation (mean 1.690 mm) are statistics over all 150 points, not the test points.
     """
     liu2022.require_kr150(chain, "the liu2022 sampling plan")
     posture = np.radians(liu2022.POSTURE_DEG)

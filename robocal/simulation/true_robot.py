@@ -121,10 +121,15 @@ class TrueRobot:
         poses = self.actual.fk(self.joints(np.atleast_2d(q), previous))
         return poses[0] if q.ndim == 1 else poses
 
+    def positions(self, q, previous=None):
+        """True TCP positions (N, 3) mm, no noise: :meth:`pose` without the orientations, faster."""
+        q = np.asarray(q, dtype=float)
+        positions = self.actual.fk_positions(self.joints(np.atleast_2d(q), previous))
+        return positions[0] if q.ndim == 1 else positions
+
     def error(self, q, previous=None):
         """True minus nominal TCP positions (N, 3) mm for commands ``q``."""
-        q = np.asarray(q, dtype=float)
-        return self.pose(q, previous)[..., :3, 3] - self.nominal.fk_positions(q)
+        return self.positions(q, previous) - self.nominal.fk_positions(q)
 
     def measure(self, q, rng, previous=None, orientation=False):
         """What an instrument reads: true TCP positions (N, 3) mm with Gaussian noise.
@@ -135,11 +140,16 @@ class TrueRobot:
         rng: a numpy Generator or a seed.
         """
         rng = np.random.default_rng(rng)
-        poses = self.pose(np.atleast_2d(q), previous)
-        positions = poses[:, :3, 3] + rng.normal(scale=self.noise, size=(poses.shape[0], 3))
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        if orientation:
+            poses = self.pose(q, previous)
+            positions = poses[:, :3, 3]
+        else:
+            positions = self.positions(q, previous)
+        positions = positions + rng.normal(scale=self.noise, size=positions.shape)
         if not orientation:
             return positions
-        turn = so3_exp(rng.normal(scale=np.radians(self.noise_orientation), size=(poses.shape[0], 3)))
+        turn = so3_exp(rng.normal(scale=np.radians(self.noise_orientation), size=positions.shape))
         return positions, np.degrees(matrix_to_rpy(turn @ poses[:, :3, :3]))
 
     def measurements(self, q, rng, previous=None, orientation=False):
