@@ -30,12 +30,12 @@ GRAVITY = 9.80665  # m/s², standard gravity
 MM = 1e-3  # metres per millimetre: torques are N·m while positions are mm
 
 
-def _per_joint(values, n, what, *, allow_inf=False):
-    """A validated (n,) float array of non-negative values."""
+def _per_joint(values, n, what):
+    """A validated (n,) float array of finite values >= 0."""
     out = np.array(values, dtype=float).reshape(-1)
     if out.shape != (n,):
         raise InputError(f"{what} needs one value per joint ({n}), got {out.size}")
-    if np.any(np.isnan(out)) or np.any(out < 0) or (not allow_inf and np.any(np.isinf(out))):
+    if not np.all(np.isfinite(out)) or np.any(out < 0):
         raise InputError(f"{what} must be finite and >= 0, got {out.tolist()}")
     return out
 

@@ -9,6 +9,7 @@ The defining numbers are kept in file units (mm, degrees; N·m/rad and kg) both 
 the file: a truth file read back then describes bit for bit the same robot.
 """
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
@@ -55,7 +56,7 @@ class TrueRobot:
     """
 
     nominal: Chain
-    deviations: dict = field(default_factory=dict)
+    deviations: Mapping = field(default_factory=dict)
     compliance: Compliance | None = None
     backlash: np.ndarray | None = None
     noise: float = 0.0
