@@ -1,0 +1,215 @@
+"""What the closed-form solvers share.
+
+A 6R chain is T(q) = base · E1(t1) ⋯ E6(t6) · home · tool, where Ei is the screw motion about
+joint i's axis (direction w_i through point p_i, from :func:`to_poe`) and t = q_model + theta
+is the exponential angle.  A solver therefore works on G = E1 ⋯ E6 = base⁻¹ · T · (home · tool)⁻¹
+and returns the angles t; this module turns them into controller joints (offsets, joint map)
+and does the bookkeeping around the geometry:
+
+* the axes are re-expressed in a working frame whose z axis is joint 1's axis and whose origin
+  lies on it, so undoing joint 1 is a plain rotation about z;
+* each structural condition a solver relies on (axes parallel, axes meeting in a point) is
+  measured.  A chain that meets them within rounding is solved exactly; one that meets them
+  only approximately (a calibrated robot) is solved on an idealised geometry — the result is
+  then a seed that the numerical solver refines; one that does not meet them at all raises
+  :class:`NoFit` with the reason.
+"""
+import numpy as np
+
+from ...spatial import invert, make_transform
+from ..conversions import to_poe
+from .limits import LIMIT_TOL, nearest_equivalent, periodic_joints
+
+# Deviations from the ideal structure below these count as rounding: the solution is exact.
+EXACT_SINE = 1e-12
+EXACT_LENGTH = 1e-9  # mm
+# Deviations up to these still give seeds well inside the numerical solver's reach
+# (calibrated robots deviate by fractions of a degree and a few millimetres).
+FIT_SINE = 0.05  # about 2.9 degrees
+FIT_LENGTH = 20.0  # mm
+# Rounding allowance at the border of the reachable set, in mm for conditions on lengths and
+# dimensionless for cosines.  Seeds for a slightly different chain get far more: a target just
+# out of reach of the idealised robot may be within reach of the real one, and the nearest
+# idealised posture (the stretched arm) is then a good seed.  Likewise for joint limits (rad).
+EXACT_REACH = (1e-9, 1e-12)
+SEED_REACH = (50.0, 0.1)
+SEED_MARGIN = 0.2
+# Axes closer to parallel than this cannot define an angle between them.
+MIN_SINE = 0.1
+# Targets per block: the temporaries of one block stay in the processor's cache.
+BLOCK = 4096
+
+
+class NoFit(Exception):
+    """The chain does not have the structure a solver needs; the message says why."""
+
+
+def _unit(v):
+    return v / np.linalg.norm(v)
+
+
+def _sine(u, v):
+    return float(np.linalg.norm(np.cross(u, v)))
+
+
+def plane_basis(normal):
+    """Two unit vectors spanning the plane normal to ``normal``, right-handed with it."""
+    helper = np.eye(3)[np.argmin(np.abs(normal))]
+    ex = _unit(np.cross(helper, normal))
+    return ex, np.cross(normal, ex)
+
+
+class ClosedForm:
+    """Base of the closed-form solvers.  Subclasses set :attr:`kind`, check and idealise the
+    geometry in :meth:`_fit`, and compute the exponential angles of all 8 branches in
+    :meth:`_angles`."""
+
+    kind = ""
+
+    def __init__(self, chain):
+        if chain.n_joints != 6 or not np.all(chain.revolute):
+            raise NoFit(f"closed forms need 6 revolute joints; this chain has {chain.n_joints} "
+                        f"joints ({', '.join(sorted(set(chain.joint_types)))})")
+        if abs(np.linalg.det(chain.joint_map)) < 1e-12:
+            raise NoFit("its joint map is singular")
+        poe = to_poe(chain)
+        # Working frame: z along joint 1's axis, origin on it, x towards joint 2's axis
+        # direction where that is defined.
+        w1 = poe.axes[0]
+        helper = poe.axes[1] - (poe.axes[1] @ w1) * w1
+        if np.linalg.norm(helper) < MIN_SINE:
+            helper = np.eye(3)[np.argmin(np.abs(w1))]
+        x = _unit(helper - (helper @ w1) * w1)
+        frame = make_transform(np.column_stack([x, np.cross(w1, x), w1]), poe.points[0])
+        rot = frame[:3, :3]
+        self.chain = chain
+        self.axes = poe.axes @ rot
+        self.axes[0] = (0.0, 0.0, 1.0)
+        self.points = (poe.points - poe.points[0]) @ rot
+        self._pre = invert(frame) @ invert(chain.base)
+        self._post = invert(poe.home @ chain.tool) @ frame
+        self._offsets = poe.theta
+        self._unmap = np.linalg.inv(chain.joint_map)
+        self._periodic = periodic_joints(chain)[:, None, None]
+        self._lower = chain.lower[:, None, None] - LIMIT_TOL
+        self._upper = chain.upper[:, None, None] + LIMIT_TOL
+        self._worst_sine = 0.0
+        self._worst_length = 0.0
+        self._fit()
+
+    @property
+    def exact(self):
+        """True when the chain has the solver's structure to rounding: solutions are exact."""
+        return self._worst_sine <= EXACT_SINE and self._worst_length <= EXACT_LENGTH
+
+    # ----------------------------------------------------------- structure checks
+    def _parallel(self, i, j):
+        """Sign (+1 / -1) relating parallel axes i and j (0-based); raises NoFit if they are not."""
+        sine = _sine(self.axes[i], self.axes[j])
+        if sine > FIT_SINE:
+            raise NoFit(f"axes {i + 1} and {j + 1} are not parallel "
+                        f"({np.degrees(np.arcsin(min(sine, 1.0))):.1f} deg apart)")
+        self._worst_sine = max(self._worst_sine, sine)
+        return 1.0 if self.axes[i] @ self.axes[j] > 0 else -1.0
+
+    def _not_parallel(self, i, j):
+        if _sine(self.axes[i], self.axes[j]) < MIN_SINE:
+            raise NoFit(f"axes {i + 1} and {j + 1} are (nearly) parallel")
+
+    def _perpendicular(self, i, j):
+        """Whether axes i and j are perpendicular (within the fit tolerance, which an
+        inexact fit then carries)."""
+        cosine = abs(float(self.axes[i] @ self.axes[j]))
+        if cosine > FIT_SINE:
+            return False
+        self._worst_sine = max(self._worst_sine, cosine)
+        return True
+
+    def _meeting_point(self, indices):
+        """The point nearest (least squares) to the given axes; raises NoFit if they do not meet."""
+        projectors = [np.eye(3) - np.outer(self.axes[i], self.axes[i]) for i in indices]
+        point = np.linalg.solve(sum(projectors), sum(P @ self.points[i] for P, i in zip(projectors, indices)))
+        gap = max(np.linalg.norm(P @ (point - self.points[i])) for P, i in zip(projectors, indices))
+        names = ", ".join(str(i + 1) for i in indices[:-1]) + f" and {indices[-1] + 1}"
+        if gap > FIT_LENGTH:
+            raise NoFit(f"axes {names} do not meet ({gap:.1f} mm from a common point)")
+        self._worst_length = max(self._worst_length, gap)
+        return point
+
+    def _plane_points(self, basis, *points):
+        """2-D coordinates of points in the plane spanned by ``basis``."""
+        return [np.array([basis[0] @ p, basis[1] @ p]) for p in points]
+
+    def _fit(self):
+        raise NotImplementedError
+
+    def _angles(self, rows, t, length_tol, cosine_tol):
+        """Exponential angles (6, 2, 2, 2, B) of every branch and whether each exists
+        (2, 2, 2, B), for G given as rotation rows and translation, with the reach
+        tolerances in mm and for cosines."""
+        raise NotImplementedError
+
+    # ---------------------------------------------------------------------- solve
+    def _relative(self, targets):
+        """Rows of the rotation and the translation of G = pre · T · post for a block of
+        targets, as coordinate arrays (constant factors multiplied out per coordinate:
+        batched 4x4 matrix products are several times slower)."""
+        comps = np.ascontiguousarray(targets[:, :3, :].transpose(1, 2, 0))  # (3, 4, B)
+        pre, post = self._pre, self._post
+        # M = T · post, then G = pre · M.
+        m = [[_combine(post[:3, j], comps[i, :3]) for j in range(4)] for i in range(3)]
+        for i in range(3):
+            m[i][3] = m[i][3] + comps[i, 3]
+        rows = tuple(tuple(_combine(pre[i, :3], [m[k][j] for k in range(3)]) for j in range(3))
+                     for i in range(3))
+        t = tuple(_combine(pre[i, :3], [m[k][3] for k in range(3)]) + pre[i, 3] for i in range(3))
+        return rows, t
+
+    def solve(self, targets, reference=None, seeds=False):
+        """Every branch for (N, 4, 4) TCP targets in the world frame.
+
+        Returns controller joints q (N, 8, 6) and a mask valid (N, 8) of the branches that
+        exist within the joint limits; the other branches are NaN.  Periodic joints take the
+        2 pi equivalent nearest ``reference`` ((N, 6) or (6,); default zero) that fits the
+        limits.  ``seeds``: the branches are to seed a numerical solver on a chain slightly
+        different from this one (or this fit is inexact, see :attr:`exact`), so targets a
+        little out of reach and joints a little beyond their limits are accepted.
+        """
+        tolerances = SEED_REACH if seeds else EXACT_REACH
+        margin = SEED_MARGIN if seeds else 0.0
+        targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+        count = targets.shape[0]
+        q = np.empty((count, 8, 6))
+        valid = np.empty((count, 8), dtype=bool)
+        for start in range(0, count, BLOCK):
+            block = slice(start, min(start + BLOCK, count))
+            angles, exists = self._angles(*self._relative(targets[block]), *tolerances)
+            joints = self._controller_joints(angles.reshape(6, 8, -1))
+            near = 0.0 if reference is None else np.broadcast_to(reference, (count, 6))[block].T[:, None, :]
+            joints, inside = nearest_equivalent(joints, near, self._lower - margin,
+                                                self._upper + margin, self._periodic)
+            inside = np.all(inside, axis=0)
+            ok = exists.reshape(8, -1) & inside
+            joints += np.where(ok, 0.0, np.nan)  # (8, B) mask, cheaper than indexing (6, 8, B)
+            # Transposing (6, 8, B) to (B, 8, 6) one column at a time is the fastest way here.
+            out = q[block]
+            for j in range(6):
+                for k in range(8):
+                    out[:, k, j] = joints[j, k]
+            valid[block] = ok.T
+        return q, valid
+
+    def _controller_joints(self, angles):
+        """Exponential angles (6, ...) -> controller joints (6, ...)."""
+        model = [angles[i] - self._offsets[i] for i in range(6)]
+        return np.stack([_combine(self._unmap[i], model) for i in range(6)])
+
+def _combine(coefficients, arrays):
+    """sum_k coefficients[k] * arrays[k], skipping zero coefficients and unit multiplications."""
+    total = 0.0
+    for coef, array in zip(coefficients, arrays):
+        if coef == 0.0:
+            continue
+        term = array if coef == 1.0 else -array if coef == -1.0 else coef * array
+        total = term if np.isscalar(total) else total + term
+    return total

@@ -1,0 +1,111 @@
+"""Closed-form inverse kinematics of arms with parallel axes 2 and 3 and a spherical wrist.
+
+This is the class of most industrial six-axis robots (KUKA, ABB, FANUC, Yaskawa...), the
+"ortho-parallel basis with a spherical wrist" of Brandstötter, Angerer and Hofbaur (2014).
+Instead of their seven OPW lengths the solution here works on the screw axes themselves, which
+removes every convention question (joint signs, zero offsets, DH or MDH, where the base and
+flange frames are) and also covers axis 1 not perpendicular to axis 2 and non-orthogonal wrist
+axes.  The steps, each with two roots (8 branches):
+
+1. The wrist centre c (where axes 4, 5, 6 meet) is fixed by the target.  Joints 2 and 3 turn
+   about parallel axes, so they keep c's component along them: that one scalar condition
+   gives joint 1 (:func:`sinusoid_roots`, "shoulder").
+2. Joints 2 and 3 then bring c to the target in the plane normal to their axes
+   (:func:`planar_two_link`, "elbow").
+3. The wrist's rotation R456 follows; w4 · R456 w6 depends on joint 5 alone ("wrist flip"),
+   joint 4 turns R5 w6 onto R456 w6, and joint 6 is whatever rotation remains, which keeps the
+   pose exact even at the wrist singularity, where joints 4 and 6 share one angle.  For the
+   usual orthogonal wrist the second flip is the first with joints 4 and 6 turned by pi.
+
+Branch k = 4 * shoulder + 2 * elbow + wrist, each 0 or 1.
+"""
+import numpy as np
+
+from .closed_form import ClosedForm, NoFit, plane_basis
+from .subproblems import (
+    TwoLink,
+    angle_about,
+    angle_of,
+    dot,
+    expand,
+    matvec,
+    planar_two_link,
+    rotate,
+    rotate_z,
+    sinusoid_roots,
+)
+
+
+
+class SphericalWrist(ClosedForm):
+    """Closed form for axes 2 ∥ 3 and axes 4, 5, 6 meeting in a point."""
+
+    kind = "spherical-wrist"
+
+    def _fit(self):
+        w = self.axes
+        self._not_parallel(0, 1)
+        self.sign3 = self._parallel(1, 2)
+        self._not_parallel(3, 4)
+        self._not_parallel(4, 5)
+        centre = self._meeting_point((3, 4, 5))
+        n = w[1]
+        self.n = n
+        self.centre = centre
+        self.along = n @ centre  # component of the wrist centre that joints 2 and 3 keep
+        self.plane = plane_basis(n)
+        p2, p3, c = self._plane_points(self.plane, self.points[1], self.points[2], centre)
+        self.link = TwoLink(p2, p3 - p2, c - p3)
+        if min(self.link.lengths) < 1.0:
+            raise NoFit("axes 2 and 3 coincide or axis 3 passes through the wrist centre")
+        w4, w5, w6 = w[3], w[4], w[5]
+        self.w4, self.w5, self.w6 = w4, w5, w6
+        # w4 · R5(t) w6 = a cos t + b sin t + offset.
+        self.flip = (w4 @ w6 - (w4 @ w5) * (w5 @ w6), w4 @ np.cross(w5, w6), (w4 @ w5) * (w5 @ w6))
+        # With axes 4 and 6 perpendicular to 5 (every industrial wrist), the two wrist
+        # solutions are mirror images: (t4, t5, t6) and (t4 + pi, t5', t6 + pi).
+        self.orthogonal = self._perpendicular(3, 4) and self._perpendicular(4, 5)
+        self.x6, _ = plane_basis(w6)
+        self.y6 = np.cross(w6, self.x6)
+
+    def _angles(self, rows, t, length_tol, cosine_tol):
+        n = self.n
+        # 1. shoulder: n · Rz(-t1) c = n · c0 with c the wrist centre of the target.
+        c = tuple(ci + ti for ci, ti in zip(matvec(rows, self.centre), t))
+        shoulder = sinusoid_roots(n[0] * c[0] + n[1] * c[1], n[0] * c[1] - n[1] * c[0],
+                                  self.along - n[2] * c[2], length_tol)
+        c1, s1 = shoulder.cos, -shoulder.sin  # undo joint 1
+        # 2. elbow: joints 2 and 3 in the plane normal to their axes.
+        centre = rotate_z(c1, s1, expand(c))
+        ex, ey = self.plane
+        elbow = planar_two_link(self.link, (dot(ex, centre), dot(ey, centre)), cosine_tol)
+        # R23^T: undo the rotation by t2 + psi about n.
+        c23 = elbow.cos_first * elbow.cos_second - elbow.sin_first * elbow.sin_second
+        s23 = -(elbow.sin_first * elbow.cos_second + elbow.cos_first * elbow.sin_second)
+        # 3. wrist: R456 w6 and R456 x6 from R123^T R.
+        r_w6 = rotate(n, c23, s23, expand(rotate_z(c1, s1, expand(matvec(rows, self.w6)))))
+        r_x6 = rotate(n, c23, s23, expand(rotate_z(c1, s1, expand(matvec(rows, self.x6)))))
+        a, b, offset = self.flip
+        flip = sinusoid_roots(a, b, dot(self.w4, r_w6) - offset, cosine_tol)
+        r_w6, r_x6 = expand(r_w6), expand(r_x6)
+        c5, s5 = flip.cos, flip.sin
+        if self.orthogonal:
+            # Half the work: the second flip root is the first's mirror, reached with
+            # joints 4 and 6 each half a turn further.
+            c5, s5 = c5[..., :1, :], s5[..., :1, :]
+        t4, c4, s4 = angle_about(self.w4, rotate(self.w5, c5, s5, self.w6), r_w6)
+        # Joint 6 is the rotation left: R6 x6 = R5^T R4^T (R456 x6).
+        rest = rotate(self.w5, c5, -s5, rotate(self.w4, c4, -s4, r_x6))
+        t6 = angle_of(dot(self.x6, rest), dot(self.y6, rest))
+        if self.orthogonal:
+            t4 = np.concatenate([t4, t4 + np.pi], axis=-2)
+            t6 = np.concatenate([t6, t6 + np.pi], axis=-2)
+        shape = t4.shape
+        angles = np.stack([
+            np.broadcast_to(shoulder.angle[:, None, None, :], shape),
+            np.broadcast_to(elbow.first[:, :, None, :], shape),
+            np.broadcast_to(self.sign3 * elbow.second[:, :, None, :], shape),
+            t4, flip.angle, t6,
+        ])
+        exists = shoulder.ok[:, None, None, :] & elbow.ok[:, :, None, :] & flip.ok
+        return angles, exists

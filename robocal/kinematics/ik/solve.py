@@ -1,0 +1,145 @@
+"""Inverse kinematics as the rest of robocal asks for it: pick the closed form that fits the
+robot, choose among its branches, and make the answer exact on the chain actually given.
+
+A calibrated chain rarely keeps its nominal structure exactly (axes 4-6 no longer meet to the
+micrometre), so a closed form fitted to its idealised geometry — or to the ``nominal`` chain
+it came from — provides branches that are seeds; the numerical solver then polishes them on
+the real chain.  A chain with no closed form at all is solved numerically from a posture hint.
+"""
+import numpy as np
+
+from ...errors import InputError
+from .closed_form import NoFit
+from .limits import nearest_equivalent, periodic_joints
+from .numeric import IKResult, as_joints, as_targets, refine
+from .opw import SphericalWrist
+from .ur import OffsetWrist
+
+SOLVERS = (SphericalWrist, OffsetWrist)
+
+
+def closed_form(chain):
+    """The closed-form solver that fits ``chain``'s geometry (exactly if one does).
+
+    Raises :class:`InputError` saying why none does; the numerical solver still applies.
+    """
+    reasons, fits = [], []
+    for solver_class in SOLVERS:
+        try:
+            fits.append(solver_class(chain))
+        except NoFit as why:
+            reasons.append(f"not a {solver_class.kind} arm: {why}")
+    if not fits:
+        raise InputError(
+            f"robot {chain.name!r} has no closed-form inverse kinematics ({'; '.join(reasons)}); "
+            "use the numerical solver (solve_numeric, or solve_ik with a posture hint)"
+        )
+    return next((f for f in fits if f.exact), fits[0])
+
+
+def _seed_solver(chain, nominal):
+    """(solver, exact): the closed form of ``chain`` or else of ``nominal``, or (None, False);
+    ``exact`` when its branches are exact solutions on ``chain`` itself."""
+    if nominal is not None and nominal.n_joints != chain.n_joints:
+        raise InputError(f"the nominal chain has {nominal.n_joints} joints, the chain {chain.n_joints}")
+    for model in (chain, nominal):
+        if model is None:
+            continue
+        try:
+            solver = closed_form(model)
+        except InputError:
+            continue
+        return solver, solver.exact and model is chain
+    return None, False
+
+
+def ik_all(chain, targets, *, nominal=None):
+    """Every closed-form branch for (N, 4, 4) TCP targets in the world frame.
+
+    Returns q (N, 8, n) and valid (N, 8): a valid branch reaches the target within the joint
+    limits (periodic joints take the 2 pi equivalent nearest zero that fits the limits); the
+    others are NaN.  Branch k = 4 * shoulder + 2 * elbow + wrist for spherical-wrist arms,
+    4 * shoulder + 2 * wrist + elbow for UR-type arms.  A chain that only approximately has a
+    closed-form structure (a calibrated robot), or that borrows the ``nominal`` chain's, gets
+    each branch refined numerically on itself.
+    """
+    targets = as_targets(targets)
+    solver, exact = _seed_solver(chain, nominal)
+    if solver is None:
+        closed_form(chain)  # raises the reason
+    q, valid = solver.solve(targets, seeds=not exact)
+    if not exact:
+        seeds = q[valid]
+        refined, reached = refine(chain, np.repeat(targets, 8, axis=0)[valid.reshape(-1)], seeds)[:2]
+        q[valid] = refined
+        valid[valid] = reached
+        q[~valid] = np.nan
+    return q, valid
+
+
+def solve_ik(chain, targets, hint=None, *, nominal=None, position_only=False, branch=None) -> IKResult:
+    """Joint values that put the TCP on each target.
+
+    targets: (N, 4, 4) TCP poses in the world frame (mm).  hint: (N, n) or (n,) posture hint
+    (rad, mm): the branch nearest to it is chosen, it seeds the numerical solver where no
+    closed form applies, and periodic joints come back as the 2 pi equivalent nearest to it.
+    Without a hint the branch nearest to zero is chosen, or ``branch`` (an index of
+    :func:`ik_all`'s branches) is used as given.  nominal: the unperturbed chain a calibrated
+    ``chain`` came from, for its closed form.  position_only: reach the positions, any
+    orientation.
+
+    The closed-form branch nearest the hint is refined numerically on ``chain``; targets it
+    does not reach get every other branch within the limits at once (the nearest success
+    wins), then the hint itself.  Targets that are unreachable (outside the workspace, or only
+    beyond a joint limit) come back with success False and NaN joints.
+    """
+    targets = as_targets(targets)
+    count, n = targets.shape[0], chain.n_joints
+    reference = (np.zeros((count, n)) if hint is None
+                 else as_joints(chain, hint, count, "hint"))
+    q = np.full((count, n), np.nan)
+    success = np.zeros(count, dtype=bool)
+    position_error = np.full(count, np.inf)
+    orientation_error = np.full(count, np.inf)
+
+    def attempt(rows, seeds, likely_reached=False):
+        """Refine seeds for targets ``rows`` (a target may appear several times, in order of
+        preference); record each target's first success, or else its closest attempt."""
+        q_new, reached, pe, oe = refine(chain, targets[rows], seeds, position_only=position_only,
+                                        likely_reached=likely_reached)
+        order = np.lexsort((~reached, rows))  # by target, successes first, then preference
+        rows, first = np.unique(rows[order], return_index=True)
+        pick = order[first]
+        keep = reached[pick] | (pe[pick] < position_error[rows])
+        rows, pick = rows[keep], pick[keep]
+        q[rows], success[rows] = q_new[pick], reached[pick]
+        position_error[rows], orientation_error[rows] = pe[pick], oe[pick]
+
+    solver, exact = _seed_solver(chain, nominal)
+    if branch is not None:
+        if solver is None:
+            closed_form(chain)  # raises why there are no branches to choose from
+        if not 0 <= branch < 8:
+            raise InputError(f"branch must be 0 to 7, got {branch}")
+    if solver is not None:
+        branches, valid = solver.solve(targets, reference, seeds=not exact)
+        if branch is not None:
+            rows = np.flatnonzero(valid[:, branch])
+            attempt(rows, branches[rows, branch], exact)
+        else:
+            distance = np.where(valid, np.sum((branches - reference[:, None, :]) ** 2, axis=2), np.inf)
+            order = np.argsort(distance, axis=1)
+            ranked_valid = np.take_along_axis(valid, order, axis=1)
+            rows = np.flatnonzero(ranked_valid[:, 0])
+            attempt(rows, branches[rows, order[rows, 0]], exact)
+            rows, ranks = np.nonzero(~success[:, None] & ranked_valid[:, 1:])
+            if rows.size:
+                attempt(rows, branches[rows, order[rows, ranks + 1]], exact)
+    if branch is None:
+        rows = np.flatnonzero(~success)
+        if rows.size:
+            attempt(rows, reference[rows])
+    q[success] = nearest_equivalent(q[success], reference[success], chain.lower, chain.upper,
+                                    periodic_joints(chain))[0]
+    q[~success] = np.nan
+    return IKResult(q, success, position_error, orientation_error)

@@ -1,0 +1,101 @@
+"""Closed-form inverse kinematics of arms with three parallel axes 2, 3, 4 and an offset wrist.
+
+This is the Universal Robots class (UR3/5/10/16/20, and arms built like them); the classic
+derivation is Hawkins' for the UR5/UR10 DH parameters.  As for the spherical wrist the
+solution works on the screw axes, so joint signs, zero offsets and frames need no special
+cases.  The steps, each with two roots (8 branches):
+
+1. Axes 5 and 6 meet in a point W, which the last two joints therefore leave in place.
+   Joints 2, 3, 4 turn about parallel axes (direction n) and keep W's component along n: that
+   condition gives joint 1 ("shoulder").
+2. The same rotations keep n itself: n · R1^T R w6 = n · R5 w6 gives joint 5 ("wrist flip"),
+   and R6 (R^T R1 n) = R5^T n gives joint 6 (any value at the singularity where axis 6 is
+   parallel to n; the following steps absorb it).
+3. What remains, R234 = R1^T R R6^T R5^T, is a rotation about n by t2 + t3 + t4; and a point
+   of axis 4 pulled back through joints 6, 5 and 1 is where joints 2 and 3 must carry it, a
+   planar two-link problem ("elbow").  Joint 4 takes the rest of the angle.
+
+Branch k = 4 * shoulder + 2 * wrist + elbow, each 0 or 1.
+"""
+import numpy as np
+
+from .closed_form import ClosedForm, NoFit, plane_basis
+from .subproblems import (
+    TwoLink,
+    angle_about,
+    angle_of,
+    dot,
+    expand,
+    matvec,
+    planar_two_link,
+    rotate,
+    rotate_z,
+    sinusoid_roots,
+    transposed_matvec,
+)
+
+
+
+class OffsetWrist(ClosedForm):
+    """Closed form for axes 2 ∥ 3 ∥ 4 with axes 5 and 6 meeting in a point."""
+
+    kind = "UR-type"
+
+    def _fit(self):
+        w = self.axes
+        self._not_parallel(0, 1)
+        self.sign3 = self._parallel(1, 2)
+        self.sign4 = self._parallel(1, 3)
+        self._not_parallel(1, 4)
+        self._not_parallel(4, 5)
+        meet = self._meeting_point((4, 5))
+        n = w[1]
+        self.n, self.meet = n, meet
+        self.along = n @ meet
+        self.plane = plane_basis(n)
+        p2, p3, p4 = self._plane_points(self.plane, self.points[1], self.points[2], self.points[3])
+        self.link = TwoLink(p2, p3 - p2, p4 - p3)
+        if min(self.link.lengths) < 1.0:
+            raise NoFit("axes 2, 3 and 4 are not three distinct parallel axes")
+        self.w5, self.w6 = w[4], w[5]
+        # n · R5(t) w6 = a cos t + b sin t + offset.
+        w5, w6 = self.w5, self.w6
+        self.flip = (n @ w6 - (n @ w5) * (w5 @ w6), n @ np.cross(w5, w6), (n @ w5) * (w5 @ w6))
+        # Axis 4's point relative to W: where joints 5 and 6 move it from.
+        self.arm4 = self.points[3] - meet
+
+    def _angles(self, rows, t, length_tol, cosine_tol):
+        n = self.n
+        ex, ey = self.plane
+        # 1. shoulder: n · Rz(-t1) P = n · W with P = G W.
+        p = tuple(pi + ti for pi, ti in zip(matvec(rows, self.meet), t))
+        shoulder = sinusoid_roots(n[0] * p[0] + n[1] * p[1], n[0] * p[1] - n[1] * p[0],
+                                  self.along - n[2] * p[2], length_tol)
+        c1, s1 = shoulder.cos, shoulder.sin
+        # 2. wrist: joint 5 from n · R5 w6, then joint 6.
+        n1 = rotate_z(c1, s1, n)  # R1 n
+        a, b, offset = self.flip
+        flip = sinusoid_roots(a, b, dot(n1, expand(matvec(rows, self.w6))) - offset, cosine_tol)
+        c5, s5 = flip.cos, -flip.sin  # R5^T
+        back_n = expand(transposed_matvec(rows, n1))  # R^T R1 n
+        t6, c6, s6 = angle_about(self.w6, back_n, rotate(self.w5, c5, s5, n))
+        s6 = -s6  # R6^T
+        # 3. R234 about n: its angle from where it takes the plane's ex.
+        c1e, s1e = expand((c1, -s1))  # R1^T, per wrist branch
+        swung = rotate_z(c1e, s1e, matvec(rows, rotate(self.w6, c6, s6, rotate(self.w5, c5, s5, ex))))
+        phi = angle_of(dot(ex, swung), dot(ey, swung))
+        # Axis 4's point pulled back through joints 6, 5 (both about W), then G (which takes
+        # W to P) and joint 1.
+        moved = matvec(rows, rotate(self.w6, c6, s6, rotate(self.w5, c5, s5, self.arm4)))
+        point = rotate_z(c1e, s1e, tuple(m + pi for m, pi in zip(moved, p)))
+        elbow = planar_two_link(self.link, (dot(ex, point), dot(ey, point)), cosine_tol)
+        shape = elbow.first.shape
+        angles = np.stack([
+            np.broadcast_to(shoulder.angle[:, None, None, :], shape),
+            elbow.first, self.sign3 * elbow.second,
+            self.sign4 * (phi[..., None, :] - elbow.first - elbow.second),
+            np.broadcast_to(flip.angle[..., None, :], shape),
+            np.broadcast_to(t6[..., None, :], shape),
+        ])
+        exists = shoulder.ok[:, None, None, :] & flip.ok[..., None, :] & elbow.ok
+        return angles, exists
