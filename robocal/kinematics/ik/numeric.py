@@ -157,12 +157,22 @@ class _State:
             self.position_only | (orientation_error <= self.tol_orientation))
 
     def refresh(self, rows):
-        """Jacobians at the current iterates (where stale) and step matrices."""
+        """Jacobians at the current iterates (where stale) and step matrices.
+
+        A joint sitting at a limit that the descent direction J^T r pushes further out is
+        left out of the step (its column dropped), so the other joints make up for it instead
+        of the step being clipped away.
+        """
         stale = rows[~self.fresh[rows]]
         if stale.size:
             self.jac[stale] = self._weighted(self.chain.fk_jacobian(self.q[stale])[1])
             self.fresh[stale] = True
-        self.gain[rows] = _gain_matrix(self.jac[rows], self.damping[rows])
+        jac, q = self.jac[rows], self.q[rows]
+        descent = np.einsum("ijk,ij->ik", jac, self.residual[rows])
+        blocked = ((q <= self.limits.lower) & (descent < 0.0)) | ((q >= self.limits.upper) & (descent > 0.0))
+        if blocked.any():
+            jac = jac * ~blocked[:, None, :]
+        self.gain[rows] = _gain_matrix(jac, self.damping[rows])
 
     def iterate(self, rows):
         """One step for the targets ``rows``: keep it where it lowers the cost, and decide
