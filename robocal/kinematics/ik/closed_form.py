@@ -82,7 +82,6 @@ class ClosedForm:
         x = _unit(helper - (helper @ w1) * w1)
         frame = make_transform(np.column_stack([x, np.cross(w1, x), w1]), poe.points[0])
         rot = frame[:3, :3]
-        self.chain = chain
         self.axes = poe.axes @ rot
         self.axes[0] = (0.0, 0.0, 1.0)
         self.points = (poe.points - poe.points[0]) @ rot
@@ -116,10 +115,10 @@ class ClosedForm:
         if _sine(self.axes[i], self.axes[j]) < MIN_SINE:
             raise NoFit(f"axes {i + 1} and {j + 1} are (nearly) parallel")
 
-    def _perpendicular(self, i, j):
-        """Whether axes i and j are perpendicular (within the fit tolerance, which an
-        inexact fit then carries)."""
-        cosine = abs(float(self.axes[i] @ self.axes[j]))
+    def _perpendicular(self, *pairs):
+        """Whether the axes of every pair (i, j) are perpendicular, within the fit tolerance;
+        if so, a solver that relies on it carries the deviation."""
+        cosine = max(abs(float(self.axes[i] @ self.axes[j])) for i, j in pairs)
         if cosine > FIT_SINE:
             return False
         self._worst_sine = max(self._worst_sine, cosine)
@@ -203,6 +202,7 @@ class ClosedForm:
         """Exponential angles (6, ...) -> controller joints (6, ...)."""
         model = [angles[i] - self._offsets[i] for i in range(6)]
         return np.stack([_combine(self._unmap[i], model) for i in range(6)])
+
 
 def _combine(coefficients, arrays):
     """sum_k coefficients[k] * arrays[k], skipping zero coefficients and unit multiplications."""

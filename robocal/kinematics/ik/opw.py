@@ -36,7 +36,6 @@ from .subproblems import (
 )
 
 
-
 class SphericalWrist(ClosedForm):
     """Closed form for axes 2 ∥ 3 and axes 4, 5, 6 meeting in a point."""
 
@@ -64,7 +63,7 @@ class SphericalWrist(ClosedForm):
         self.flip = (w4 @ w6 - (w4 @ w5) * (w5 @ w6), w4 @ np.cross(w5, w6), (w4 @ w5) * (w5 @ w6))
         # With axes 4 and 6 perpendicular to 5 (every industrial wrist), the two wrist
         # solutions are mirror images: (t4, t5, t6) and (t4 + pi, t5', t6 + pi).
-        self.orthogonal = self._perpendicular(3, 4) and self._perpendicular(4, 5)
+        self.orthogonal = self._perpendicular((3, 4), (4, 5))
         self.x6, _ = plane_basis(w6)
         self.y6 = np.cross(w6, self.x6)
 

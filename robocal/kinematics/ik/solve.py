@@ -16,6 +16,9 @@ from .opw import SphericalWrist
 from .ur import OffsetWrist
 
 SOLVERS = (SphericalWrist, OffsetWrist)
+# Random restarts for targets every other seed missed by less than this (mm).
+RESTARTS = 8
+RESTART_RADIUS = 50.0
 
 
 def closed_form(chain):
@@ -90,8 +93,10 @@ def solve_ik(chain, targets, hint=None, *, nominal=None, position_only=False, br
 
     The closed-form branch nearest the hint is refined numerically on ``chain``; targets it
     does not reach get every other branch within the limits at once (the nearest success
-    wins), then the hint itself.  Targets that are unreachable (outside the workspace, or only
-    beyond a joint limit) come back with success False and NaN joints.
+    wins), then the hint itself, then (if some attempt came within 50 mm) a few random
+    postures — only then may the result lie on another branch than the nearest.  Targets that
+    are unreachable (outside the workspace, or only beyond a joint limit) come back with
+    success False and NaN joints.
     """
     targets = as_targets(targets)
     count, n = targets.shape[0], chain.n_joints
@@ -139,6 +144,13 @@ def solve_ik(chain, targets, hint=None, *, nominal=None, position_only=False, br
         rows = np.flatnonzero(~success)
         if rows.size:
             attempt(rows, reference[rows])
+        # Last resort for targets that were nearly reached (typically within millimetres of a
+        # singularity, where every seed so far sat on the wrong part of a near-degenerate
+        # family of postures): a few seeds spread over the joint space.
+        rows = np.flatnonzero(~success & (position_error < RESTART_RADIUS))
+        if rows.size:
+            seeds = chain.random_configurations(rows.size * RESTARTS, np.random.default_rng(0))
+            attempt(np.repeat(rows, RESTARTS), seeds)
     q[success] = nearest_equivalent(q[success], reference[success], chain.lower, chain.upper,
                                     periodic_joints(chain))[0]
     q[~success] = np.nan

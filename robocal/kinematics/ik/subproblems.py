@@ -17,7 +17,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-TWO_PI = 2.0 * np.pi
 
 
 def dot(a, b):

@@ -35,7 +35,6 @@ from .subproblems import (
 )
 
 
-
 class OffsetWrist(ClosedForm):
     """Closed form for axes 2 ∥ 3 ∥ 4 with axes 5 and 6 meeting in a point."""
 
