@@ -1,5 +1,7 @@
 import json
 
+import pytest
+
 from typer.testing import CliRunner
 
 from robocal.interfaces.cli import app
@@ -27,15 +29,27 @@ def test_unknown_robot_is_one_line_and_nonzero_exit():
     assert "Traceback" not in result.output
 
 
-def test_demo_json_reports_measured_round_trips():
-    result = runner.invoke(app, ["demo", "--json", "--n", "300", "--seed", "3"])
+@pytest.fixture(scope="module")
+def demo_result():
+    result = runner.invoke(app, ["demo", "--json"])
     assert result.exit_code == 0, result.output
-    data = json.loads(result.output)
-    assert data["configurations"] == 300
-    closed = data["closed_form_ik"]
-    assert closed["original_configuration_found"] == 1.0
-    assert closed["max_position_error_mm"] < 1e-6
-    numeric = data["numerical_ik_calibrated_model"]
-    assert numeric["success_rate"] == 1.0
-    assert numeric["max_position_error_mm"] < 1e-6
-    assert numeric["nominal_vs_calibrated_mean_mm"] > 1.0  # the perturbation is real
+    return json.loads(result.output)
+
+
+def test_demo_reproduces_the_liu2022_setup_and_compensates(demo_result):
+    before = demo_result["before_all"]
+    # The published experiment's before-compensation figures (all 150 points).
+    assert abs(before["mean_mm"] - 1.690) < 0.005
+    assert abs(before["y_mean_mm"] - 1.560) < 0.005 and abs(before["y_max_mm"] - 1.910) < 0.005
+    assert abs(before["z_mean_mm"] - 0.271) < 0.005
+    after = demo_result["after"]
+    assert demo_result["reachable"] == demo_result["test_points"] == 100
+    # Compensation removes more than 99.5 % of the 1.7 mm error on the held-out targets.
+    assert after["mean_mm"] < 0.005 * demo_result["before"]["mean_mm"]
+
+
+@pytest.mark.xfail(strict=True, reason="our maximum-likelihood Kriging reaches about 0.002-0.003 mm mean and "
+                   "0.013-0.016 mm max on liu2022, not the published 0.0018 / 0.0084 mm (see README)")
+def test_demo_reaches_the_published_after_compensation_figures(demo_result):
+    assert demo_result["after"]["mean_mm"] <= 0.0018
+    assert demo_result["after"]["max_mm"] <= 0.0084

@@ -1,0 +1,5 @@
+"""Layer 6: compensation — a kinematic model plus an optional error model, turned into joint
+commands or corrected Cartesian targets."""
+from .compensator import CommandResult, Compensator
+
+__all__ = ["CommandResult", "Compensator"]

@@ -1,0 +1,79 @@
+"""Fitting each compensation method from measurements, and rebuilding it from a model file.
+
+A method takes the robot, recorded joints (rad) and measured TCP positions (mm, measurement
+frame) and returns a :class:`Compensator` plus a JSON-ready record of what was done.
+"""
+import numpy as np
+
+from ..errors import InputError
+from ..estimation.kriging import Kriging
+from ..estimation.metrics import error_stats
+from ..estimation.registration import register_base_and_tool
+
+# With the right robot and unit, nominal FK lands within a few mm of a tracker reading in the
+# robot base frame; tens of mm mean the readings are in another frame (tracker, world).
+REGISTER_ABOVE_RMS_MM = 25.0
+
+
+def prepare_frame(chain, joints, positions, register="auto"):
+    """Register base and tool when the data are not in the robot base frame.
+
+    register: 'auto' (when the nominal RMS error exceeds REGISTER_ABOVE_RMS_MM), 'yes', 'no'.
+    Returns (chain in the measurement frame, record dict).
+    """
+    if register not in ("auto", "yes", "no"):
+        raise InputError(f"register must be 'auto', 'yes' or 'no', got {register!r}")
+    before = error_stats(positions - chain.fk_positions(joints))
+    do_it = register == "yes" or (register == "auto" and before["rms_mm"] > REGISTER_ABOVE_RMS_MM)
+    record = {"registered": bool(do_it), "nominal_in_given_frame": before}
+    if do_it:
+        chain, report = register_base_and_tool(chain, joints, positions)
+        record["iterations"] = report.iterations
+    return chain, record
+
+
+def fit_kriging(chain, joints, positions, *, register="auto", kriging=None):
+    """Method 1: Kriging of the Cartesian error e = measured − FK(q) over nominal positions.
+
+    ``kriging`` is an unfitted :class:`Kriging` (defaults: constant trend, Gaussian
+    correlation, estimated nugget so real, noisy data do not break it).
+    """
+    from . import Compensator
+
+    chain, record = prepare_frame(chain, joints, positions, register)
+    nominal_positions = chain.fk_positions(joints)
+    errors = positions - nominal_positions
+    model = kriging if kriging is not None else Kriging(nugget="estimate")
+    model.fit(nominal_positions, errors)
+    record["residual_before"] = error_stats(errors)
+    record["residual_after_training"] = error_stats(errors - model.predict(nominal_positions))
+    record["diagnostics"] = list(getattr(model, "diagnostics_", []))
+    return Compensator(chain, model, nominal=chain), record
+
+
+def error_model_to_dict(model):
+    """Serialise an error model for a model file."""
+    if model is None:
+        return None
+    if isinstance(model, Kriging):
+        return {"type": "kriging", "parameters": model.to_dict()}
+    raise InputError(f"cannot save an error model of type {type(model).__name__}")
+
+
+def error_model_from_dict(document):
+    """Rebuild an error model saved by :func:`error_model_to_dict`."""
+    if document is None:
+        return None
+    kind = document.get("type")
+    if kind == "kriging":
+        return Kriging.from_dict(document["parameters"])
+    raise InputError(f"unknown error model type {kind!r} in the model file")
+
+
+def evaluate(compensator, nominal_chain, joints, positions):
+    """Residual statistics of the model and of the nominal chain on measured data."""
+    after = positions - compensator.predict_positions(joints)
+    before = positions - nominal_chain.fk_positions(joints)
+    result = error_stats(after)
+    result["nominal"] = error_stats(before)
+    return result

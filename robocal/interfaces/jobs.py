@@ -1,0 +1,132 @@
+"""What each command does, as plain functions of parsed arguments that return JSON-ready
+results; ``cli.py`` only parses, prints and maps errors to exit codes."""
+import numpy as np
+
+from ..compensation import Compensator
+from ..compensation.methods import (
+    error_model_from_dict,
+    error_model_to_dict,
+    evaluate,
+    fit_kriging,
+)
+from ..errors import FileFormatError, InputError, RobocalWarning
+from ..estimation.metrics import error_stats
+from ..io.library import load_robot
+from ..io.tables import Measurements, read_measurements, read_targets, write_commands, write_measurements
+from ..spatial import compose_pose, pose_to_xyz_rpy
+from .model_file import ModelFile, load_model, save_model
+
+IMPLEMENTED_METHODS = ("kriging",)
+# A calibrated model that still misses by this much is almost certainly the wrong robot,
+# wrong units or a different measurement frame.
+SUSPICIOUS_RESIDUAL_MM = 20.0
+
+
+def _positions_required(data, method):
+    if data.positions is None:
+        raise InputError(f"{data.path} has no x, y, z columns: the {method} method needs measured positions")
+
+
+def calibrate_job(robot, measurements, out, *, method="kriging", register="auto", kriging=None,
+                  root=None, tip=None):
+    """Fit a method to a measurement file and save the model file."""
+    if method not in IMPLEMENTED_METHODS:
+        raise InputError(
+            f"method {method!r} is not available in this version of robocal; available: "
+            f"{', '.join(IMPLEMENTED_METHODS)}"
+        )
+    chain = load_robot(robot, root=root, tip=tip)
+    data = read_measurements(measurements, n_joints=chain.n_joints)
+    _positions_required(data, method)
+    q = chain.joints_from_file(data.joints)
+    compensator, record = fit_kriging(chain, q, data.positions, register=register, kriging=kriging)
+    training = {"file": str(measurements), "n_poses": data.n_poses, "kind": data.kind, **record}
+    model = ModelFile(method=method, nominal=chain, kinematics=compensator.chain,
+                      error_model=error_model_to_dict(compensator.error_model), training=training,
+                      options={"register": register})
+    save_model(model, out)
+    return {"method": method, "robot": chain.name, "out": str(out), **training}
+
+
+def load_compensator(model_path, robot=None):
+    """A model file -> (ModelFile, Compensator)."""
+    model = load_model(model_path, robot=robot)
+    try:
+        error_model = error_model_from_dict(model.error_model)
+    except (InputError, KeyError, TypeError, ValueError) as exc:
+        raise FileFormatError(f"{model_path}: the error model is damaged ({exc}); "
+                              "regenerate the file with 'robocal calibrate'") from None
+    return model, Compensator(model.kinematics, error_model, nominal=model.kinematics)
+
+
+def evaluate_job(model_path, measurements):
+    """Residual of a model on measured data, and of the nominal robot."""
+    import warnings
+
+    model, compensator = load_compensator(model_path)
+    data = read_measurements(measurements, n_joints=model.kinematics.n_joints)
+    _positions_required(data, model.method)
+    q = model.kinematics.joints_from_file(data.joints)
+    result = evaluate(compensator, model.kinematics, q, data.positions)
+    if result["mean_mm"] > SUSPICIOUS_RESIDUAL_MM:
+        warnings.warn(RobocalWarning(
+            f"the residual is {result['mean_mm']:.1f} mm mean after calibration: is {measurements} "
+            f"from robot '{model.nominal.name}', in mm and degrees, in the frame the model was fitted in?"))
+    return {"model": str(model_path), "method": model.method, "file": str(measurements), **result}
+
+
+def compensate_job(model_path, targets_path, out, *, iterate=False):
+    """Joint commands and corrected Cartesian targets for a targets file."""
+    model, compensator = load_compensator(model_path)
+    chain = model.kinematics
+    targets = read_targets(targets_path, n_joints=chain.n_joints)
+    poses = compose_pose(targets.positions, np.radians(targets.orientations))
+    hint = None if targets.hints is None else chain.joints_from_file(targets.hints)
+    result = compensator.commands(poses, hint=hint, iterate=iterate)
+    xyz, rpy = pose_to_xyz_rpy(result.corrected)
+    joints = chain.joints_to_file(np.where(result.success[:, None], result.q, 0.0))
+    write_commands(out, joints, xyz, np.degrees(rpy), joint_ok=result.success)
+    unreachable = [int(r) for r in np.asarray(targets.rows)[~result.success]]
+    return {"targets": int(len(poses)), "reachable": int(result.success.sum()),
+            "unreachable_rows": unreachable, "out": str(out),
+            "predicted_error": error_stats(result.predicted_error)}
+
+
+def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", noise=None, seed=0,
+                 truth=None, orientation=False, box=None, rpy=None, hint=None):
+    """Measurements of a simulated "true" robot, in the order the robot visits the poses."""
+    from dataclasses import replace
+
+    from ..simulation import latin_hypercube_box, liu2022_plan, make_true_robot, uniform_joints, write_truth
+    from ..spatial import rpy_to_matrix
+
+    chain = load_robot(robot)
+    rng = np.random.default_rng(seed)
+    true_robot = make_true_robot(chain, errors, seed=seed)
+    if noise is not None:
+        if noise < 0:
+            raise InputError(f"--noise must be >= 0 mm, got {noise}")
+        true_robot = replace(true_robot, noise=float(noise))
+    if sampling == "joint":
+        q = uniform_joints(chain, n or 200, rng)
+    elif sampling == "lhs":
+        if box is None:
+            if errors != "liu2022":
+                raise InputError("--sampling lhs needs --box xmin,xmax,ymin,ymax,zmin,zmax (mm); "
+                                 "with --errors liu2022 the published box is used")
+            q = liu2022_plan(chain)[0]
+            q = q if n is None else q[:n]
+        else:
+            low, high = np.asarray(box[0::2], float), np.asarray(box[1::2], float)
+            rotation = rpy_to_matrix(np.radians(rpy if rpy is not None else [180.0, 0.0, 0.0]))
+            hint_rad = None if hint is None else chain.joints_from_file(np.asarray(hint, float))
+            q = latin_hypercube_box(chain, n or 150, low, high, rotation, seed=seed, hint=hint_rad)[0]
+    else:
+        raise InputError(f"--sampling {sampling} is not available in this version; use joint or lhs")
+    data = true_robot.measurements(q, rng, orientation=orientation)
+    write_measurements(out, data)
+    if truth:
+        write_truth(truth, true_robot)
+    return {"robot": chain.name, "poses": int(len(q)), "sampling": sampling, "errors": errors,
+            "out": str(out), "truth": str(truth) if truth else None,
+            "true_error": error_stats(true_robot.error(q))}

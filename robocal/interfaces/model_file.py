@@ -1,0 +1,145 @@
+"""Model files: one versioned JSON document per calibrated model.
+
+Layout (schema 1)::
+
+    {"schema": "robocal.model", "schema_version": 1, "software_version": "...",
+     "created": "2026-11-22T04:30:00Z", "method": "kriging",
+     "robot": {"name": ..., "hash": ..., "model": {robot document}},     # the nominal robot
+     "kinematics": {robot document},        # the chain compensation uses (registered/calibrated)
+     "error_model": {...} or null,          # e.g. Kriging.to_dict()
+     "training": {...}, "options": {...},
+     "checksum": "sha256 of everything above"}
+
+Robot documents are the robot-TOML structure (mm, deg) as JSON.  Loading validates all of it
+and refuses, with a message, a file of another robot, a newer schema, or one that was edited
+or truncated (checksum, missing keys, arrays of the wrong shape).  Nothing is ever unpickled.
+"""
+import datetime as _dt
+import hashlib
+import json
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .. import __version__
+from ..errors import FileFormatError, InputError
+from ..io.atomic import write_text_atomic
+from ..io.robot_file import chain_from_dict, robot_to_toml
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+SCHEMA = "robocal.model"
+SCHEMA_VERSION = 1
+METHODS = ("kinematic", "kriging", "ann", "hybrid", "constraint")
+
+
+def chain_document(chain):
+    """A chain as the robot-file structure (mm, deg), JSON-ready."""
+    return tomllib.loads(robot_to_toml(chain))
+
+
+def robot_hash(chain):
+    """A short fingerprint of a robot's nominal geometry, frames and joint map."""
+    text = robot_to_toml(chain.replace(name="robot"))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _canonical(document):
+    return json.dumps(document, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+@dataclass
+class ModelFile:
+    """The content of a model file, with the chains rebuilt."""
+
+    method: str
+    nominal: object  # Chain
+    kinematics: object  # Chain
+    error_model: dict | None = None
+    training: dict = field(default_factory=dict)
+    options: dict = field(default_factory=dict)
+    created: str = ""
+    software_version: str = __version__
+
+    def to_document(self):
+        doc = {
+            "schema": SCHEMA,
+            "schema_version": SCHEMA_VERSION,
+            "software_version": self.software_version,
+            "created": self.created or _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+            "method": self.method,
+            "robot": {"name": self.nominal.name, "hash": robot_hash(self.nominal),
+                      "model": chain_document(self.nominal)},
+            "kinematics": chain_document(self.kinematics),
+            "error_model": self.error_model,
+            "training": self.training,
+            "options": self.options,
+        }
+        doc["checksum"] = hashlib.sha256(_canonical(doc).encode()).hexdigest()
+        return doc
+
+
+def save_model(model: ModelFile, path):
+    """Write a model file atomically."""
+    try:
+        text = json.dumps(model.to_document(), indent=1, allow_nan=False)
+    except ValueError as exc:
+        raise InputError(f"the model contains NaN or infinite values and cannot be saved ({exc})") from None
+    write_text_atomic(path, text + "\n")
+
+
+def _require(doc, key, kind, path, where="the model file"):
+    if key not in doc:
+        raise FileFormatError(f"{path}: {where} has no '{key}': the file is truncated or was edited; "
+                              "regenerate it with 'robocal calibrate'")
+    if not isinstance(doc[key], kind):
+        raise FileFormatError(f"{path}: '{key}' in {where} has the wrong type; regenerate the file")
+    return doc[key]
+
+
+def load_model(path, robot=None) -> ModelFile:
+    """Read and validate a model file; ``robot`` (a Chain) must be the robot it belongs to."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileFormatError(f"model file {path} does not exist")
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise FileFormatError(f"{path}: not a robocal model file (not JSON: {exc})") from None
+    if not isinstance(doc, dict) or doc.get("schema") != SCHEMA:
+        raise FileFormatError(f"{path}: not a robocal model file (no \"schema\": \"{SCHEMA}\")")
+    version = _require(doc, "schema_version", int, path)
+    if version > SCHEMA_VERSION:
+        raise FileFormatError(
+            f"{path}: schema version {version} is newer than this robocal understands ({SCHEMA_VERSION}); "
+            "upgrade robocal"
+        )
+    checksum = _require(doc, "checksum", str, path)
+    body = {k: v for k, v in doc.items() if k != "checksum"}
+    if hashlib.sha256(_canonical(body).encode()).hexdigest() != checksum:
+        raise FileFormatError(f"{path}: the checksum does not match: the file was modified after robocal "
+                              "wrote it; regenerate it with 'robocal calibrate'")
+    method = _require(doc, "method", str, path)
+    if method not in METHODS:
+        raise FileFormatError(f"{path}: unknown method {method!r}")
+    robot_doc = _require(doc, "robot", dict, path)
+    nominal = chain_from_dict(_require(robot_doc, "model", dict, path, "'robot'"), f"{path} (robot)")
+    kinematics = chain_from_dict(_require(doc, "kinematics", dict, path), f"{path} (kinematics)")
+    if kinematics.n_joints != nominal.n_joints:
+        raise FileFormatError(f"{path}: the calibrated kinematics and the robot have different joint counts")
+    if robot is not None and robot_hash(robot) != robot_doc.get("hash"):
+        raise InputError(
+            f"{path} belongs to robot '{robot_doc.get('name')}' (hash {robot_doc.get('hash')}), "
+            f"not to '{robot.name}' (hash {robot_hash(robot)}): use the model calibrated for this robot"
+        )
+    error_model = doc.get("error_model")
+    if error_model is not None and not isinstance(error_model, dict):
+        raise FileFormatError(f"{path}: 'error_model' has the wrong type; regenerate the file")
+    return ModelFile(
+        method=method, nominal=nominal, kinematics=kinematics, error_model=error_model,
+        training=doc.get("training") or {}, options=doc.get("options") or {},
+        created=doc.get("created", ""), software_version=doc.get("software_version", ""),
+    )

@@ -1,0 +1,183 @@
+"""Kriging compensation end to end: model files, the Compensator, the command line."""
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from robocal.compensation import Compensator
+from robocal.compensation.methods import error_model_to_dict, fit_kriging
+from robocal.errors import FileFormatError, InputError
+from robocal.interfaces.cli import app
+from robocal.interfaces.jobs import load_compensator
+from robocal.interfaces.model_file import ModelFile, load_model, save_model
+from robocal.io.library import builtin
+from robocal.io.tables import read_measurements, write_measurements
+from robocal.simulation import liu2022_plan, make_true_robot, read_truth
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def liu():
+    chain = builtin("kr150-2")
+    truth = make_true_robot(chain, "liu2022")
+    q, targets, train, test = liu2022_plan(chain)
+    return chain, truth, q, targets, train, test
+
+
+@pytest.fixture(scope="module")
+def fitted(liu):
+    chain, truth, q, targets, train, test = liu
+    compensator, record = fit_kriging(chain, q[train], truth.positions(q[train]), register="no")
+    return compensator, record
+
+
+def test_compensation_brings_the_simulated_robot_onto_held_out_targets(liu, fitted):
+    chain, truth, q, targets, train, test = liu
+    compensator, _ = fitted
+    before = np.linalg.norm(truth.positions(q[test]) - targets[test, :3, 3], axis=1)
+    result = compensator.commands(targets[test], hint=q[test])
+    assert result.success.all()
+    after = np.linalg.norm(truth.positions(result.q) - targets[test, :3, 3], axis=1)
+    # 1.7 mm before; a Kriging model trained on 50 other points must remove >99 % of it.
+    assert before.mean() > 1.6
+    assert after.mean() < before.mean() / 100 and after.max() < before.max() / 50
+
+
+def test_fixed_point_iteration_is_at_least_as_good_as_one_step(liu, fitted):
+    chain, truth, q, targets, train, test = liu
+    compensator, _ = fitted
+    one = compensator.commands(targets[test], hint=q[test])
+    fixed = compensator.commands(targets[test], hint=q[test], iterate=True)
+    err = lambda r: np.linalg.norm(truth.positions(r.q) - targets[test, :3, 3], axis=1).mean()  # noqa: E731
+    assert err(fixed) <= err(one) + 1e-9
+
+
+def test_no_error_model_means_plain_ik(liu):
+    chain, truth, q, targets, train, test = liu
+    result = Compensator(chain).commands(targets[:5], hint=q[:5])
+    np.testing.assert_allclose(result.corrected, targets[:5])
+    np.testing.assert_allclose(chain.fk(result.q), targets[:5], atol=1e-8)
+
+
+def _save(tmp_path, liu, fitted, name="model.json"):
+    chain = liu[0]
+    compensator, record = fitted
+    path = tmp_path / name
+    save_model(ModelFile(method="kriging", nominal=chain, kinematics=compensator.chain,
+                         error_model=error_model_to_dict(compensator.error_model), training=record), path)
+    return path
+
+
+def test_model_file_round_trip_predicts_identically(tmp_path, liu, fitted):
+    path = _save(tmp_path, liu, fitted)
+    _, loaded = load_compensator(path)
+    x = liu[3][:, :3, 3]
+    np.testing.assert_array_equal(loaded.error_model.predict(x), fitted[0].error_model.predict(x))
+    np.testing.assert_array_equal(loaded.chain.fk(liu[2]), fitted[0].chain.fk(liu[2]))
+
+
+def _rewrite(path, change):
+    import hashlib
+
+    doc = json.loads(path.read_text())
+    change(doc)
+    body = {k: v for k, v in doc.items() if k != "checksum"}
+    doc["checksum"] = hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+    path.write_text(json.dumps(doc))
+
+
+def test_model_file_refusals(tmp_path, liu, fitted):
+    path = _save(tmp_path, liu, fitted)
+    with pytest.raises(InputError, match="belongs to robot"):
+        load_model(path, robot=builtin("ur5"))
+
+    edited = tmp_path / "edited.json"
+
+    doc = json.loads(path.read_text())
+    doc["kinematics"]["joints"][1]["a"] += 0.5
+    edited.write_text(json.dumps(doc))
+    with pytest.raises(FileFormatError, match="checksum"):
+        load_model(edited)
+
+    newer = tmp_path / "newer.json"
+    newer.write_text(path.read_text())
+    _rewrite(newer, lambda d: d.update(schema_version=99))
+    with pytest.raises(FileFormatError, match="newer"):
+        load_model(newer)
+
+    missing = tmp_path / "missing.json"
+    missing.write_text(path.read_text())
+    _rewrite(missing, lambda d: d.pop("kinematics"))
+    with pytest.raises(FileFormatError, match="no 'kinematics'"):
+        load_model(missing)
+
+    def reshape(d):
+        params = d["error_model"]["parameters"]
+        key = next(k for k, v in params.items() if isinstance(v, list) and len(v) > 3)
+        params[key] = params[key][:-2]
+
+    shaped = tmp_path / "shaped.json"
+    shaped.write_text(path.read_text())
+    _rewrite(shaped, reshape)
+    with pytest.raises(FileFormatError, match="damaged"):
+        load_compensator(shaped)
+
+    with pytest.raises(FileFormatError, match="not JSON"):
+        (tmp_path / "junk.json").write_text("{not json")
+        load_model(tmp_path / "junk.json")
+
+
+def test_command_line_workflow(tmp_path, liu):
+    chain, truth, q, targets, train, test = liu
+    meas, truth_file = tmp_path / "meas.csv", tmp_path / "truth.json"
+    result = runner.invoke(app, ["simulate", "kr150-2", "--errors", "liu2022", "--sampling", "lhs",
+                                 "--out", str(meas), "--truth", str(truth_file), "--json"])
+    assert result.exit_code == 0, result.output
+    data = read_measurements(meas, n_joints=6)
+    assert data.n_poses == 150
+    write_measurements(tmp_path / "train.csv", data.subset(np.arange(50)))
+    write_measurements(tmp_path / "test.csv", data.subset(np.arange(50, 150)))
+
+    result = runner.invoke(app, ["calibrate", "kr150-2", str(tmp_path / "train.csv"), "--method", "kriging",
+                                 "--out", str(tmp_path / "model.json"), "--json"])
+    assert result.exit_code == 0, result.output
+    result = runner.invoke(app, ["evaluate", str(tmp_path / "model.json"), str(tmp_path / "test.csv"), "--json"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    assert report["n"] == 100
+    assert report["nominal"]["mean_mm"] > 1.6 and report["mean_mm"] < 0.01
+
+    # Targets: the held-out poses, plus one far out of reach.
+    rows = ["x,y,z,rx,ry,rz,q1,q2,q3,q4,q5,q6"]
+    from robocal.spatial import pose_to_xyz_rpy
+
+    xyz, rpy = pose_to_xyz_rpy(targets[test])
+    hints = chain.joints_to_file(q[test])
+    for p, r, h in zip(xyz, np.degrees(rpy), hints):
+        rows.append(",".join(repr(float(v)) for v in (*p, *r, *h)))
+    rows.append("9000,0,0,180,0,0,0,-90,90,0,90,0")
+    (tmp_path / "targets.csv").write_text("\n".join(rows) + "\n")
+    result = runner.invoke(app, ["compensate", str(tmp_path / "model.json"), str(tmp_path / "targets.csv"),
+                                 "--out", str(tmp_path / "commands.csv")])
+    assert result.exit_code == 0, result.output
+    assert "cannot be reached" in result.output and "102" in result.output
+    lines = (tmp_path / "commands.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    table = [line.split(",") for line in lines[1:]]
+    assert table[-1][header.index("reachable")] == "0" and table[-1][0] == ""
+    commands = np.array([[float(c) for c in row[:6]] for row in table[:-1]])
+    true_robot = read_truth(truth_file)
+    reached = true_robot.positions(chain.joints_from_file(commands))
+    assert np.linalg.norm(reached - targets[test, :3, 3], axis=1).mean() < 0.01
+
+
+def test_calibrate_refuses_constraint_data_and_unknown_method(tmp_path):
+    csv = tmp_path / "c.csv"
+    csv.write_text("q1,q2,q3,q4,q5,q6,fixture,socket\n" + "\n".join(
+        f"{i},{-90 + i},90,0,{i},0,A,{i % 2}" for i in range(10)) + "\n")
+    result = runner.invoke(app, ["calibrate", "kr150-2", str(csv), "--out", str(tmp_path / "m.json")])
+    assert result.exit_code == 2 and "needs measured positions" in result.output
+    result = runner.invoke(app, ["calibrate", "kr150-2", str(csv), "--method", "magic", "--out", str(tmp_path / "m.json")])
+    assert result.exit_code == 2 and "not available" in result.output
