@@ -123,7 +123,7 @@ def simulate(
     robot: str = typer.Argument(..., help="Built-in name or robot file."),
     out_file: str = typer.Option(..., "--out", help="Measurement CSV to write."),
     n: int = typer.Option(None, "--n", help="Number of poses (default 200; liu2022: 150)."),
-    sampling: str = typer.Option("joint", help="joint (uniform in the limits) or lhs (Latin hypercube in --box)."),
+    sampling: str = typer.Option("joint", help="joint (uniform in the limits), lhs (Latin hypercube in --box) or grid (n^(1/3) per axis in --box)."),
     errors: str = typer.Option("typical", help="none, typical or liu2022 (KR150-2 only)."),
     noise: float = typer.Option(None, help="Measurement noise sigma in mm (overrides the preset)."),
     seed: int = typer.Option(0, help="Random seed."),

@@ -97,7 +97,7 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
     """Measurements of a simulated "true" robot, in the order the robot visits the poses."""
     from dataclasses import replace
 
-    from ..simulation import latin_hypercube_box, liu2022_plan, make_true_robot, uniform_joints, write_truth
+    from ..simulation import grid, latin_hypercube_box, liu2022_plan, make_true_robot, uniform_joints, write_truth
     from ..spatial import rpy_to_matrix
 
     chain = load_robot(robot)
@@ -109,20 +109,24 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
         true_robot = replace(true_robot, noise=float(noise))
     if sampling == "joint":
         q = uniform_joints(chain, n or 200, rng)
-    elif sampling == "lhs":
+    elif sampling in ("lhs", "grid"):
         if box is None:
-            if errors != "liu2022":
-                raise InputError("--sampling lhs needs --box xmin,xmax,ymin,ymax,zmin,zmax (mm); "
-                                 "with --errors liu2022 the published box is used")
+            if errors != "liu2022" or sampling == "grid":
+                raise InputError(f"--sampling {sampling} needs --box xmin,xmax,ymin,ymax,zmin,zmax (mm); "
+                                 "with --errors liu2022 and --sampling lhs the published box is used")
             q = liu2022_plan(chain)[0]
             q = q if n is None else q[:n]
         else:
             low, high = np.asarray(box[0::2], float), np.asarray(box[1::2], float)
             rotation = rpy_to_matrix(np.radians(rpy if rpy is not None else [180.0, 0.0, 0.0]))
             hint_rad = None if hint is None else chain.joints_from_file(np.asarray(hint, float))
-            q = latin_hypercube_box(chain, n or 150, low, high, rotation, seed=seed, hint=hint_rad)[0]
+            if sampling == "lhs":
+                q = latin_hypercube_box(chain, n or 150, low, high, rotation, seed=seed, hint=hint_rad)[0]
+            else:
+                per_axis = max(2, int(round((n or 125) ** (1.0 / 3.0))))
+                q = grid(chain, low, high, (per_axis,) * 3, rotation, hint=hint_rad)[0]
     else:
-        raise InputError(f"--sampling {sampling} is not available in this version; use joint or lhs")
+        raise InputError(f"--sampling {sampling} is not available in this version; use joint, lhs or grid")
     data = true_robot.measurements(q, rng, orientation=orientation)
     write_measurements(out, data)
     if truth:
