@@ -56,7 +56,7 @@ MAX_CONDITION = 1e17
 # 1e-12·n instead made the held-out error on smooth fields up to 20 times worse.
 JITTER_START = 1e-16
 # Bounds of an estimated nugget, relative to the process variance σ².
-NUGGET_BOUNDS = (1e-10, 10.0)
+NUGGET_BOUNDS = (1e-12, 10.0)
 # A parameter within this factor of a bound (in θ) is reported as having hit it.
 BOUND_TOLERANCE = 1.01
 # L-BFGS-B settings.  Near the smooth end of θ the correlation matrix is nearly singular:
@@ -159,14 +159,14 @@ class _Problem:
         self.correlation = correlation
         n, d = X.shape
         # Per-dimension squared differences, (d, n·n): R and the gradient are then one
-        # matrix-vector product each over them.
+        # matrix-vector product each over them.  Memory: 8·d·n² bytes (216 MB at n = 3000).
         self.sqdiff = ((X[:, None, :] - X[None, :, :]) ** 2).reshape(n * n, d).T.copy()
 
     def condition(self, theta, nugget, Y, start_jitter=0.0, gradient=False):
         """Condition the process on ``Y`` (n, m) at θ and the nugget: a `_State`."""
         n = len(self.X)
         S = (theta @ self.sqdiff).reshape(n, n)
-        C = correlation_from_squared(S, self.correlation, out=np.empty_like(S))
+        C = correlation_from_squared(S, self.correlation, out=np.empty_like(S))  # R
         C[np.diag_indices(n)] += nugget
         # Correlations are ≥ 0, so the 1-norm is the largest column sum.
         L, jitter, condition = _cholesky_with_jitter(C, C.sum(axis=0).max(), start_jitter)
@@ -237,16 +237,19 @@ class Kriging:
         None starts at θ = 0.5 / d, a correlation of about e⁻¹ between typical point pairs.
         With ``n_starts=0`` it is used as is, without optimisation.
     theta_bounds : (lo, hi)
-        Bounds on every θ_k in standardised-input units.  A small ``lo`` admits very smooth
-        fields (long correlation lengths) at the price of ill-conditioned correlation matrices.
+        Bounds on every θ_k in standardised-input units.  The default (1e-6, 1e2) admits
+        correlation lengths from 0.1 to 1000 standard deviations of the inputs: robot error
+        fields are very smooth, and on them a lower bound of 1e-3 made the held-out error up
+        to twice as large; the ill-conditioning long lengths bring is handled by jitter.
     nugget : float ≥ 0 or "estimate"
         Variance added to the correlation diagonal, relative to σ²: 0 interpolates the data, a
         positive value smooths measurement noise, "estimate" fits it by maximum likelihood
-        (within NUGGET_BOUNDS) together with θ.
+        (within NUGGET_BOUNDS) together with θ.  Predictions are of the noise-free field.
     n_starts : int ≥ 0 or None
         L-BFGS-B runs: one from theta0 and the rest from a Latin hypercube in log θ (and log
-        nugget).  0 fixes θ = theta0.  None picks 4 for n ≤ 400, 2 for n ≤ 1500, else 1, which
-        keeps a fit of 1000 points and 3 outputs near 5 s on one core.
+        nugget).  0 fixes θ = theta0 (and needs a numeric nugget).  None picks 4 for n ≤ 400,
+        2 for n ≤ 1500, else 1: a fit of 1000 points and 3 outputs then takes about 8 s on one
+        core, and on smooth fields the extra starts reach the same optimum.
     shared_theta : bool
         False: one θ (and nugget) per output, each maximising its own likelihood (the paper's
         way).  True: one θ for all outputs, maximising the sum of their likelihoods.
@@ -340,8 +343,9 @@ class Kriging:
             raise InputError(f"nugget must be a number ≥ 0 or 'estimate', got {self.nugget!r}")
         if self.n_starts is not None and (int(self.n_starts) != self.n_starts or self.n_starts < 0):
             raise InputError(f"n_starts must be a whole number ≥ 0 or None, got {self.n_starts!r}")
-        if self.n_starts == 0 and self.theta0 is None:
-            raise InputError("n_starts=0 fixes θ at theta0: give theta0 too")
+        if self.n_starts == 0 and (self.theta0 is None or self.nugget == "estimate"):
+            raise InputError("n_starts=0 fixes θ at theta0 without optimising: give theta0 and "
+                             "a numeric nugget")
 
     def _check_duplicates(self, X):
         _, first, inverse, counts = np.unique(X, axis=0, return_index=True, return_inverse=True,
@@ -395,8 +399,7 @@ class Kriging:
 
         if self.n_starts == 0:
             theta0 = np.broadcast_to(np.asarray(self.theta0, dtype=float), (d,)).copy()
-            nugget = NUGGET_BOUNDS[0] if estimate_nugget else float(self.nugget)
-            return problem.condition(theta0, nugget, Y)
+            return problem.condition(theta0, float(self.nugget), Y)
         starts = self._starting_points(d, n, rng)
         if not Y.any():  # constant outputs: the likelihood does not depend on θ
             return problem.condition(*unpack(starts[0]), Y)
@@ -422,7 +425,13 @@ class Kriging:
         """Keep what prediction needs, per group of outputs sharing θ."""
         m = self._Y_train.shape[1]
         d = self.n_features_in_
-        self._groups, self._states, self._problem_X = groups, states, problem.X
+        self._groups, self._states = groups, states
+        # Per group, the training side of the cross-correlation product (d + 2, n).
+        self._training_factors = []
+        for state in states:
+            b = problem.X * np.sqrt(state.theta)
+            self._training_factors.append(np.vstack([2.0 * b.T, -np.ones(len(b)),
+                                                     -np.einsum("ij,ij->i", b, b)]))
         self.nugget_, self.jitter_ = np.empty(m), np.empty(m)
         self.sigma2_, self.log_likelihood_ = np.empty(m), np.empty(m)
         self.beta_ = np.empty((problem.F.shape[1], m))
@@ -499,8 +508,8 @@ class Kriging:
     def _predict_block(self, Xs, mean, mse):
         """Fill ``mean`` (and ``mse``) for the standardised points Xs, group by group."""
         f = trend_basis(Xs, self.regression)
-        for cols, state in zip(self._groups, self._states):
-            r = self._cross_correlation(Xs, state.theta)
+        for cols, state, factor in zip(self._groups, self._states, self._training_factors):
+            r = self._cross_correlation(Xs, state.theta, factor)
             standard = f @ state.beta + r @ state.alpha
             mean[:, cols] = self._y_mean[cols] + self._y_scale[cols] * standard
             if mse is not None:
@@ -511,15 +520,20 @@ class Kriging:
                                   - np.einsum("ij,ij->j", v, v), 0.0)
                 mse[:, cols] = unit[:, None] * (state.sigma2 * self._y_scale[cols] ** 2)
 
-    def _cross_correlation(self, Xs, theta):
-        """R(x, X_train) for the rows of Xs: (B, n), squared distances by the expansion trick."""
-        root = np.sqrt(theta)
-        a = Xs * root
-        b = self._problem_X * root
-        S = a @ (-2.0 * b.T)
-        S += np.einsum("ij,ij->i", a, a)[:, None]
-        S += np.einsum("ij,ij->i", b, b)[None, :]
-        np.maximum(S, 0.0, out=S)  # rounding can make |a − b|² slightly negative
+    def _cross_correlation(self, Xs, theta, training_factor):
+        """R(x, X_train) for the rows of Xs: (B, n).
+
+        −S = 2aᵀb − |a|² − |b|² (a, b the θ-scaled points) comes out of one matrix product of
+        augmented coordinates [a, |a|², 1]·[2b, −1, −|b|²]ᵀ, so the only other pass over the
+        B × n block is the exponential.
+        """
+        a = Xs * np.sqrt(theta)
+        minus_S = np.column_stack([a, np.einsum("ij,ij->i", a, a), np.ones(len(a))]) \
+            @ training_factor
+        if self.correlation == "gaussian":
+            # Rounding can leave −S slightly positive for a training point: R = 1 + O(ε).
+            return np.exp(minus_S, out=minus_S)
+        S = np.maximum(np.negative(minus_S, out=minus_S), 0.0, out=minus_S)
         return correlation_from_squared(S, self.correlation, out=S)
 
     def _warn_extrapolation(self, X, Xs):
