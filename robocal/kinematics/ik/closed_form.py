@@ -27,13 +27,17 @@ EXACT_LENGTH = 1e-9  # mm
 # (calibrated robots deviate by fractions of a degree and a few millimetres).
 FIT_SINE = 0.05  # about 2.9 degrees
 FIT_LENGTH = 20.0  # mm
-# Rounding allowance at the border of the reachable set, in mm for conditions on lengths and
-# dimensionless for cosines.  Seeds for a slightly different chain get far more: a target just
-# out of reach of the idealised robot may be within reach of the real one, and the nearest
-# idealised posture (the stretched arm) is then a good seed.  Likewise for joint limits (rad).
+# How far out of reach a target may be (in mm for conditions on lengths, dimensionless for
+# cosines) and still count as reached: rounding for exact solutions; far more for seeds of a
+# slightly different chain, where a target just out of reach of the idealised robot may be
+# within reach of the real one and the nearest idealised posture (the stretched arm) is then
+# a good seed.  Seeds may likewise lie a little beyond a joint limit (rad).
 EXACT_REACH = (1e-9, 1e-12)
 SEED_REACH = (50.0, 0.1)
 SEED_MARGIN = 0.2
+# A seed on the stretched-arm singularity stalls the numerical solver (its Jacobian has no
+# component along the reach), so seeds keep the elbow bent by a few degrees at least.
+SEED_STRETCH = 1.0 - 1e-3
 # Axes closer to parallel than this cannot define an angle between them.
 MIN_SINE = 0.1
 # Targets per block: the temporaries of one block stay in the processor's cache.
@@ -142,10 +146,11 @@ class ClosedForm:
     def _fit(self):
         raise NotImplementedError
 
-    def _angles(self, rows, t, length_tol, cosine_tol):
-        """Exponential angles (6, 2, 2, 2, B) of every branch and whether each exists
-        (2, 2, 2, B), for G given as rotation rows and translation, with the reach
-        tolerances in mm and for cosines."""
+    def _angles(self, rows, t, stretch):
+        """Exponential angles (6, 2, 2, 2, B) of every branch, for G given as rotation rows
+        and translation, and how far out of reach each branch is: in mm and as a cosine
+        excess (both <= 0 within reach; broadcastable to (2, 2, 2, B)).  ``stretch``: the
+        largest |cos| of the elbow angle (see :func:`planar_two_link`)."""
         raise NotImplementedError
 
     # ---------------------------------------------------------------------- solve
@@ -164,44 +169,65 @@ class ClosedForm:
         t = tuple(_combine(pre[i, :3], [m[k][3] for k in range(3)]) + pre[i, 3] for i in range(3))
         return rows, t
 
-    def solve(self, targets, reference=None, seeds=False):
+    def solve(self, targets, reference=None):
         """Every branch for (N, 4, 4) TCP targets in the world frame.
 
         Returns controller joints q (N, 8, 6) and a mask valid (N, 8) of the branches that
         exist within the joint limits; the other branches are NaN.  Periodic joints take the
         2 pi equivalent nearest ``reference`` ((N, 6) or (6,); default zero) that fits the
-        limits.  ``seeds``: the branches are to seed a numerical solver on a chain slightly
-        different from this one (or this fit is inexact, see :attr:`exact`), so targets a
-        little out of reach and joints a little beyond their limits are accepted.
+        limits.  With an inexact fit (see :attr:`exact`) use :meth:`seeds` instead.
         """
-        tolerances = SEED_REACH if seeds else EXACT_REACH
-        margin = SEED_MARGIN if seeds else 0.0
+        q, valid, _ = self._branches(targets, reference, seeds=False)
+        return q, valid
+
+    def seeds(self, targets, reference=None):
+        """Branches as seeds for a numerical solver on a chain slightly different from the
+        one this solver fits exactly: q (N, 8, 6), usable (N, 8) — allowing targets a little
+        out of reach and joints a little beyond their limits — and preferred (N, 8), the
+        usable branches that need neither allowance.
+        """
+        return self._branches(targets, reference, seeds=True)
+
+    def _branches(self, targets, reference, seeds):
         targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
         count = targets.shape[0]
+        margin = SEED_MARGIN if seeds else 0.0
         q = np.empty((count, 8, 6))
-        valid = np.empty((count, 8), dtype=bool)
+        usable = np.empty((count, 8), dtype=bool)
+        preferred = np.empty((count, 8), dtype=bool)
         for start in range(0, count, BLOCK):
             block = slice(start, min(start + BLOCK, count))
-            angles, exists = self._angles(*self._relative(targets[block]), *tolerances)
+            angles, length_excess, cosine_excess = self._angles(
+                *self._relative(targets[block]), SEED_STRETCH if seeds else 1.0)
             joints = self._controller_joints(angles.reshape(6, 8, -1))
             near = 0.0 if reference is None else np.broadcast_to(reference, (count, 6))[block].T[:, None, :]
             joints, inside = nearest_equivalent(joints, near, self._lower - margin,
                                                 self._upper + margin, self._periodic)
-            inside = np.all(inside, axis=0)
-            ok = exists.reshape(8, -1) & inside
+            exact = _reach(length_excess, cosine_excess, EXACT_REACH)
+            if seeds:
+                ok = _reach(length_excess, cosine_excess, SEED_REACH) & np.all(inside, axis=0)
+                best = exact & np.all((joints >= self._lower) & (joints <= self._upper), axis=0)
+            else:
+                ok = best = exact & np.all(inside, axis=0)
             joints += np.where(ok, 0.0, np.nan)  # (8, B) mask, cheaper than indexing (6, 8, B)
             # Transposing (6, 8, B) to (B, 8, 6) one column at a time is the fastest way here.
             out = q[block]
             for j in range(6):
                 for k in range(8):
                     out[:, k, j] = joints[j, k]
-            valid[block] = ok.T
-        return q, valid
+            usable[block], preferred[block] = ok.T, best.T
+        return q, usable, preferred
 
     def _controller_joints(self, angles):
         """Exponential angles (6, ...) -> controller joints (6, ...)."""
         model = [angles[i] - self._offsets[i] for i in range(6)]
         return np.stack([_combine(self._unmap[i], model) for i in range(6)])
+
+
+def _reach(length_excess, cosine_excess, tolerances):
+    """(8, B) mask of branches within reach, given the excesses from :meth:`_angles`."""
+    ok = (length_excess <= tolerances[0]) & (cosine_excess <= tolerances[1])
+    return np.broadcast_to(ok, (2, 2, 2, ok.shape[-1])).reshape(8, -1)
 
 
 def _combine(coefficients, arrays):

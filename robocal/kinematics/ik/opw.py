@@ -67,17 +67,17 @@ class SphericalWrist(ClosedForm):
         self.x6, _ = plane_basis(w6)
         self.y6 = np.cross(w6, self.x6)
 
-    def _angles(self, rows, t, length_tol, cosine_tol):
+    def _angles(self, rows, t, stretch):
         n = self.n
         # 1. shoulder: n · Rz(-t1) c = n · c0 with c the wrist centre of the target.
         c = tuple(ci + ti for ci, ti in zip(matvec(rows, self.centre), t))
         shoulder = sinusoid_roots(n[0] * c[0] + n[1] * c[1], n[0] * c[1] - n[1] * c[0],
-                                  self.along - n[2] * c[2], length_tol)
+                                  self.along - n[2] * c[2])
         c1, s1 = shoulder.cos, -shoulder.sin  # undo joint 1
         # 2. elbow: joints 2 and 3 in the plane normal to their axes.
         centre = rotate_z(c1, s1, expand(c))
         ex, ey = self.plane
-        elbow = planar_two_link(self.link, (dot(ex, centre), dot(ey, centre)), cosine_tol)
+        elbow = planar_two_link(self.link, (dot(ex, centre), dot(ey, centre)), stretch)
         # R23^T: undo the rotation by t2 + psi about n.
         c23 = elbow.cos_first * elbow.cos_second - elbow.sin_first * elbow.sin_second
         s23 = -(elbow.sin_first * elbow.cos_second + elbow.cos_first * elbow.sin_second)
@@ -85,7 +85,7 @@ class SphericalWrist(ClosedForm):
         r_w6 = rotate(n, c23, s23, expand(rotate_z(c1, s1, expand(matvec(rows, self.w6)))))
         r_x6 = rotate(n, c23, s23, expand(rotate_z(c1, s1, expand(matvec(rows, self.x6)))))
         a, b, offset = self.flip
-        flip = sinusoid_roots(a, b, dot(self.w4, r_w6) - offset, cosine_tol)
+        flip = sinusoid_roots(a, b, dot(self.w4, r_w6) - offset)
         r_w6, r_x6 = expand(r_w6), expand(r_x6)
         c5, s5 = flip.cos, flip.sin
         if self.orthogonal:
@@ -106,5 +106,5 @@ class SphericalWrist(ClosedForm):
             np.broadcast_to(self.sign3 * elbow.second[:, :, None, :], shape),
             t4, flip.angle, t6,
         ])
-        exists = shoulder.ok[:, None, None, :] & elbow.ok[:, :, None, :] & flip.ok
-        return angles, exists
+        return (angles, shoulder.excess[:, None, None, :],
+                np.maximum(elbow.excess[:, :, None, :], flip.excess))

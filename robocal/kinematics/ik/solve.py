@@ -16,7 +16,11 @@ from .opw import SphericalWrist
 from .ur import OffsetWrist
 
 SOLVERS = (SphericalWrist, OffsetWrist)
-# Random restarts for targets every other seed missed by less than this (mm).
+# Added to the squared joint distance (rad^2) of seeds that need the seed allowances, so
+# that they come after every seed that does not.
+ALLOWANCE_RANK = 1e6
+# Targets that every other seed missed, but by less than RESTART_RADIUS (mm), get this many
+# random seeds.
 RESTARTS = 8
 RESTART_RADIUS = 50.0
 
@@ -70,11 +74,10 @@ def ik_all(chain, targets, *, nominal=None):
     solver, exact = _seed_solver(chain, nominal)
     if solver is None:
         closed_form(chain)  # raises the reason
-    q, valid = solver.solve(targets, seeds=not exact)
+    q, valid = solver.solve(targets) if exact else solver.seeds(targets)[:2]
     if not exact:
-        seeds = q[valid]
-        refined, reached = refine(chain, np.repeat(targets, 8, axis=0)[valid.reshape(-1)], seeds)[:2]
-        q[valid] = refined
+        refined, reached = refine(chain, np.repeat(targets, 8, axis=0)[valid.reshape(-1)], q[valid])[:2]
+        q[valid] = nearest_equivalent(refined, 0.0, chain.lower, chain.upper, periodic_joints(chain))[0]
         valid[valid] = reached
         q[~valid] = np.nan
     return q, valid
@@ -112,9 +115,12 @@ def solve_ik(chain, targets, hint=None, *, nominal=None, position_only=False, br
         preference); record each target's first success, or else its closest attempt."""
         q_new, reached, pe, oe = refine(chain, targets[rows], seeds, position_only=position_only,
                                         likely_reached=likely_reached)
-        order = np.lexsort((~reached, rows))  # by target, successes first, then preference
-        rows, first = np.unique(rows[order], return_index=True)
-        pick = order[first]
+        if np.all(rows[1:] > rows[:-1]):
+            pick = np.arange(rows.size)  # one seed per target
+        else:
+            order = np.lexsort((~reached, rows))  # by target, successes first, then preference
+            rows, first = np.unique(rows[order], return_index=True)
+            pick = order[first]
         keep = reached[pick] | (pe[pick] < position_error[rows])
         rows, pick = rows[keep], pick[keep]
         q[rows], success[rows] = q_new[pick], reached[pick]
@@ -127,12 +133,18 @@ def solve_ik(chain, targets, hint=None, *, nominal=None, position_only=False, br
         if not 0 <= branch < 8:
             raise InputError(f"branch must be 0 to 7, got {branch}")
     if solver is not None:
-        branches, valid = solver.solve(targets, reference, seeds=not exact)
+        if exact:
+            branches, valid = solver.solve(targets, reference)
+            preferred = valid
+        else:
+            branches, valid, preferred = solver.seeds(targets, reference)
         if branch is not None:
             rows = np.flatnonzero(valid[:, branch])
             attempt(rows, branches[rows, branch], exact)
         else:
-            distance = np.where(valid, np.sum((branches - reference[:, None, :]) ** 2, axis=2), np.inf)
+            # Nearest first, but seeds that exist only thanks to the seed allowances last.
+            distance = np.sum((branches - reference[:, None, :]) ** 2, axis=2)
+            distance = np.where(valid, np.where(preferred, distance, distance + ALLOWANCE_RANK), np.inf)
             order = np.argsort(distance, axis=1)
             ranked_valid = np.take_along_axis(valid, order, axis=1)
             rows = np.flatnonzero(ranked_valid[:, 0])

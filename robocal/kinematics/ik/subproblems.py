@@ -87,23 +87,24 @@ _ROOT_SIGN = np.array([1.0, -1.0])[:, None]
 
 
 class Roots(NamedTuple):
-    """Two roots of an equation in one angle: angle, its cosine and sine, and whether the
-    equation has a real solution (shape (..., 2, N) each)."""
+    """Two roots of an equation in one angle: angle, its cosine and sine (shape (..., 2, N)),
+    and by how much the equation misses having a real solution (<= 0 when it has one;
+    shape (..., 1, N))."""
 
     angle: np.ndarray
     cos: np.ndarray
     sin: np.ndarray
-    ok: np.ndarray
+    excess: np.ndarray
 
 
-def sinusoid_roots(a, b, c, tol):
+def sinusoid_roots(a, b, c):
     """Both solutions x of a cos x + b sin x = c.
 
-    With rho = hypot(a, b) and phi = atan2(b, a) the roots are phi +- acos(c / rho).  They
-    exist when |c| <= rho + ``tol`` (rounding at the boundary, in the units of a, b, c; c / rho
-    is clamped to [-1, 1]).  When a, b and c all vanish (to 1e-9) every angle solves the
-    equation; the roots returned are then +-pi/2, which are as good as any.  Angles are not
-    wrapped.
+    With rho = hypot(a, b) and phi = atan2(b, a) the roots are phi +- acos(c / rho), which
+    exist when |c| <= rho; ``excess`` = |c| - rho, in the units of a, b, c (c / rho is clamped
+    to [-1, 1], which gives the nearest postures where it is positive).  When a, b and c all
+    vanish (to 1e-9) every angle solves the equation; the roots returned are then +-pi/2,
+    which are as good as any.  Angles are not wrapped.
     """
     a, b, c = np.broadcast_arrays(a, b, c) if np.ndim(a) else (a, b, c)
     rho = np.sqrt(a * a + b * b)
@@ -113,7 +114,7 @@ def sinusoid_roots(a, b, c, tol):
         rho, c = np.where(free, 1.0, rho), np.where(free, 0.0, c)
     phi = np.arctan2(b, a)
     cos_phi, sin_phi = a / rho, b / rho
-    ok = np.abs(c) <= rho + tol
+    excess = np.abs(c) - rho
     kappa = np.clip(c / rho, -1.0, 1.0)
     alpha = split(np.arccos(kappa)) * _ROOT_SIGN
     kappa, root = split(kappa), split(np.sqrt(1.0 - kappa * kappa)) * _ROOT_SIGN
@@ -122,7 +123,7 @@ def sinusoid_roots(a, b, c, tol):
     # cos and sin of phi +- alpha without further trigonometric calls.
     cos = cos_phi * kappa - sin_phi * root
     sin = sin_phi * kappa + cos_phi * root
-    return Roots(angle, cos, sin, np.broadcast_to(split(ok), angle.shape))
+    return Roots(angle, cos, sin, split(excess))
 
 
 def angle_about(axis, u, v):
@@ -159,7 +160,8 @@ class TwoLink(NamedTuple):
 
 class Planar(NamedTuple):
     """Both solutions of :func:`planar_two_link`, each (..., 2, N): angles of the first and
-    second rotation with their cosines and sines, and whether the target is in reach."""
+    second rotation with their cosines and sines; and by how much the target is out of reach,
+    as |cos| - 1 of the angle between the links (<= 0 within reach; shape (..., 1, N))."""
 
     first: np.ndarray
     cos_first: np.ndarray
@@ -167,15 +169,17 @@ class Planar(NamedTuple):
     second: np.ndarray
     cos_second: np.ndarray
     sin_second: np.ndarray
-    ok: np.ndarray
+    excess: np.ndarray
 
 
-def planar_two_link(link, target, tol):
+def planar_two_link(link, target, stretch=1.0):
     """The two rotations that take the moved point to ``target`` (2-D coordinates (tx, ty)),
     both elbow solutions; angles counter-clockwise in the plane's coordinates, not wrapped.
 
     The law of cosines gives the second rotation (the angle between the links), and the first
-    is then the angle from where the point would be to where it must go.
+    is then the angle from where the point would be to where it must go.  Out of reach, the
+    links are stretched (or folded) towards the target, up to |cos| = ``stretch`` of the
+    angle between them.
     """
     l_up, l_low = link.lengths
     ux, uy = link.upper
@@ -183,8 +187,8 @@ def planar_two_link(link, target, tol):
     rx, ry = target[0] - link.base[0], target[1] - link.base[1]
     reach2 = rx * rx + ry * ry
     kappa = (reach2 - l_up * l_up - l_low * l_low) / (2.0 * l_up * l_low)
-    ok = np.abs(kappa) <= 1.0 + tol
-    kappa = np.clip(kappa, -1.0, 1.0)
+    excess = np.abs(kappa) - 1.0
+    kappa = np.clip(kappa, -stretch, stretch)
     # gamma = angle between the links after the second rotation: cos gamma = kappa.
     gamma = split(np.arccos(kappa)) * _ROOT_SIGN
     sin_gamma = split(np.sqrt(1.0 - kappa * kappa)) * _ROOT_SIGN
@@ -199,5 +203,5 @@ def planar_two_link(link, target, tol):
     return Planar(
         angle_of(cos_first, sin_first), cos_first, sin_first,
         gamma - bend, kappa * cos_bend + sin_gamma * sin_bend, sin_gamma * cos_bend - kappa * sin_bend,
-        np.broadcast_to(split(ok), px.shape),
+        split(excess),
     )

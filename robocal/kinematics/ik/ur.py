@@ -63,18 +63,18 @@ class OffsetWrist(ClosedForm):
         # Axis 4's point relative to W: where joints 5 and 6 move it from.
         self.arm4 = self.points[3] - meet
 
-    def _angles(self, rows, t, length_tol, cosine_tol):
+    def _angles(self, rows, t, stretch):
         n = self.n
         ex, ey = self.plane
         # 1. shoulder: n · Rz(-t1) P = n · W with P = G W.
         p = tuple(pi + ti for pi, ti in zip(matvec(rows, self.meet), t))
         shoulder = sinusoid_roots(n[0] * p[0] + n[1] * p[1], n[0] * p[1] - n[1] * p[0],
-                                  self.along - n[2] * p[2], length_tol)
+                                  self.along - n[2] * p[2])
         c1, s1 = shoulder.cos, shoulder.sin
         # 2. wrist: joint 5 from n · R5 w6, then joint 6.
         n1 = rotate_z(c1, s1, n)  # R1 n
         a, b, offset = self.flip
-        flip = sinusoid_roots(a, b, dot(n1, expand(matvec(rows, self.w6))) - offset, cosine_tol)
+        flip = sinusoid_roots(a, b, dot(n1, expand(matvec(rows, self.w6))) - offset)
         c5, s5 = flip.cos, -flip.sin  # R5^T
         back_n = expand(transposed_matvec(rows, n1))  # R^T R1 n
         t6, c6, s6 = angle_about(self.w6, back_n, rotate(self.w5, c5, s5, n))
@@ -87,7 +87,7 @@ class OffsetWrist(ClosedForm):
         # W to P) and joint 1.
         moved = matvec(rows, rotate(self.w6, c6, s6, rotate(self.w5, c5, s5, self.arm4)))
         point = rotate_z(c1e, s1e, tuple(m + pi for m, pi in zip(moved, p)))
-        elbow = planar_two_link(self.link, (dot(ex, point), dot(ey, point)), cosine_tol)
+        elbow = planar_two_link(self.link, (dot(ex, point), dot(ey, point)), stretch)
         shape = elbow.first.shape
         angles = np.stack([
             np.broadcast_to(shoulder.angle[:, None, None, :], shape),
@@ -96,5 +96,5 @@ class OffsetWrist(ClosedForm):
             np.broadcast_to(flip.angle[..., None, :], shape),
             np.broadcast_to(t6[..., None, :], shape),
         ])
-        exists = shoulder.ok[:, None, None, :] & flip.ok[..., None, :] & elbow.ok
-        return angles, exists
+        return (angles, shoulder.excess[:, None, None, :],
+                np.maximum(flip.excess[..., None, :], elbow.excess))
