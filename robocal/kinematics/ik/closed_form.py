@@ -16,6 +16,7 @@ and does the bookkeeping around the geometry:
 """
 import numpy as np
 
+from ...errors import InputError
 from ...spatial import invert, make_transform
 from ..conversions import to_poe
 from .limits import LIMIT_TOL, nearest_equivalent, periodic_joints
@@ -44,7 +45,7 @@ MIN_SINE = 0.1
 BLOCK = 4096
 
 
-class NoFit(Exception):
+class NoFit(InputError):
     """The chain does not have the structure a solver needs; the message says why."""
 
 
@@ -63,6 +64,15 @@ def plane_basis(normal):
     return ex, np.cross(normal, ex)
 
 
+def check_joints(chain):
+    """Raise :class:`NoFit` unless the chain has the six revolute joints closed forms need."""
+    if chain.n_joints != 6 or not np.all(chain.revolute):
+        raise NoFit(f"closed forms need 6 revolute joints; robot {chain.name!r} has "
+                    f"{chain.n_joints} ({', '.join(sorted(set(chain.joint_types)))})")
+    if abs(np.linalg.det(chain.joint_map)) < 1e-12:
+        raise NoFit(f"robot {chain.name!r} has a singular joint map")
+
+
 class ClosedForm:
     """Base of the closed-form solvers.  Subclasses set :attr:`kind`, check and idealise the
     geometry in :meth:`_fit`, and compute the exponential angles of all 8 branches in
@@ -71,11 +81,7 @@ class ClosedForm:
     kind = ""
 
     def __init__(self, chain):
-        if chain.n_joints != 6 or not np.all(chain.revolute):
-            raise NoFit(f"closed forms need 6 revolute joints; this chain has {chain.n_joints} "
-                        f"joints ({', '.join(sorted(set(chain.joint_types)))})")
-        if abs(np.linalg.det(chain.joint_map)) < 1e-12:
-            raise NoFit("its joint map is singular")
+        check_joints(chain)
         poe = to_poe(chain)
         # Working frame: z along joint 1's axis, origin on it, x towards joint 2's axis
         # direction where that is defined.

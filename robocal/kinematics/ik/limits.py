@@ -27,8 +27,8 @@ def nearest_equivalent(q, reference, lower, upper, periodic):
     those within [lower, upper]; all arguments broadcast together.  Returns the joints and an
     elementwise mask of values within the limits (no equivalent fits where it is False)."""
     turned = q + TWO_PI * np.rint((reference - q) * (1.0 / TWO_PI))
-    # The nearest equivalent lies within half a turn of the reference; if it is beyond one
-    # limit, the only candidate left is one turn back from it.
+    # The nearest equivalent lies within half a turn of the reference; if that one is beyond
+    # a limit, the only candidate left is the one a turn back inside.
     turned += TWO_PI * (turned < lower)
     turned -= TWO_PI * (turned > upper)
     if not np.all(periodic):

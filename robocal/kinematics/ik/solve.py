@@ -9,7 +9,7 @@ the real chain.  A chain with no closed form at all is solved numerically from a
 import numpy as np
 
 from ...errors import InputError
-from .closed_form import NoFit
+from .closed_form import NoFit, check_joints
 from .limits import nearest_equivalent, periodic_joints
 from .numeric import IKResult, as_joints, as_targets, refine
 from .opw import SphericalWrist
@@ -30,6 +30,11 @@ def closed_form(chain):
 
     Raises :class:`InputError` saying why none does; the numerical solver still applies.
     """
+    try:
+        check_joints(chain)
+    except NoFit as why:
+        raise InputError(f"{why}; use the numerical solver (solve_numeric, or solve_ik with a "
+                         "posture hint)") from None
     reasons, fits = [], []
     for solver_class in SOLVERS:
         try:
