@@ -7,7 +7,7 @@ from typer.testing import CliRunner
 
 from robocal.compensation import Compensator
 from robocal.compensation.methods import error_model_to_dict, fit_kriging
-from robocal.errors import FileFormatError, InputError
+from robocal.errors import FileFormatError, InputError, RobocalWarning
 from robocal.interfaces.cli import app
 from robocal.interfaces.jobs import load_compensator
 from robocal.interfaces.model_file import ModelFile, load_model, save_model
@@ -159,8 +159,9 @@ def test_command_line_workflow(tmp_path, liu):
         rows.append(",".join(repr(float(v)) for v in (*p, *r, *h)))
     rows.append("9000,0,0,180,0,0,0,-90,90,0,90,0")
     (tmp_path / "targets.csv").write_text("\n".join(rows) + "\n")
-    result = runner.invoke(app, ["compensate", str(tmp_path / "model.json"), str(tmp_path / "targets.csv"),
-                                 "--out", str(tmp_path / "commands.csv")])
+    with pytest.warns(RobocalWarning, match="extrapolates"):  # the far target, outside the training box
+        result = runner.invoke(app, ["compensate", str(tmp_path / "model.json"), str(tmp_path / "targets.csv"),
+                                     "--out", str(tmp_path / "commands.csv")])
     assert result.exit_code == 0, result.output
     assert "cannot be reached" in result.output and "102" in result.output
     lines = (tmp_path / "commands.csv").read_text().splitlines()
