@@ -17,7 +17,7 @@ and does the bookkeeping around the geometry:
 import numpy as np
 
 from ...errors import InputError
-from ...spatial import invert, make_transform
+from ...spatial import invert, make_transform, rot_y, rot_z
 from ..conversions import to_poe
 from .limits import LIMIT_TOL, nearest_equivalent, periodic_joints
 
@@ -174,6 +174,20 @@ class ClosedForm:
                      for i in range(3))
         t = tuple(_combine(pre[i, :3], [m[k][3] for k in range(3)]) + pre[i, 3] for i in range(3))
         return rows, t
+
+    def facing(self, positions, poses, tilt=0.0):
+        """Poses (N, 4, 4) for seeding position-only problems: ``poses`` tilted by ``tilt``
+        about the horizontal (normal to axis 1 and to the radial direction) and turned about
+        axis 1 until they face ``positions`` (N, 3), then moved there.  With no tilt the arm
+        keeps its posture relative to the target, so the pose is usually within reach where
+        the position is; tilts of +-pi/2 and pi point the tool down, up or back instead."""
+        local = lambda p: p @ self._pre[:3, :3].T + self._pre[:3, 3]  # noqa: E731
+        target, current = local(positions), local(poses[:, :3, 3])
+        azimuth = np.arctan2(target[:, 1], target[:, 0])
+        own = np.arctan2(current[:, 1], current[:, 0])
+        turn = rot_z(azimuth) @ rot_y(tilt) @ rot_z(-own)
+        to_world = invert(self._pre)[:3, :3]
+        return make_transform(to_world @ turn @ self._pre[:3, :3] @ poses[:, :3, :3], positions)
 
     def solve(self, targets, reference=None):
         """Every branch for (N, 4, 4) TCP targets in the world frame.

@@ -19,6 +19,8 @@ SOLVERS = (SphericalWrist, OffsetWrist)
 # Added to the squared joint distance (rad^2) of seeds that need the seed allowances, so
 # that they come after every seed that does not.
 ALLOWANCE_RANK = 1e6
+# Tool directions (tilts from the hint's, rad) that seed position-only problems.
+POSITION_ONLY_TILTS = (0.0, np.pi / 2, -np.pi / 2, np.pi)
 # Targets that every other seed missed, but by less than RESTART_RADIUS (mm), get this many
 # random seeds.
 RESTARTS = 8
@@ -138,11 +140,19 @@ def solve_ik(chain, targets, hint=None, *, nominal=None, position_only=False, br
         if not 0 <= branch < 8:
             raise InputError(f"branch must be 0 to 7, got {branch}")
     if solver is not None:
-        if exact:
-            branches, valid = solver.solve(targets, reference)
-            preferred = valid
+        # Position only: any orientation will do; seed with the hint posture's, turned to
+        # face the target, and with the tool pointing down, up and back from there.
+        if position_only:
+            start = chain.fk(reference)
+            tilts = (0.0,) if branch is not None else POSITION_ONLY_TILTS
+            seed_targets = [solver.facing(targets[:, :3, 3], start, tilt) for tilt in tilts]
         else:
-            branches, valid, preferred = solver.seeds(targets, reference)
+            seed_targets = [targets]
+        found = [solver.solve(t, reference) if exact else solver.seeds(t, reference)
+                 for t in seed_targets]
+        branches = np.concatenate([f[0] for f in found], axis=1)
+        valid = np.concatenate([f[1] for f in found], axis=1)
+        preferred = valid if exact else np.concatenate([f[2] for f in found], axis=1)
         if branch is not None:
             rows = np.flatnonzero(valid[:, branch])
             attempt(rows, branches[rows, branch], exact)
