@@ -161,6 +161,9 @@ def run(model, X, Y, X_test, Y_test, X_predict, report=None):
 
 
 def _run_in_child(results, *args):
+    # SMT prints its failed factorisations (eigenvalue dumps) on stdout: keep the table clean.
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
     results.put(run(*args, report=lambda fit_time: results.put(("fitted", fit_time))))
 
 

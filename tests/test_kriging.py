@@ -254,11 +254,30 @@ def test_round_trip_keeps_one_dimensional_output(rng):
     assert restored.predict(X[:3]).shape == (3,)
 
 
+def test_failed_refit_leaves_the_fitted_model_as_it_was(rng):
+    X = latin_hypercube(20, 3, rng)
+    model = Kriging(random_state=0).fit(X, wavy(X))
+    before = model.predict(X[:5])
+    with pytest.raises(InputError):
+        model.fit(X[:, :2], wavy(X)[:10])
+    np.testing.assert_array_equal(model.predict(X[:5]), before)
+
+
 def test_from_dict_rejects_other_documents():
     with pytest.raises(InputError, match="not a Kriging model"):
         Kriging.from_dict({"format": "something else"})
     with pytest.raises(InputError, match="refit"):
         Kriging.from_dict({"format": "robocal.kriging", "version": 1, "settings": {}})
+    with pytest.raises(InputError, match="version 7 is not supported"):
+        Kriging.from_dict({"format": "robocal.kriging", "version": 7})
+
+
+def test_from_dict_checks_array_sizes(rng):
+    X = latin_hypercube(20, 3, rng)
+    document = Kriging(random_state=0).fit(X, wavy(X)).to_dict()
+    document["jitter"] = [0.0, 0.0]
+    with pytest.raises(InputError, match="inconsistent array sizes"):
+        Kriging.from_dict(document)
 
 
 # -------------------------------------------------------------------------- bad input

@@ -31,6 +31,7 @@ Prediction at x with r = R(x, X):
 the mean squared error of the best linear unbiased predictor of the noise-free field.
 """
 import math
+import numbers
 import warnings
 
 import numpy as np
@@ -100,10 +101,8 @@ def correlation_from_squared(S, kind, out=None):
     return np.multiply(poly, np.exp(np.negative(h, out=h), out=h), out=out)
 
 
-def correlation_slope(S, kind):
-    """dR/dS: the derivative of the correlation with respect to the weighted squared distance."""
-    if kind == "gaussian":
-        return -np.exp(-S)
+def matern52_slope(S):
+    """dR/dS of the Matérn 5/2 correlation at weighted squared distance S (the Gaussian's is −R)."""
     h = np.sqrt(5.0 * S)
     return -(5.0 / 6.0) * (1.0 + h) * np.exp(-h)
 
@@ -116,12 +115,12 @@ def latin_hypercube(n_points, lower, upper, rng):
     return lower + unit * (upper - lower)
 
 
-def _cholesky_with_jitter(C, r_norm, start_jitter):
+def _cholesky_with_jitter(C, norm_1, start_jitter):
     """Lower Cholesky factor of C + jitter·I with the smallest jitter (≥ start_jitter) that works.
 
     A jitter "works" when the factorisation succeeds and LAPACK's condition estimate stays
-    below MAX_CONDITION.  Returns (L, jitter, condition estimate before any jitter or None).
-    ``C`` is modified on its diagonal; ``r_norm`` is its 1-norm without jitter.
+    below MAX_CONDITION.  Returns (L, jitter, condition estimate at start_jitter, inf if the
+    factorisation failed there).  ``C`` is modified on its diagonal; ``norm_1`` is its 1-norm.
     """
     n = len(C)
     base_diagonal = C.diagonal().copy()
@@ -133,7 +132,7 @@ def _cholesky_with_jitter(C, r_norm, start_jitter):
             C[diagonal] = base_diagonal + jitter
         L, info = lapack.dpotrf(C, lower=1, clean=1)
         if info == 0:
-            rcond, _ = lapack.dpocon(L, r_norm + jitter, uplo="L")
+            rcond, _ = lapack.dpocon(L, norm_1 + jitter, uplo="L")
             condition = 1.0 / rcond if rcond > 0 else np.inf
             if first_condition is None:
                 first_condition = condition
@@ -198,7 +197,7 @@ class _Problem:
         W = (alpha / sigma2) @ alpha.T
         d_nugget = 0.5 * nugget * (np.trace(W) - m * np.trace(C_inverse_lower))
         W -= (2 * m) * C_inverse_lower
-        slope = -C if self.correlation == "gaussian" else correlation_slope(S, self.correlation)
+        slope = -C if self.correlation == "gaussian" else matern52_slope(S)
         # With log θ as the variable the chain rule brings a factor θ_k.
         d_theta = 0.5 * theta * (self.sqdiff @ (W * slope).reshape(-1))
         return d_theta, d_nugget
@@ -283,11 +282,13 @@ class Kriging:
     # ------------------------------------------------------------------ fitting
 
     def fit(self, X, Y):
-        """Estimate θ (and the nugget), β and σ² from inputs X (n, d) and outputs Y (n,) or (n, m)."""
+        """Estimate θ (and the nugget), β and σ² from inputs X (n, d) and outputs Y (n,) or (n, m).
+
+        A fit that raises leaves an already fitted model as it was.
+        """
         self._check_settings()
-        X = _as_matrix(X, "X")
-        self._y_is_vector = np.ndim(Y) == 1
-        Y = _as_matrix(Y, "Y")
+        y_is_vector = np.ndim(Y) == 1
+        X, Y = _as_matrix(X, "X"), _as_matrix(Y, "Y")
         n, d = X.shape
         if len(Y) != n:
             raise InputError(f"X has {n} rows but Y has {len(Y)}: give one output row per input "
@@ -299,30 +300,15 @@ class Kriging:
                     if self.regression in lower else "")
             raise InputError(f"a {self.regression} trend in {d} dimensions needs at least "
                              f"{needed} points, got {n}: add points{hint}")
-        self.diagnostics_ = []
-        self._check_duplicates(X)
+        diagnostics = self._check_duplicates(X)
+        data = _Training(X, Y, self.regression, self.correlation)
+        diagnostics += [f"output {j} is constant ({Y[0, j]:g}): it is predicted as that constant"
+                        for j in np.flatnonzero(Y.min(axis=0) == Y.max(axis=0))]
 
-        self._x_mean, self._x_scale = _scaler(X)
-        self._y_mean, self._y_scale = _scaler(Y)
-        for j in np.flatnonzero(Y.min(axis=0) == Y.max(axis=0)):
-            self.diagnostics_.append(f"output {j} is constant ({Y[0, j]:g}): it is predicted as "
-                                     f"that constant")
-        Xs = (X - self._x_mean) / self._x_scale
-        Ys = (Y - self._y_mean) / self._y_scale
-        F = trend_basis(Xs, self.regression)
-        if np.linalg.matrix_rank(F) < F.shape[1]:
-            raise InputError(f"the {self.regression} trend cannot be estimated from these points "
-                             f"(an input is constant or the points lie on a lower-dimensional "
-                             f"surface): use a lower-order trend or drop that input")
-        self._X_train, self._Y_train = X, Y
-        self.n_features_in_ = d
-
-        problem = _Problem(Xs, F, self.correlation)
         rng = np.random.default_rng(self.random_state)
-        groups = [np.arange(Y.shape[1])] if self.shared_theta else \
-            [np.array([j]) for j in range(Y.shape[1])]
-        states = [self._optimise(problem, Ys[:, cols], rng) for cols in groups]
-        self._store(problem, groups, states)
+        groups = self._groups(Y.shape[1])
+        states = [self._optimise(data.problem, data.Ys[:, cols], rng) for cols in groups]
+        self._install(data, y_is_vector, groups, states, diagnostics)
         self._report(groups, states)
         return self
 
@@ -333,13 +319,15 @@ class Kriging:
         if self.correlation not in CORRELATIONS:
             raise InputError(f"correlation must be one of {', '.join(CORRELATIONS)}, "
                              f"got {self.correlation!r}")
-        lo, hi = (float(b) for b in self.theta_bounds)
+        try:
+            lo, hi = (float(b) for b in self.theta_bounds)
+        except (TypeError, ValueError):
+            lo = hi = np.nan
         if not 0 < lo <= hi < np.inf:
-            raise InputError(f"theta_bounds must satisfy 0 < lo ≤ hi < inf, got {self.theta_bounds}")
-        if isinstance(self.nugget, str):
-            if self.nugget != "estimate":
-                raise InputError(f"nugget must be a number ≥ 0 or 'estimate', got {self.nugget!r}")
-        elif not (np.isfinite(self.nugget) and self.nugget >= 0):
+            raise InputError(f"theta_bounds must be two numbers with 0 < lo ≤ hi < inf, got "
+                             f"{self.theta_bounds!r}")
+        if not (self.nugget == "estimate" or (isinstance(self.nugget, numbers.Real)
+                                              and 0 <= self.nugget < np.inf)):
             raise InputError(f"nugget must be a number ≥ 0 or 'estimate', got {self.nugget!r}")
         if self.n_starts is not None and (int(self.n_starts) != self.n_starts or self.n_starts < 0):
             raise InputError(f"n_starts must be a whole number ≥ 0 or None, got {self.n_starts!r}")
@@ -347,11 +335,15 @@ class Kriging:
             raise InputError("n_starts=0 fixes θ at theta0 without optimising: give theta0 and "
                              "a numeric nugget")
 
+    def _groups(self, m):
+        """Output columns that share θ: all together, or each on its own."""
+        return [np.arange(m)] if self.shared_theta else [np.array([j]) for j in range(m)]
+
     def _check_duplicates(self, X):
-        _, first, inverse, counts = np.unique(X, axis=0, return_index=True, return_inverse=True,
-                                              return_counts=True)
+        """Raise on repeated rows of X without a nugget; with one, warn: the diagnostics."""
+        _, inverse, counts = np.unique(X, axis=0, return_inverse=True, return_counts=True)
         if counts.max() == 1:
-            return
+            return []
         inverse = inverse.reshape(-1)
         repeated = [np.flatnonzero(inverse == u) for u in np.flatnonzero(counts > 1)]
         repeated.sort(key=lambda rows: rows[0])
@@ -363,15 +355,23 @@ class Kriging:
                              f"set nugget to a positive value or 'estimate'")
         message = (f"X has identical rows ({listed}{more}); the nugget makes them usable as "
                    f"repeated measurements")
-        self.diagnostics_.append(message)
         warnings.warn(message, RobocalWarning, stacklevel=3)
+        return [message]
+
+    def _theta0(self, d):
+        """theta0 as d positive numbers (default 0.5 / d)."""
+        if self.theta0 is None:
+            return np.full(d, 0.5 / d)
+        theta0 = np.asarray(self.theta0, dtype=float).reshape(-1)
+        if theta0.size not in (1, d) or not np.all((theta0 > 0) & np.isfinite(theta0)):
+            raise InputError(f"theta0 must be one positive number or {d} (one per input "
+                             f"column), got {self.theta0!r}")
+        return np.broadcast_to(theta0, (d,)).copy()
 
     def _starting_points(self, d, n, rng):
         """Rows of [log θ (, log nugget)]: theta0 first, then a Latin hypercube."""
         lower, upper = self._log_bounds(d)
-        theta0 = 0.5 / d if self.theta0 is None else self.theta0
-        theta0 = np.broadcast_to(np.asarray(theta0, dtype=float), (d,))
-        first = np.log(theta0)
+        first = np.log(self._theta0(d))
         if self.nugget == "estimate":
             first = np.append(first, math.log(1e-6))
         first = np.clip(first, lower, upper)
@@ -398,8 +398,7 @@ class Kriging:
             return theta, nugget
 
         if self.n_starts == 0:
-            theta0 = np.broadcast_to(np.asarray(self.theta0, dtype=float), (d,)).copy()
-            return problem.condition(theta0, float(self.nugget), Y)
+            return problem.condition(self._theta0(d), float(self.nugget), Y)
         starts = self._starting_points(d, n, rng)
         if not Y.any():  # constant outputs: the likelihood does not depend on θ
             return problem.condition(*unpack(starts[0]), Y)
@@ -413,7 +412,7 @@ class Kriging:
             return -scale * state.log_likelihood.sum(), -scale * gradient
 
         bounds = list(zip(*self._log_bounds(d)))
-        best_value, best_params = np.inf, None
+        best_value, best_params = np.inf, starts[0]
         for start in starts:
             result = minimize(objective, start, jac=True, method="L-BFGS-B", bounds=bounds,
                               options=OPTIONS)
@@ -421,20 +420,25 @@ class Kriging:
                 best_value, best_params = result.fun, result.x
         return problem.condition(*unpack(best_params), Y)
 
-    def _store(self, problem, groups, states):
-        """Keep what prediction needs, per group of outputs sharing θ."""
-        m = self._Y_train.shape[1]
-        d = self.n_features_in_
+    def _install(self, data, y_is_vector, groups, states, diagnostics):
+        """Make the model the fitted one: what prediction needs and the public attributes."""
+        X, Y = data.X, data.Y
+        m, d = Y.shape[1], X.shape[1]
+        self._X_train, self._Y_train, self._y_is_vector = X, Y, y_is_vector
+        self._x_mean, self._x_scale = data.x_mean, data.x_scale
+        self._y_mean, self._y_scale = data.y_mean, data.y_scale
         self._groups, self._states = groups, states
         # Per group, the training side of the cross-correlation product (d + 2, n).
         self._training_factors = []
         for state in states:
-            b = problem.X * np.sqrt(state.theta)
+            b = data.problem.X * np.sqrt(state.theta)
             self._training_factors.append(np.vstack([2.0 * b.T, -np.ones(len(b)),
                                                      -np.einsum("ij,ij->i", b, b)]))
+        self.n_features_in_ = d
+        self.diagnostics_ = list(diagnostics)
         self.nugget_, self.jitter_ = np.empty(m), np.empty(m)
         self.sigma2_, self.log_likelihood_ = np.empty(m), np.empty(m)
-        self.beta_ = np.empty((problem.F.shape[1], m))
+        self.beta_ = np.empty((data.problem.F.shape[1], m))
         theta = np.empty((m, d))
         for cols, state in zip(groups, states):
             theta[cols] = state.theta
@@ -497,8 +501,9 @@ class Kriging:
         Xs = (X - self._x_mean) / self._x_scale
         mean = np.empty((len(X), len(self._y_mean)))
         mse = np.empty_like(mean) if return_mse else None
-        for start in range(0, len(X), max(1, int(batch_size))):
-            block = slice(start, start + batch_size)
+        step = max(1, int(batch_size))
+        for start in range(0, len(X), step):
+            block = slice(start, start + step)
             self._predict_block(Xs[block], mean[block], None if mse is None else mse[block])
         self._warn_extrapolation(X, Xs)
         if self._y_is_vector:
@@ -607,23 +612,35 @@ class Kriging:
             raise InputError(f"Kriging model is incomplete or malformed ({error!r}): refit and "
                              f"save it again") from None
         model._check_settings()
-        groups = [np.arange(Y.shape[1])] if model.shared_theta else \
-            [np.array([j]) for j in range(Y.shape[1])]
-        model._x_mean, model._x_scale = _scaler(X)
-        model._y_mean, model._y_scale = _scaler(Y)
-        Xs = (X - model._x_mean) / model._x_scale
-        Ys = (Y - model._y_mean) / model._y_scale
-        problem = _Problem(Xs, trend_basis(Xs, model.regression), model.correlation)
+        groups = model._groups(Y.shape[1])
+        m, d = Y.shape[1], X.shape[1]
+        if theta.shape != (len(groups), d) or nugget.shape != (m,) or jitter.shape != (m,) \
+                or len(X) != len(Y):
+            raise InputError("Kriging model has inconsistent array sizes: refit and save it again")
+        data = _Training(X, Y, model.regression, model.correlation)
         # The stored jitter is tried first, so the factorisation is the one the fit ended with.
-        states = [problem.condition(theta[i], nugget[cols[0]], Ys[:, cols],
-                                    start_jitter=jitter[cols[0]])
+        states = [data.problem.condition(theta[i], nugget[cols[0]], data.Ys[:, cols],
+                                         start_jitter=jitter[cols[0]])
                   for i, cols in enumerate(groups)]
-        model._X_train, model._Y_train = X, Y
-        model._y_is_vector = y_is_vector
-        model.n_features_in_ = X.shape[1]
-        model.diagnostics_ = diagnostics
-        model._store(problem, groups, states)
+        model._install(data, y_is_vector, groups, states, diagnostics)
         return model
+
+
+class _Training:
+    """Training data, their standardisation and the likelihood problem built on them."""
+
+    def __init__(self, X, Y, regression, correlation):
+        self.X, self.Y = X, Y
+        self.x_mean, self.x_scale = _scaler(X)
+        self.y_mean, self.y_scale = _scaler(Y)
+        Xs = (X - self.x_mean) / self.x_scale
+        self.Ys = (Y - self.y_mean) / self.y_scale
+        F = trend_basis(Xs, regression)
+        if np.linalg.matrix_rank(F) < F.shape[1]:
+            raise InputError(f"the {regression} trend cannot be estimated from these points (an "
+                             f"input is constant or the points lie on a lower-dimensional "
+                             f"surface): use a lower-order trend or drop that input")
+        self.problem = _Problem(Xs, F, correlation)
 
 
 def _as_matrix(values, name):
