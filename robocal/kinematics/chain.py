@@ -35,6 +35,8 @@ LINK_PARAMETERS = {
 }
 FRAME_SUFFIXES = ("x", "y", "z", "rx", "ry", "rz")
 _ANGULAR_LINK = {"alpha", "beta", "wx", "wy"}
+# Where random configurations stop on a prismatic joint without limits.
+UNLIMITED_STROKE_MM = 1000.0
 
 
 def _as_array(values, n, default=0.0):
@@ -146,10 +148,12 @@ class Chain:
         return np.all((q >= self.lower - tol) & (q <= self.upper + tol), axis=-1)
 
     def random_configurations(self, count, rng=None):
-        """Uniform joint vectors within the limits (±pi for unlimited revolute joints)."""
+        """Uniform joint vectors within the limits; an unlimited side stands at ±pi for a
+        revolute joint and ±UNLIMITED_STROKE_MM for a prismatic one."""
         rng = np.random.default_rng(rng)
-        lo = np.where(np.isfinite(self.lower), self.lower, -np.pi)
-        hi = np.where(np.isfinite(self.upper), self.upper, np.pi)
+        span = np.where(self.revolute, np.pi, UNLIMITED_STROKE_MM)
+        lo = np.where(np.isfinite(self.lower), self.lower, -span)
+        hi = np.where(np.isfinite(self.upper), self.upper, span)
         return lo + rng.random((count, self.n_joints)) * (hi - lo)
 
     def model_joints(self, q):
