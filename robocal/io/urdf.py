@@ -25,7 +25,7 @@ import numpy as np
 from robocal.errors import FileFormatError, InputError
 from robocal.io.atomic import write_text_atomic
 from robocal.kinematics import Chain
-from robocal.spatial import compose_pose, make_transform, rot_x, rot_y, rot_z, translation
+from robocal.spatial import compose_pose, make_transform, matrix_to_rpy, rot_x, rot_y, rot_z, translation
 
 MM_PER_M = 1000.0
 _MOVABLE = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
@@ -34,8 +34,6 @@ _XACRO_NAMESPACE = "{http://www.ros.org/wiki/xacro}"
 # Round-off residue such as cos(90 deg) = 6e-17 is written as 0 so the file reads like the
 # robot's drawing; below 1e-15 (m or rad) this moves the TCP by far less than 1e-9 mm.
 _WRITE_AS_ZERO = 1e-15
-# cos(pitch) below which an rpy triple is taken as exactly gimbal-locked.
-_GIMBAL_LOCK = 1e-14
 # Longest list of link names quoted in an error message.
 _MAX_LISTED = 25
 
@@ -435,7 +433,7 @@ def _origin_element(joint: ET.Element, transform: np.ndarray) -> None:
     ET.SubElement(
         joint, "origin",
         xyz=_numbers(transform[:3, 3] / MM_PER_M),
-        rpy=_numbers(_matrix_to_rpy(transform[:3, :3])),
+        rpy=_numbers(matrix_to_rpy(transform[:3, :3])),
     )
 
 
@@ -450,21 +448,3 @@ def _limit_element(joint: ET.Element, joint_type: str, lower: float, upper: floa
 def _numbers(values) -> str:
     """Space-separated numbers with round-trip (repr) precision."""
     return " ".join(repr(0.0 if abs(v) < _WRITE_AS_ZERO else float(v)) for v in values)
-
-
-def _matrix_to_rpy(rotation: np.ndarray) -> np.ndarray:
-    """roll, pitch, yaw with R = Rz(yaw) Ry(pitch) Rx(roll), exact to rounding everywhere.
-
-    Near pitch = ±90 deg, :func:`robocal.spatial.matrix_to_rpy` (SciPy) zeroes one angle
-    within about 1e-7 rad of the singularity, an error of 1e-4 mm at a metre; a calibrated
-    tilt lands there easily.  Here yaw comes from the first column, however poorly it is
-    determined, and roll from what remains after removing yaw and pitch, so the product
-    reproduces the matrix to rounding.  At the singularity itself (residue below 1e-14,
-    a rotation error under 1e-13 rad) yaw is set to 0 and roll carries the whole turn.
-    """
-    cos_pitch = np.hypot(rotation[0, 0], rotation[1, 0])
-    pitch = np.arctan2(-rotation[2, 0], cos_pitch)
-    yaw = np.arctan2(rotation[1, 0], rotation[0, 0]) if cos_pitch > _GIMBAL_LOCK else 0.0
-    rest = rot_y(pitch).T @ rot_z(yaw).T @ rotation
-    roll = np.arctan2(rest[2, 1], rest[1, 1])
-    return np.array([roll, pitch, yaw])
