@@ -1,5 +1,6 @@
 import json
 
+import numpy as np
 import pytest
 
 from typer.testing import CliRunner
@@ -53,3 +54,26 @@ def test_demo_reproduces_the_liu2022_setup_and_compensates(demo_result):
 def test_demo_reaches_the_published_after_compensation_figures(demo_result):
     assert demo_result["after"]["mean_mm"] <= 0.0018
     assert demo_result["after"]["max_mm"] <= 0.0084
+
+
+def test_dataset_export_splits_without_overlap(tmp_path):
+    from robocal.io.robot_file import read_robot
+    from robocal.io.tables import read_measurements
+
+    prefix = tmp_path / "ur5"
+    result = runner.invoke(app, ["dataset", "ur5-tsinghua", "--out", str(prefix), "--split", "0.3", "--json"])
+    assert result.exit_code == 0, result.output
+    chain = read_robot(f"{prefix}.toml")
+    train = read_measurements(f"{prefix}_train.csv", n_joints=chain.n_joints)
+    test = read_measurements(f"{prefix}_test.csv", n_joints=chain.n_joints)
+    assert (train.n_poses, test.n_poses) == (300, 700)
+    joined = np.vstack([train.joints, test.joints])
+    assert len(np.unique(joined, axis=0)) == 1000  # a partition: no pose in both
+    assert np.abs(chain.d[4] - 94.56) < 1e-12  # the authors' model, not UR's
+
+
+def test_dataset_rejects_unknown_name_and_bad_split(tmp_path):
+    result = runner.invoke(app, ["dataset", "kuka-secret", "--out", str(tmp_path / "x")])
+    assert result.exit_code == 2 and "unknown dataset" in result.output
+    result = runner.invoke(app, ["dataset", "ur5-tsinghua", "--out", str(tmp_path / "x"), "--split", "1.5"])
+    assert result.exit_code == 2 and "between 0 and 1" in result.output

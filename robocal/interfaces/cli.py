@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..errors import InputError, RobocalError, RobocalWarning
-from .jobs import calibrate_job, compensate_job, evaluate_job, simulate_job
+from .jobs import calibrate_job, compensate_job, dataset_job, evaluate_job, simulate_job
 
 app = typer.Typer(
     help="robocal: calibrate industrial robots and compensate their positioning errors.",
@@ -209,6 +209,23 @@ def compensate(
         err.print(f"[yellow]warning:[/] {len(result['unreachable_rows'])} target(s) cannot be reached "
                   f"(rows {rows}{more}): their joint cells are empty and reachable = 0")
     _print_result(result, as_json, f"commands -> {out_file}")
+
+
+@app.command()
+@user_errors
+def dataset(
+    name: str = typer.Argument(..., help="ur5-tsinghua, ipa-ur10-a or ipa-ur10-b."),
+    prefix: str = typer.Option(..., "--out", help="Prefix of the files to write (PREFIX.toml, PREFIX*.csv)."),
+    split: float = typer.Option(None, help="Training fraction of a random train/test split, e.g. 0.5."),
+    seed: int = typer.Option(0, help="Seed of the split."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+):
+    """Export a shared real dataset (../shared/data) as a robot file and measurement CSVs.
+
+    Example: robocal dataset ur5-tsinghua --out ur5 --split 0.5
+    """
+    result = dataset_job(name, prefix, split=split, seed=seed)
+    _print_result(result, as_json, f"dataset {name}")
 
 
 @app.command()

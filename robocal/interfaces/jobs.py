@@ -134,3 +134,38 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
     return {"robot": chain.name, "poses": int(len(q)), "sampling": sampling, "errors": errors,
             "out": str(out), "truth": str(truth) if truth else None,
             "true_error": error_stats(true_robot.error(q))}
+
+
+DATASETS = {
+    "ur5-tsinghua": ("ur5_tsinghua", {}),
+    "ipa-ur10-a": ("ipa_ur10", {"series": "A"}),
+    "ipa-ur10-b": ("ipa_ur10", {"series": "B"}),
+}
+
+
+def dataset_job(name, prefix, *, split=None, seed=0):
+    """Write a shared dataset as robocal files: PREFIX.toml (the robot model the data were
+    taken against) and PREFIX.csv, or PREFIX_train.csv / PREFIX_test.csv with ``split`` the
+    training fraction of a random split."""
+    from ..io import datasets
+    from ..io.robot_file import write_robot
+
+    if name not in DATASETS:
+        raise InputError(f"unknown dataset {name!r}; available: {', '.join(DATASETS)}")
+    loader, kwargs = DATASETS[name]
+    chain, data = getattr(datasets, loader)(**kwargs)
+    write_robot(chain, f"{prefix}.toml", description=f"robot model of the {name} dataset")
+    written = {"robot": f"{prefix}.toml"}
+    if split is None:
+        write_measurements(f"{prefix}.csv", data)
+        written["measurements"] = f"{prefix}.csv"
+    else:
+        if not 0.0 < split < 1.0:
+            raise InputError(f"--split is the training fraction and must lie between 0 and 1, got {split}")
+        order = np.random.default_rng(seed).permutation(data.n_poses)
+        cut = int(round(split * data.n_poses))
+        write_measurements(f"{prefix}_train.csv", data.subset(np.sort(order[:cut])))
+        write_measurements(f"{prefix}_test.csv", data.subset(np.sort(order[cut:])))
+        written.update(train=f"{prefix}_train.csv", test=f"{prefix}_test.csv", train_poses=cut,
+                       test_poses=data.n_poses - cut)
+    return {"dataset": name, "poses": data.n_poses, "source": data.path, **written}
