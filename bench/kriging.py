@@ -162,26 +162,30 @@ def run(model, X, Y, X_test, Y_test, X_predict, report=None):
 
 def _run_in_child(results, *args):
     # SMT prints its failed factorisations (eigenvalue dumps) on stdout: keep the table clean.
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 1)
-    results.put(run(*args, report=lambda fit_time: results.put(("fitted", fit_time))))
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
+    try:
+        results.put(("row", run(*args, report=lambda seconds: results.put(("fitted", seconds)))))
+    except Exception as error:  # a peer that fails is reported, not waited for
+        results.put(("failed", f"{type(error).__name__}: {error}"))
 
 
 def run_with_budget(*args):
-    """``run`` in a child process whose fit is stopped after PEER_BUDGET s (then None)."""
+    """``run`` in a child process whose fit is stopped after PEER_BUDGET s.
+
+    Returns the row, or a string saying why there is none."""
     context = multiprocessing.get_context("fork")
     results = context.Queue()
     child = context.Process(target=_run_in_child, args=(results, *args))
     child.start()
     try:
-        results.get(timeout=PEER_BUDGET)
+        kind, value = results.get(timeout=PEER_BUDGET)
+        if kind == "fitted":
+            kind, value = results.get()
     except queue.Empty:
         child.terminate()
-        child.join()
-        return None
-    row = results.get()
+        kind, value = "stopped", f"its fit did not finish in {PEER_BUDGET:.0f} s (stopped)"
     child.join()
-    return row
+    return value if kind == "row" else f"skipped: {value}"
 
 
 def main():
@@ -204,23 +208,22 @@ def main():
     print("-" * len(header))
 
     models = [RobocalModel(shared=False), RobocalModel(shared=True)] + available_peers()
-    too_slow = {}  # peer name -> n at which its fit was stopped
+    given_up = {}  # peer name -> n at which its fit was stopped or failed
     for n in sizes:
         X = latin_hypercube(n, rng)
         Y = error_field(X)
         for model in models:
-            if model.name in too_slow:
-                print(f"{n:>5}  {model.name:<17}skipped: its fit did not finish in "
-                      f"{PEER_BUDGET:.0f} s at n = {too_slow[model.name]}")
+            if model.name in given_up:
+                print(f"{n:>5}  {model.name:<17}skipped: it did not finish at n = "
+                      f"{given_up[model.name]}")
                 continue
             if isinstance(model, RobocalModel):
                 row = run(model, X, Y, X_test, Y_test, X_predict)
             else:
                 row = run_with_budget(model, X, Y, X_test, Y_test, X_predict)
-            if row is None:
-                too_slow[model.name] = n
-                print(f"{n:>5}  {model.name:<17}skipped: its fit did not finish in "
-                      f"{PEER_BUDGET:.0f} s (stopped)")
+            if isinstance(row, str):
+                given_up[model.name] = n
+                print(f"{n:>5}  {model.name:<17}{row}")
                 continue
             fit_time, predict_time, mse_time, rms, worst = row
             print(f"{n:>5}  {model.name:<17}{fit_time:>9.3f}{predict_time:>16.3f}"

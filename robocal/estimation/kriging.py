@@ -21,7 +21,8 @@ of the full likelihood for fixed θ, their own derivatives drop out (envelope th
 
     ∂ℓ/∂θ_k = ½ tr((α αᵀ/σ̂² − C⁻¹) ∂C/∂θ_k),   α = C⁻¹(y − F β̂),
 
-where α uses the GLS β̂ at the same θ.
+where α uses the GLS β̂ at the same θ; with ∂C/∂nugget = I the same formula gives the
+nugget's derivative.
 
 Prediction at x with r = R(x, X):
 
@@ -483,15 +484,16 @@ class Kriging:
                         f"{who}: the nugget hit its upper bound {NUGGET_BOUNDS[1]:g}: the data "
                         f"look like noise without a correlated field")
             if state.jitter > 0:
-                problem = ("numerically singular" if np.isinf(state.condition)
+                trouble = ("numerically singular" if np.isinf(state.condition)
                            else f"ill-conditioned (cond {state.condition:.0e})")
-                note = f"{who}: correlation matrix {problem}: added jitter {state.jitter:.0e}"
+                note = f"{who}: correlation matrix {trouble}: added jitter {state.jitter:.0e}"
                 self.diagnostics_.append(note)
                 jittered.append(note)
         if jittered:
-            warnings.warn("Kriging fit: " + "; ".join(jittered) + ". Predictions no longer "
-                          "interpolate the data exactly; see diagnostics_.", RobocalWarning,
-                          stacklevel=3)
+            warnings.warn("Kriging fit: " + "; ".join(jittered) + ". The model then smooths "
+                          "the data very slightly instead of interpolating them exactly; this "
+                          "happens on very smooth fields and is usually harmless (see "
+                          "diagnostics_).", RobocalWarning, stacklevel=3)
 
     # ---------------------------------------------------------------- prediction
 
