@@ -29,7 +29,7 @@ def liu():
 @pytest.fixture(scope="module")
 def fitted(liu):
     chain, truth, q, targets, train, test = liu
-    compensator, record = fit_kriging(chain, q[train], truth.positions(q[train]), register="no")
+    compensator, _, record = fit_kriging(chain, q[train], truth.positions(q[train]), register="no")
     return compensator, record
 
 

@@ -10,7 +10,7 @@ def test_kriging_on_ur5_predicts_the_other_half():
     q = chain.joints_from_file(data.joints)
     order = np.random.default_rng(0).permutation(data.n_poses)
     train, test = order[:500], order[500:]
-    compensator, record = fit_kriging(chain, q[train], data.positions[train], register="auto")
+    compensator, _, record = fit_kriging(chain, q[train], data.positions[train], register="auto")
     assert not record["registered"]  # the data are in the robot base frame already
     result = evaluate(compensator, chain, q[test], data.positions[test])
     assert result["n"] == 500

@@ -1,13 +1,15 @@
 """Fitting each compensation method from measurements, and rebuilding it from a model file.
 
 A method takes the robot, recorded joints (rad) and measured TCP positions (mm, measurement
-frame) and returns a :class:`Compensator` plus a JSON-ready record of what was done.
+frame) and returns a :class:`Compensator`, the reference chain (nominal geometry in the
+measurement frame: what "before" means) and a JSON-ready record of what was done.
 """
 import numpy as np
 
 from ..errors import InputError
 from ..estimation.kriging import Kriging
 from ..estimation.metrics import error_stats
+from ..estimation.calibration import KinematicCalibration
 from ..estimation.registration import register_base_and_tool
 
 # With the right robot and unit, nominal FK lands within a few mm of a tracker reading in the
@@ -43,12 +45,53 @@ def fit_kriging(chain, joints, positions, *, register="auto", kriging=None):
     chain, record = prepare_frame(chain, joints, positions, register)
     nominal_positions = chain.fk_positions(joints)
     errors = positions - nominal_positions
-    model = kriging if kriging is not None else Kriging(nugget="estimate")
+    model = kriging if kriging is not None else Kriging(nugget="estimate", random_state=0)
     model.fit(nominal_positions, errors)
     record["residual_before"] = error_stats(errors)
     record["residual_after_training"] = error_stats(errors - model.predict(nominal_positions))
     record["diagnostics"] = list(getattr(model, "diagnostics_", []))
-    return Compensator(chain, model, nominal=chain), record
+    return Compensator(chain, model, nominal=chain), chain, record
+
+
+def fit_kinematic(chain, joints, positions, *, orientations=None, sigmas=None, parameters="full",
+                  loss="linear", register="auto"):
+    """Parametric calibration: identify link parameters, base and tool by Levenberg–Marquardt.
+
+    Returns (Compensator with the calibrated chain, record).  The record's "reference" is
+    the nominal geometry registered in the measurement frame, the honest "before".
+    """
+    from . import Compensator
+
+    if register not in ("auto", "yes", "no"):
+        raise InputError(f"register must be 'auto', 'yes' or 'no', got {register!r}")
+    calibration = KinematicCalibration(parameters=parameters, loss=loss, register=register != "no")
+    calibration.fit(chain, joints, positions, orientations=orientations, sigmas=sigmas)
+    reference, _ = register_base_and_tool(chain, joints, positions)
+    record = {
+        "registered": register != "no",
+        "calibration": calibration.result_.to_dict(calibration.chain_),
+        "residual_before": error_stats(positions - reference.fk_positions(joints)),
+        "residual_after_training": error_stats(positions - calibration.chain_.fk_positions(joints)),
+    }
+    return Compensator(calibration.chain_, None, nominal=chain), reference, record
+
+
+def fit_hybrid(chain, joints, positions, *, orientations=None, sigmas=None, parameters="full",
+               loss="linear", register="auto", kriging=None):
+    """Kinematic calibration, then Kriging of what the calibrated model still misses
+    (compliance, backlash, other non-geometric errors) over the calibrated TCP position."""
+    from . import Compensator
+
+    calibrated, reference, record = fit_kinematic(
+        chain, joints, positions, orientations=orientations, sigmas=sigmas, parameters=parameters,
+        loss=loss, register=register)
+    model_positions = calibrated.chain.fk_positions(joints)
+    residual = positions - model_positions
+    model = kriging if kriging is not None else Kriging(nugget="estimate", random_state=0)
+    model.fit(model_positions, residual)
+    record["residual_after_training"] = error_stats(residual - model.predict(model_positions))
+    record["diagnostics"] = list(getattr(model, "diagnostics_", []))
+    return Compensator(calibrated.chain, model, nominal=chain), reference, record
 
 
 def error_model_to_dict(model):

@@ -96,13 +96,34 @@ def _print_result(result, as_json, title):
         return
     table = Table(title=title, show_header=False)
     for key, value in result.items():
-        if isinstance(value, dict) and "mean_mm" in value:
+        if isinstance(value, dict) and "mean_mm" not in value:
+            continue  # nested records are in --json and in the model file
+        if isinstance(value, dict):
             value = (f"mean {value['mean_mm']:.4f} mm, RMS {value['rms_mm']:.4f} mm, "
                      f"max {value['max_mm']:.4f} mm (n = {value['n']})")
         elif isinstance(value, float):
             value = f"{value:.4f}"
         table.add_row(key, str(value))
     out.print(table)
+
+
+def _print_calibration(calibration):
+    """Identified parameters with standard errors, and what could not be identified."""
+    ident = calibration["identifiability"]
+    table = Table(title=f"identified parameters ({ident['rank']}; {calibration['units']})")
+    for col in ("parameter", "deviation", "std. error"):
+        table.add_column(col, justify="right")
+    for name, value in calibration["parameters"].items():
+        table.add_row(name, f"{value['deviation']:.6g}", f"{value['std_error']:.2g}")
+    out.print(table)
+    out.print(f"condition number {ident['condition_number']:.3g}, O1 {ident['o1']:.3g}, O3 {ident['o3']:.3g}, "
+              f"noise amplification {ident['noise_amplification']:.3g}")
+    for name, reason in ident["fixed"].items():
+        out.print(f"fixed {name}: {reason}")
+    for a, b, r in calibration["correlated_pairs"]:
+        out.print(f"strongly correlated: {a} and {b} ({r:+.3f})")
+    if calibration.get("outlier_rows"):
+        out.print(f"down-weighted as outliers: rows {', '.join(map(str, calibration['outlier_rows']))}")
 
 
 def _floats(text, count, name):
@@ -156,6 +177,9 @@ def calibrate(
     correlation: str = typer.Option("gaussian", help="Kriging correlation: gaussian or matern52."),
     nugget: str = typer.Option("estimate", help="Kriging nugget: 'estimate' or a number."),
     shared_theta: bool = typer.Option(False, "--shared-theta", help="One theta for the three outputs."),
+    parameters: str = typer.Option("full", help="kinematic/hybrid: parameter set, offsets or full."),
+    loss: str = typer.Option("linear", help="kinematic/hybrid: linear, huber or soft_l1 (robust)."),
+    seed: int = typer.Option(0, help="Seed of the Kriging likelihood's multi-start search."),
     fixture: str = typer.Option(None, help="Fixture TOML (constraint method)."),
     tip: str = typer.Option(None, help="URDF only: the tip link."),
     root: str = typer.Option(None, help="URDF only: the root link."),
@@ -168,9 +192,12 @@ def calibrate(
     from ..estimation.kriging import Kriging
 
     nugget_value = nugget if nugget == "estimate" else _floats(nugget, 1, "--nugget")[0]
-    kriging = Kriging(regression=trend, correlation=correlation, nugget=nugget_value, shared_theta=shared_theta)
+    kriging = Kriging(regression=trend, correlation=correlation, nugget=nugget_value, shared_theta=shared_theta,
+                      random_state=seed)
     result = calibrate_job(robot, measurements, out_file, method=method, register=register,
-                           kriging=kriging, root=root, tip=tip)
+                           kriging=kriging, parameters=parameters, loss=loss, root=root, tip=tip)
+    if not as_json and "calibration" in result:
+        _print_calibration(result["calibration"])
     _print_result(result, as_json, f"{method} model -> {out_file}")
 
 

@@ -39,7 +39,7 @@ def run_demo():
     errors = truth.positions(q) - nominal
 
     t0 = time.perf_counter()
-    compensator, _ = fit_kriging(chain, q[train], truth.positions(q[train]), register="no")
+    compensator, _, _ = fit_kriging(chain, q[train], truth.positions(q[train]), register="no")
     fit_seconds = time.perf_counter() - t0
     model = compensator.error_model
     predicted = model.predict(nominal[test])

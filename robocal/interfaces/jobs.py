@@ -1,5 +1,7 @@
 """What each command does, as plain functions of parsed arguments that return JSON-ready
 results; ``cli.py`` only parses, prints and maps errors to exit codes."""
+from functools import partial
+
 import numpy as np
 
 from ..compensation import Compensator
@@ -7,16 +9,18 @@ from ..compensation.methods import (
     error_model_from_dict,
     error_model_to_dict,
     evaluate,
+    fit_hybrid,
+    fit_kinematic,
     fit_kriging,
 )
 from ..errors import FileFormatError, InputError, RobocalWarning
 from ..estimation.metrics import error_stats
 from ..io.library import load_robot
 from ..io.tables import Measurements, read_measurements, read_targets, write_commands, write_measurements
-from ..spatial import compose_pose, pose_to_xyz_rpy
+from ..spatial import compose_pose, pose_to_xyz_rpy, rpy_to_matrix
 from .model_file import ModelFile, load_model, save_model
 
-IMPLEMENTED_METHODS = ("kriging",)
+IMPLEMENTED_METHODS = ("kinematic", "kriging", "hybrid")
 # A calibrated model that still misses by this much is almost certainly the wrong robot,
 # wrong units or a different measurement frame.
 SUSPICIOUS_RESIDUAL_MM = 20.0
@@ -28,7 +32,7 @@ def _positions_required(data, method):
 
 
 def calibrate_job(robot, measurements, out, *, method="kriging", register="auto", kriging=None,
-                  root=None, tip=None):
+                  parameters="full", loss="linear", root=None, tip=None):
     """Fit a method to a measurement file and save the model file."""
     if method not in IMPLEMENTED_METHODS:
         raise InputError(
@@ -39,11 +43,21 @@ def calibrate_job(robot, measurements, out, *, method="kriging", register="auto"
     data = read_measurements(measurements, n_joints=chain.n_joints)
     _positions_required(data, method)
     q = chain.joints_from_file(data.joints)
-    compensator, record = fit_kriging(chain, q, data.positions, register=register, kriging=kriging)
+    if method == "kriging":
+        compensator, reference, record = fit_kriging(chain, q, data.positions, register=register, kriging=kriging)
+    else:
+        rotations = None if data.orientations is None else rpy_to_matrix(np.radians(data.orientations))
+        fit = fit_kinematic if method == "kinematic" else partial(fit_hybrid, kriging=kriging)
+        compensator, reference, record = fit(chain, q, data.positions, orientations=rotations,
+                                             sigmas=data.sigmas, parameters=parameters, loss=loss,
+                                             register=register)
+        outliers = record["calibration"]["outliers"]
+        if outliers:
+            record["calibration"]["outlier_rows"] = [int(data.rows[i]) for i in outliers]
     training = {"file": str(measurements), "n_poses": data.n_poses, "kind": data.kind, **record}
-    model = ModelFile(method=method, nominal=chain, kinematics=compensator.chain,
+    model = ModelFile(method=method, nominal=chain, kinematics=compensator.chain, reference=reference,
                       error_model=error_model_to_dict(compensator.error_model), training=training,
-                      options={"register": register})
+                      options={"register": register, "parameters": parameters, "loss": loss})
     save_model(model, out)
     return {"method": method, "robot": chain.name, "out": str(out), **training}
 
@@ -67,7 +81,7 @@ def evaluate_job(model_path, measurements):
     data = read_measurements(measurements, n_joints=model.kinematics.n_joints)
     _positions_required(data, model.method)
     q = model.kinematics.joints_from_file(data.joints)
-    result = evaluate(compensator, model.kinematics, q, data.positions)
+    result = evaluate(compensator, model.reference, q, data.positions)
     if result["mean_mm"] > SUSPICIOUS_RESIDUAL_MM:
         warnings.warn(RobocalWarning(
             f"the residual is {result['mean_mm']:.1f} mm mean after calibration: is {measurements} "

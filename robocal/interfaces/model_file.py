@@ -6,6 +6,7 @@ Layout (schema 1)::
      "created": "2026-11-22T04:30:00Z", "method": "kriging",
      "robot": {"name": ..., "hash": ..., "model": {robot document}},     # the nominal robot
      "kinematics": {robot document},        # the chain compensation uses (registered/calibrated)
+     "reference": {robot document},         # nominal geometry in the measurement frame
      "error_model": {...} or null,          # e.g. Kriging.to_dict()
      "training": {...}, "options": {...},
      "checksum": "sha256 of everything above"}
@@ -59,6 +60,7 @@ class ModelFile:
     nominal: object  # Chain
     kinematics: object  # Chain
     error_model: dict | None = None
+    reference: object = None  # Chain: nominal geometry in the measurement frame ("before")
     training: dict = field(default_factory=dict)
     options: dict = field(default_factory=dict)
     created: str = ""
@@ -74,6 +76,7 @@ class ModelFile:
             "robot": {"name": self.nominal.name, "hash": robot_hash(self.nominal),
                       "model": chain_document(self.nominal)},
             "kinematics": chain_document(self.kinematics),
+            "reference": chain_document(self.reference if self.reference is not None else self.kinematics),
             "error_model": self.error_model,
             "training": self.training,
             "options": self.options,
@@ -128,6 +131,8 @@ def load_model(path, robot=None) -> ModelFile:
     robot_doc = _require(doc, "robot", dict, path)
     nominal = chain_from_dict(_require(robot_doc, "model", dict, path, "'robot'"), f"{path} (robot)")
     kinematics = chain_from_dict(_require(doc, "kinematics", dict, path), f"{path} (kinematics)")
+    reference = (chain_from_dict(doc["reference"], f"{path} (reference)") if isinstance(doc.get("reference"), dict)
+                 else kinematics)
     if kinematics.n_joints != nominal.n_joints:
         raise FileFormatError(f"{path}: the calibrated kinematics and the robot have different joint counts")
     if robot is not None and robot_hash(robot) != robot_doc.get("hash"):
@@ -139,7 +144,7 @@ def load_model(path, robot=None) -> ModelFile:
     if error_model is not None and not isinstance(error_model, dict):
         raise FileFormatError(f"{path}: 'error_model' has the wrong type; regenerate the file")
     return ModelFile(
-        method=method, nominal=nominal, kinematics=kinematics, error_model=error_model,
+        method=method, nominal=nominal, kinematics=kinematics, error_model=error_model, reference=reference,
         training=doc.get("training") or {}, options=doc.get("options") or {},
         created=doc.get("created", ""), software_version=doc.get("software_version", ""),
     )

@@ -361,34 +361,41 @@ class Chain:
         names = self.parameter_names() if names is None else list(names)
         q2, _ = self._check_q(q)
         ops, tags = self._compiled
-        frame, marks = program.run(ops, self.model_joints(q2), marks=True)
-        tcp = frame.t
+        unknown = [name for name in names if name not in tags]
+        if unknown:
+            raise InputError(
+                f"parameter {unknown[0]!r} does not exist in a {self.convention} model; "
+                f"known: {', '.join(self.parameter_names(self._groups()))}"
+            )
+        # Every tag of every requested parameter as flat arrays, so that all columns come
+        # out of a handful of whole-array operations.
+        flat = [(j, mark, motion == "rot", axis, coef)
+                for j, name in enumerate(names) for mark, motion, axis, coef in tags[name]]
+        column, mark_of, rotational, axis_of, coef = (np.array(v) for v in zip(*flat))
+        needed = sorted(set(mark_of) - {"W"})
+        frame, marks = program.run(ops, self.model_joints(q2), marks=needed)
         n_conf = q2.shape[0]
-        out = np.zeros((n_conf, 6, len(names)))
-        cache = {}
-        for j, name in enumerate(names):
-            if name not in tags:
-                raise InputError(
-                    f"parameter {name!r} does not exist in a {self.convention} model; "
-                    f"known: {', '.join(self.parameter_names(self._groups()))}"
-                )
-            col = out[:, :, j]
-            for mark, motion, axis, coef in tags[name]:
-                if mark == "W":
-                    axis_vec = np.broadcast_to(np.eye(3)[:, axis, None], (3, n_conf))
-                    origin = self.base[:3, 3, None]
-                else:
-                    snap = marks[mark]
-                    axis_vec, origin = snap.column(axis), snap.t
-                if motion == "trans":
-                    col[:, :3] += coef * axis_vec.T
-                else:
-                    key = (mark, axis)
-                    if key not in cache:
-                        cache[key] = np.cross(axis_vec.T, (tcp - origin).T)
-                    col[:, :3] += coef * cache[key]
-                    col[:, 3:] += coef * axis_vec.T
-        return out
+        # Snapshot k: columns x, y, z, origin, each (3, N); 'W' is the world axes at the base origin.
+        world = np.zeros((4, 3, n_conf))
+        world[0, 0] = world[1, 1] = world[2, 2] = 1.0
+        world[3] = self.base[:3, 3, None]
+        stack = np.array([world] + [[marks[m].x, marks[m].y, marks[m].z, marks[m].t] for m in needed])
+        index = {m: k + 1 for k, m in enumerate(needed)}
+        index["W"] = 0
+        which = np.array([index[m] for m in mark_of])
+        out = np.zeros((len(names), 6, n_conf))
+        # POE axis parameters act at two marks; everything else at one, written directly.
+        place = np.add.at if len(set(column.tolist())) < len(column) else _assign
+        rot = np.flatnonzero(rotational)
+        if rot.size:
+            axes = stack[which[rot], axis_of[rot]] * coef[rot, None, None]
+            lever = frame.t[None] - stack[which[rot], 3]
+            place(out, (column[rot], slice(0, 3)), _cross_rows(axes, lever))
+            place(out, (column[rot], slice(3, 6)), axes)
+        trans = np.flatnonzero(~rotational)
+        if trans.size:
+            place(out, (column[trans], slice(0, 3)), stack[which[trans], axis_of[trans]] * coef[trans, None, None])
+        return np.transpose(out, (2, 1, 0))
 
     def _groups(self):
         return ("links", "base", "tool", "home") if self.convention == "poe" else ("links", "base", "tool")
@@ -482,6 +489,10 @@ class Chain:
         if single:
             return tcp[0], jac[0]
         return tcp, jac
+
+def _assign(array, index, values):
+    array[index] = values
+
 
 def _frame_to_matrix(frame):
     """Frame of (3, N) columns -> (N, 4, 4)."""

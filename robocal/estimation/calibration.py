@@ -1,0 +1,297 @@
+"""Model-based (parametric) calibration: identify the kinematic parameters, base and tool
+from measured TCP positions (and orientations) with Levenberg–Marquardt.
+
+The Jacobian is the chain's analytic identification Jacobian and every step is applied with
+:meth:`Chain.perturbed`, so each iteration re-linearises exactly where the model is.  The
+robot is calibrated in its own parameterisation: DH and modified DH carry Hayati's beta on
+parallel axes, which removes the DH singularity there, and export needs no conversion.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..spatial import make_transform, so3_log
+from .identifiability import NEAR_PARALLEL, STRONG_CORRELATION, analyse
+from .metrics import error_stats
+from .registration import kabsch
+
+PARAMETER_SETS = ("offsets", "full")
+LOSSES = ("linear", "huber", "soft_l1")
+# Nominal geometry of the right robot in the right unit lands within a few mm; a calibrated
+# model that still misses by this much is fitting the wrong robot, unit or data.
+WRONG_ROBOT_RMS_MM = 10.0
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """What a calibration found (all JSON-ready through :meth:`to_dict`)."""
+
+    names: tuple
+    values: np.ndarray          # identified deviations from the starting model (rad, mm)
+    std_errors: np.ndarray      # standard errors of the deviations (rad, mm)
+    correlated_pairs: tuple     # ((name, name, correlation), ...)
+    identifiability: object     # IdentifiabilityReport
+    residual_before: dict
+    residual_after: dict
+    orientation_rms_deg: float | None
+    iterations: int
+    converged: bool
+    outliers: tuple             # indices of poses a robust loss down-weighted
+
+    def to_dict(self, chain):
+        """Deviations and standard errors in file units (deg for angles, mm for lengths)."""
+        unit = np.array([np.degrees(1.0) if chain.is_angular(n) else 1.0 for n in self.names])
+        return {
+            "parameters": {n: {"deviation": float(v), "std_error": float(s)}
+                           for n, v, s in zip(self.names, self.values * unit, self.std_errors * unit)},
+            "units": "mm for lengths, deg for angles",
+            "correlated_pairs": [list(p) for p in self.correlated_pairs],
+            "identifiability": self.identifiability.to_dict(),
+            "residual_before": self.residual_before,
+            "residual_after": self.residual_after,
+            "orientation_rms_deg": self.orientation_rms_deg,
+            "iterations": self.iterations,
+            "converged": self.converged,
+            "outliers": list(self.outliers),
+        }
+
+
+def candidate_parameters(chain, parameters="full", *, base=True, tool_orientation=False):
+    """Parameter names in order of preference for the identifiability analysis."""
+    if parameters not in PARAMETER_SETS:
+        raise InputError(f"parameter set must be one of {', '.join(PARAMETER_SETS)}, got {parameters!r}")
+    names = chain.parameter_names(("base",)) if base else []
+    tool = chain.parameter_names(("tool",))
+    names += tool if tool_orientation else tool[:3]
+    if parameters == "offsets":
+        return names + chain.parameter_names(("offsets",))
+    from ..kinematics import to_poe
+
+    axes = to_poe(chain).axes
+    parallel = [np.linalg.norm(np.cross(axes[i], axes[i + 1])) < NEAR_PARALLEL for i in range(chain.n_joints - 1)]
+    for k in range(1, chain.n_joints + 1):
+        if chain.convention == "poe":
+            names += [f"{p}{k}" for p in ("theta", "ux", "uy", "wx", "wy")]
+            continue
+        names += [f"{p}{k}" for p in ("theta", "d", "a", "alpha")]
+        # Hayati's beta where this link joins two (nearly) parallel axes.
+        pair = (k - 1) if chain.convention == "dh" else (k - 2)
+        if 0 <= pair < len(parallel) and parallel[pair]:
+            names.append(f"beta{k}")
+    if chain.convention == "poe":
+        names += chain.parameter_names(("home",))
+    return names
+
+
+class KinematicCalibration:
+    """Levenberg–Marquardt identification of a chain's parameters, scikit-learn style.
+
+    parameters: 'offsets' or 'full'.  loss: 'linear', 'huber' or 'soft_l1' (per pose, on the
+    weighted residual norm; ``f_scale`` in those units, default 3x the median).
+    position_sigma (mm) and orientation_sigma (deg) weight rows when the data carry no
+    sigmas.  register: start from a Kabsch fit of the base (use False for data already in
+    the base frame of a chain whose base is right).
+    """
+
+    def __init__(self, parameters="full", *, loss="linear", f_scale=None, position_sigma=0.02,
+                 orientation_sigma=0.01, register=True, max_iterations=50, tolerance=1e-12):
+        if loss not in LOSSES:
+            raise InputError(f"loss must be one of {', '.join(LOSSES)}, got {loss!r}")
+        self.parameters = parameters
+        self.loss = loss
+        self.f_scale = f_scale
+        self.position_sigma = position_sigma
+        self.orientation_sigma = orientation_sigma
+        self.register = register
+        self.max_iterations = max_iterations
+        self.tolerance = tolerance
+
+    # ------------------------------------------------------------------ data
+    def _check(self, chain, joints, positions, orientations, sigmas):
+        q = np.asarray(joints, dtype=float)
+        p = np.asarray(positions, dtype=float)
+        if q.ndim != 2 or q.shape[1] != chain.n_joints:
+            raise InputError(f"joints must be (N, {chain.n_joints}) for {chain.name}, got {q.shape}")
+        if p.shape != (len(q), 3):
+            raise InputError(f"positions must be (N, 3) with N = {len(q)}, got {p.shape}")
+        arrays = [q, p] + [np.asarray(a, float) for a in (orientations, sigmas) if a is not None]
+        if not all(np.all(np.isfinite(a)) for a in arrays):
+            raise InputError("the data contain NaN or infinite values: remove or fix those poses")
+        distinct = len(np.unique(np.round(q, 9), axis=0))
+        return q, p, distinct
+
+    def _weights(self, count, sigmas, with_orientation):
+        pos = (np.full((count, 3), float(self.position_sigma)) if sigmas is None
+               else np.asarray(sigmas, dtype=float))
+        if np.any(pos <= 0):
+            raise InputError("standard deviations (sx, sy, sz) must be > 0")
+        w = 1.0 / pos
+        if with_orientation:
+            w = np.hstack([w, np.full((count, 3), 1.0 / np.radians(self.orientation_sigma))])
+        return w
+
+    @staticmethod
+    def _residual(chain, q, positions, rotations):
+        """Measured minus model: (N, 3) or (N, 6) with the world rotation vector."""
+        if rotations is None:
+            return positions - chain.fk_positions(q)
+        pose = chain.fk(q)
+        dw = so3_log(rotations @ np.swapaxes(pose[:, :3, :3], 1, 2))
+        return np.hstack([positions - pose[:, :3, 3], dw])
+
+    # ------------------------------------------------------------------ start
+    @staticmethod
+    def _start_tool_rotation(chain, q, rotations):
+        """Closed-form tool rotation: the chordal mean of (R_base R_flange)^T R_measured."""
+        flange = chain.replace(tool=np.eye(4)).fk(q)[:, :3, :3]
+        samples = np.swapaxes(flange, 1, 2) @ rotations
+        u, _, vt = np.linalg.svd(samples.sum(axis=0))
+        rot = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
+        tool = chain.tool.copy()
+        tool[:3, :3] = rot
+        return chain.replace(tool=tool)
+
+    # ------------------------------------------------------------------- fit
+    def fit(self, chain, joints, positions, orientations=None, sigmas=None):
+        """joints (N, n) rad; positions (N, 3) mm; orientations (N, 3, 3) rotation matrices
+        or None; sigmas (N, 3) mm or None.  Returns self with ``chain_`` and ``result_``."""
+        q, target, distinct = self._check(chain, joints, positions, orientations, sigmas)
+        rotations = None if orientations is None else np.asarray(orientations, dtype=float)
+        with_orientation = rotations is not None
+        rows_per_pose = 6 if with_orientation else 3
+        names = candidate_parameters(chain, self.parameters, tool_orientation=with_orientation)
+        if len(q) * rows_per_pose < len(names) or distinct * rows_per_pose < len(names):
+            need = int(np.ceil(len(names) / rows_per_pose))
+            raise InputError(
+                f"{distinct} distinct poses give {distinct * rows_per_pose} equations for {len(names)} "
+                f"parameters: measure at least {need} different poses (5 times as many is better)"
+            )
+        start = chain
+        if self.register:
+            # Closed-form base from nominal FK; the LM below refines base and tool with the rest.
+            rot, shift = kabsch(chain.fk_positions(q), target)
+            start = chain.replace(base=make_transform(rot, shift) @ chain.base)
+        if with_orientation:
+            start = self._start_tool_rotation(start, q, rotations)
+        weights = self._weights(len(q), sigmas, with_orientation)
+        before = error_stats((target - start.fk_positions(q)))
+
+        # Identifiability is local: nominal geometry can make parameters look dependent
+        # (a TCP exactly on the last axis) that the real robot separates.  Analyse, fit, and
+        # analyse again at the fit until the identified set settles.
+        fitted, identified, total_iterations = start, None, 0
+        for _ in range(3):
+            jac = fitted.identification_jacobian(q, names)[:, :rows_per_pose, :]
+            _, report = analyse(fitted, (jac * weights[:, :, None]).reshape(-1, len(names)), names)
+            if report.identified == identified:
+                break
+            identified = report.identified
+            fitted, iterations, converged, robust = self._levenberg_marquardt(
+                fitted, q, target, rotations, weights, list(identified))
+            total_iterations += iterations
+        ident = list(identified)
+        iterations = total_iterations
+        residual = self._residual(fitted, q, target, rotations)
+        after = error_stats(residual[:, :3])
+        if after["rms_mm"] > WRONG_ROBOT_RMS_MM:
+            raise InputError(
+                f"the residual is {after['rms_mm']:.1f} mm RMS after calibration: is this the right robot "
+                "and unit (mm, degrees) for these data?"
+            )
+        values = self._deviations(chain, start, fitted, ident)
+        std, pairs = self._covariance(fitted, q, residual, weights * robust[:, None], ident, rows_per_pose)
+        self.chain_ = fitted
+        self.start_chain_ = start
+        self.names_ = tuple(ident)
+        self.result_ = CalibrationResult(
+            names=tuple(ident), values=values, std_errors=std, correlated_pairs=pairs,
+            identifiability=report, residual_before=before, residual_after=after,
+            orientation_rms_deg=(float(np.degrees(np.sqrt(np.mean(np.sum(residual[:, 3:] ** 2, axis=1)))))
+                                 if with_orientation else None),
+            iterations=iterations, converged=converged,
+            outliers=tuple(int(i) for i in np.flatnonzero(robust < 0.5)),
+        )
+        return self
+
+    def _robust_weights(self, residual_w):
+        if self.loss == "linear":
+            return np.ones(len(residual_w))
+        norm = np.linalg.norm(residual_w, axis=1)
+        scale = self.f_scale if self.f_scale is not None else 3.0 * max(np.median(norm), 1e-12)
+        s = norm / scale
+        if self.loss == "huber":
+            return np.where(s <= 1.0, 1.0, 1.0 / np.maximum(s, 1e-300))
+        return 1.0 / np.sqrt(1.0 + s * s)
+
+    def _levenberg_marquardt(self, chain, q, target, rotations, weights, names):
+        rows = weights.shape[1]
+        residual = self._residual(chain, q, target, rotations) * weights
+        robust = self._robust_weights(residual)
+        cost = np.sum(robust[:, None] * residual**2)
+        damping = 1e-4
+        converged = False
+        iteration = 0
+        for iteration in range(1, self.max_iterations + 1):
+            jac = chain.identification_jacobian(q, names)[:, :rows, :] * weights[:, :, None]
+            root = np.sqrt(robust)[:, None, None]
+            a = (jac * root).reshape(-1, len(names))
+            b = (residual * root[:, :, 0]).reshape(-1)
+            scale = np.linalg.norm(a, axis=0)
+            scale[scale == 0] = 1.0
+            a_s = a / scale
+            normal, gradient = a_s.T @ a_s, a_s.T @ b
+            while True:
+                step = np.linalg.solve(normal + damping * np.diag(np.diag(normal)), gradient) / scale
+                candidate = chain.perturbed(names, step)
+                new_residual = self._residual(candidate, q, target, rotations) * weights
+                new_cost = np.sum(robust[:, None] * new_residual**2)
+                if new_cost <= cost or damping > 1e10:
+                    break
+                damping *= 10.0
+            if new_cost > cost:
+                converged = True  # no step lowers the cost: a minimum to rounding
+                break
+            improvement = cost - new_cost
+            chain, residual = candidate, new_residual
+            damping = max(damping / 10.0, 1e-12)
+            robust = self._robust_weights(residual)
+            cost = np.sum(robust[:, None] * residual**2)
+            # Converged when the step no longer changes the cost beyond rounding, or the
+            # scaled step is negligible (zero-residual problems never stop improving).
+            if (improvement <= self.tolerance * max(new_cost, 1e-300)
+                    or np.linalg.norm(step * scale) <= 1e-10 * max(np.linalg.norm(b), 1e-300)
+                    or new_cost <= 1e-20 * len(b)):
+                converged = True
+                break
+        return chain, iteration, converged, robust
+
+    @staticmethod
+    def _deviations(nominal, start, fitted, names):
+        """Identified minus starting values, comparable in every parameter (rad, mm)."""
+        return fitted.parameter_values(names) - start.parameter_values(names)
+
+    @staticmethod
+    def _covariance(chain, q, residual, weights, names, rows):
+        jac = (chain.identification_jacobian(q, names)[:, :rows, :] * weights[:, :, None]).reshape(-1, len(names))
+        r = (residual * weights).reshape(-1)
+        dof = max(len(r) - len(names), 1)
+        sigma2 = float(r @ r) / dof
+        scale = np.linalg.norm(jac, axis=0)
+        scale[scale == 0] = 1.0
+        inv = np.linalg.pinv((jac / scale).T @ (jac / scale))
+        cov = sigma2 * inv / np.outer(scale, scale)
+        std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = cov / np.outer(std, std)
+        pairs = []
+        for i in range(len(names)):
+            for j in range(i + 1, len(names)):
+                if abs(corr[i, j]) > STRONG_CORRELATION:
+                    pairs.append((names[i], names[j], float(corr[i, j])))
+        return std, tuple(pairs)
+
+    # --------------------------------------------------------------- predict
+    def predict(self, joints):
+        """TCP positions (N, 3) of the calibrated model."""
+        return self.chain_.fk_positions(np.asarray(joints, dtype=float))
