@@ -1,0 +1,120 @@
+"""Parametric calibration: recovery against a known truth, honest standard errors,
+identifiability reporting, and refusals of data that cannot be calibrated."""
+import numpy as np
+import pytest
+
+from robocal.errors import InputError
+from robocal.estimation.calibration import KinematicCalibration
+from robocal.io.library import builtin
+from robocal.simulation import uniform_joints
+
+DEG = np.degrees(1.0)
+
+
+def _deviations(chain, names, rng, scale_mm=0.5, scale_deg=0.05):
+    scale = np.array([np.radians(scale_deg) if chain.is_angular(n) else scale_mm for n in names])
+    return rng.normal(size=len(names)) * scale
+
+
+def _identifiable_truth(chain, q, rng, orientation=False):
+    """A true robot that differs from nominal only in parameters the data can identify, so
+    that "recovered" has a meaning (fixed parameters are absorbed by others otherwise)."""
+    names = chain.parameter_names()
+    rough = chain.perturbed(names, _deviations(chain, names, rng))
+    pose = rough.fk(q)
+    probe = KinematicCalibration().fit(chain, q, pose[:, :3, 3],
+                                       orientations=pose[:, :3, :3] if orientation else None)
+    ident = list(probe.names_)
+    return chain.perturbed(ident, _deviations(chain, ident, rng)), ident
+
+
+def _in_file_units(chain, names, values):
+    return np.array([v * DEG if chain.is_angular(n) else v for n, v in zip(names, values)])
+
+
+@pytest.mark.parametrize("name", ["kr150-2", "ur5", "panda"])
+@pytest.mark.parametrize("orientation", [False, True], ids=["position", "pose"])
+def test_noise_free_recovery_of_every_identifiable_parameter(name, orientation):
+    chain = builtin(name)
+    rng = np.random.default_rng(5)
+    q, q_test = uniform_joints(chain, 300, rng), uniform_joints(chain, 300, rng)
+    truth, ident = _identifiable_truth(chain, q, rng, orientation)
+    pose = truth.fk(q)
+    cal = KinematicCalibration().fit(chain, q, pose[:, :3, 3], orientations=pose[:, :3, :3] if orientation else None)
+    assert set(cal.names_) == set(ident)
+    error = _in_file_units(chain, ident, cal.chain_.parameter_values(ident) - truth.parameter_values(ident))
+    assert np.abs(error).max() < 1e-6, dict(zip(ident, error))
+    assert np.abs(cal.predict(q_test) - truth.fk_positions(q_test)).max() < 1e-6
+
+
+def test_standard_errors_are_honest_under_tracker_noise():
+    chain = builtin("kr150-2")
+    rng = np.random.default_rng(11)
+    q, q_test = uniform_joints(chain, 400, rng), uniform_joints(chain, 400, rng)
+    truth, ident = _identifiable_truth(chain, q, rng)
+    worst = 0.0
+    for seed in range(4):
+        noise = np.random.default_rng(100 + seed).normal(size=(len(q), 3)) * 0.02
+        cal = KinematicCalibration().fit(chain, q, truth.fk_positions(q) + noise)
+        r = cal.result_
+        error = cal.chain_.parameter_values(r.names) - truth.parameter_values(r.names)
+        worst = max(worst, np.max(np.abs(error) / r.std_errors))
+        held_out = np.linalg.norm(cal.predict(q_test) - truth.fk_positions(q_test), axis=1)
+        assert held_out.mean() < 0.02  # the model error is below the noise of one reading
+    assert worst < 4.0
+
+
+def _fixed(chain, orientation):
+    rng = np.random.default_rng(2)
+    q = uniform_joints(chain, 200, rng)
+    pose = chain.fk(q)
+    cal = KinematicCalibration().fit(chain, q, pose[:, :3, 3], orientations=pose[:, :3, :3] if orientation else None)
+    return cal.result_.identifiability.fixed
+
+
+@pytest.mark.parametrize("orientation", [False, True], ids=["position", "pose"])
+def test_unidentifiable_parameters_are_detected_with_reasons(orientation):
+    kr = _fixed(builtin("kr150-2"), orientation)
+    assert "base rotation about z absorbs the joint-1 offset" in kr["theta1"]
+    assert "axes 2 and 3 are parallel" in kr["d3"]
+    assert {"d1", "d6"} <= set(kr)
+    ur = _fixed(builtin("ur5"), orientation)
+    assert "parallel" in ur["d3"] and "parallel" in ur["d4"]
+    panda = _fixed(builtin("panda"), orientation)
+    assert {"theta1", "d1", "a1", "alpha1"} <= set(panda)
+    if not orientation:
+        # A TCP on the last axis: its angle parameters cannot move it (or only as the tool does).
+        assert {"theta6", "alpha6"} <= set(kr)
+
+
+def test_robust_loss_lists_and_resists_outliers():
+    chain = builtin("ur10")
+    rng = np.random.default_rng(4)
+    q = uniform_joints(chain, 300, rng)
+    truth, _ = _identifiable_truth(chain, q, rng)
+    measured = truth.fk_positions(q) + rng.normal(size=(300, 3)) * 0.02
+    bad = np.array([7, 70, 170])
+    measured[bad] += [3.0, -2.0, 4.0]
+    plain = KinematicCalibration().fit(chain, q, measured)
+    robust = KinematicCalibration(loss="huber").fit(chain, q, measured)
+    assert set(bad) <= set(robust.result_.outliers)
+    test = uniform_joints(chain, 300, rng)
+    err = lambda c: np.abs(c.predict(test) - truth.fk_positions(test)).max()  # noqa: E731
+    assert err(robust) < err(plain) / 3
+
+
+def test_refusals():
+    chain = builtin("kr150-2")
+    rng = np.random.default_rng(0)
+    q = uniform_joints(chain, 200, rng)
+    with pytest.raises(InputError, match="at least"):
+        KinematicCalibration().fit(chain, q[:5], chain.fk_positions(q[:5]))
+    same = np.repeat(q[:1], 50, axis=0)
+    with pytest.raises(InputError, match="distinct poses"):
+        KinematicCalibration().fit(chain, same, chain.fk_positions(same))
+    with pytest.raises(InputError, match="right robot"):
+        KinematicCalibration().fit(chain, q, builtin("ur10").fk_positions(q) * 1.0)
+    measured = chain.fk_positions(q)
+    measured[3, 1] = np.nan
+    with pytest.raises(InputError, match="NaN"):
+        KinematicCalibration().fit(chain, q, measured)
