@@ -153,6 +153,8 @@ def simulate(
     box: str = typer.Option(None, help="lhs box: xmin,xmax,ymin,ymax,zmin,zmax in mm."),
     rpy: str = typer.Option(None, help="lhs tool orientation rx,ry,rz in deg (default 180,0,0)."),
     hint: str = typer.Option(None, help="lhs posture hint q1,...,qn in deg (picks the IK branch)."),
+    tip: str = typer.Option(None, help="URDF only: the tip link."),
+    root: str = typer.Option(None, help="URDF only: the root link."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Measure a simulated robot with known errors and write a measurement CSV.
@@ -161,7 +163,7 @@ def simulate(
     """
     result = simulate_job(robot, out_file, n=n, sampling=sampling, errors=errors, noise=noise, seed=seed,
                           truth=truth, orientation=orientation, box=_floats(box, 6, "--box"),
-                          rpy=_floats(rpy, 3, "--rpy"), hint=_floats(hint, 0, "--hint"))
+                          rpy=_floats(rpy, 3, "--rpy"), hint=_floats(hint, 0, "--hint"), root=root, tip=tip)
     _print_result(result, as_json, f"simulated {result['poses']} poses -> {out_file}")
 
 

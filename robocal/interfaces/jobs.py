@@ -107,14 +107,14 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
 
 
 def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", noise=None, seed=0,
-                 truth=None, orientation=False, box=None, rpy=None, hint=None):
+                 truth=None, orientation=False, box=None, rpy=None, hint=None, root=None, tip=None):
     """Measurements of a simulated "true" robot, in the order the robot visits the poses."""
     from dataclasses import replace
 
     from ..simulation import grid, latin_hypercube_box, liu2022_plan, make_true_robot, uniform_joints, write_truth
     from ..spatial import rpy_to_matrix
 
-    chain = load_robot(robot)
+    chain = load_robot(robot, root=root, tip=tip)
     rng = np.random.default_rng(seed)
     true_robot = make_true_robot(chain, errors, seed=seed)
     if noise is not None:
