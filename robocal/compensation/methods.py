@@ -4,8 +4,6 @@ A method takes the robot, recorded joints (rad) and measured TCP positions (mm, 
 frame) and returns a :class:`Compensator`, the reference chain (nominal geometry in the
 measurement frame: what "before" means) and a JSON-ready record of what was done.
 """
-import numpy as np
-
 from ..errors import InputError
 from ..estimation.kriging import Kriging
 from ..estimation.metrics import error_stats

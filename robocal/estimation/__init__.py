@@ -1,2 +1,5 @@
 """Layer 5: estimation — parametric calibration and error models with a fit/predict interface."""
-from .kriging import Kriging  # noqa: F401
+from .calibration import KinematicCalibration
+from .kriging import Kriging
+
+__all__ = ["KinematicCalibration", "Kriging"]

@@ -11,8 +11,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..spatial import make_transform, so3_log
+from ..spatial import make_transform
 from .identifiability import NEAR_PARALLEL, STRONG_CORRELATION, analyse
+from .least_squares import levenberg_marquardt
+from .least_squares import residual as residual_of
 from .metrics import error_stats
 from .registration import kabsch
 
@@ -131,15 +133,6 @@ class KinematicCalibration:
             w = np.hstack([w, np.full((count, 3), 1.0 / np.radians(self.orientation_sigma))])
         return w
 
-    @staticmethod
-    def _residual(chain, q, positions, rotations):
-        """Measured minus model: (N, 3) or (N, 6) with the world rotation vector."""
-        if rotations is None:
-            return positions - chain.fk_positions(q)
-        pose = chain.fk(q)
-        dw = so3_log(rotations @ np.swapaxes(pose[:, :3, :3], 1, 2))
-        return np.hstack([positions - pose[:, :3, 3], dw])
-
     # ------------------------------------------------------------------ start
     @staticmethod
     def _start_tool_rotation(chain, q, rotations):
@@ -187,12 +180,14 @@ class KinematicCalibration:
             if report.identified == identified:
                 break
             identified = report.identified
-            fitted, iterations, converged, robust = self._levenberg_marquardt(
-                fitted, q, target, rotations, weights, list(identified))
+            fitted, iterations, converged, robust = levenberg_marquardt(
+                fitted, q, target, identified, rotations=rotations, weights=weights,
+                pose_weights=self._robust_weights, max_iterations=self.max_iterations,
+                tolerance=self.tolerance)
             total_iterations += iterations
         ident = list(identified)
         iterations = total_iterations
-        residual = self._residual(fitted, q, target, rotations)
+        residual = residual_of(fitted, q, target, rotations)
         after = error_stats(residual[:, :3])
         if after["rms_mm"] > WRONG_ROBOT_RMS_MM:
             raise InputError(
@@ -223,48 +218,6 @@ class KinematicCalibration:
         if self.loss == "huber":
             return np.where(s <= 1.0, 1.0, 1.0 / np.maximum(s, 1e-300))
         return 1.0 / np.sqrt(1.0 + s * s)
-
-    def _levenberg_marquardt(self, chain, q, target, rotations, weights, names):
-        rows = weights.shape[1]
-        residual = self._residual(chain, q, target, rotations) * weights
-        robust = self._robust_weights(residual)
-        cost = np.sum(robust[:, None] * residual**2)
-        damping = 1e-4
-        converged = False
-        iteration = 0
-        for iteration in range(1, self.max_iterations + 1):
-            jac = chain.identification_jacobian(q, names)[:, :rows, :] * weights[:, :, None]
-            root = np.sqrt(robust)[:, None, None]
-            a = (jac * root).reshape(-1, len(names))
-            b = (residual * root[:, :, 0]).reshape(-1)
-            scale = np.linalg.norm(a, axis=0)
-            scale[scale == 0] = 1.0
-            a_s = a / scale
-            normal, gradient = a_s.T @ a_s, a_s.T @ b
-            while True:
-                step = np.linalg.solve(normal + damping * np.diag(np.diag(normal)), gradient) / scale
-                candidate = chain.perturbed(names, step)
-                new_residual = self._residual(candidate, q, target, rotations) * weights
-                new_cost = np.sum(robust[:, None] * new_residual**2)
-                if new_cost <= cost or damping > 1e10:
-                    break
-                damping *= 10.0
-            if new_cost > cost:
-                converged = True  # no step lowers the cost: a minimum to rounding
-                break
-            improvement = cost - new_cost
-            chain, residual = candidate, new_residual
-            damping = max(damping / 10.0, 1e-12)
-            robust = self._robust_weights(residual)
-            cost = np.sum(robust[:, None] * residual**2)
-            # Converged when the step no longer changes the cost beyond rounding, or the
-            # scaled step is negligible (zero-residual problems never stop improving).
-            if (improvement <= self.tolerance * max(new_cost, 1e-300)
-                    or np.linalg.norm(step * scale) <= 1e-10 * max(np.linalg.norm(b), 1e-300)
-                    or new_cost <= 1e-20 * len(b)):
-                converged = True
-                break
-        return chain, iteration, converged, robust
 
     @staticmethod
     def _deviations(nominal, start, fitted, names):

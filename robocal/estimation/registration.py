@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..spatial import make_transform
+from .least_squares import levenberg_marquardt
 
 TOOL_POSITION = ("tool_x", "tool_y", "tool_z")
 BASE = ("base_x", "base_y", "base_z", "base_rx", "base_ry", "base_rz")
@@ -36,57 +37,13 @@ def kabsch(source, target, weights=None):
 
 @dataclass(frozen=True)
 class FitReport:
-    """How a Levenberg–Marquardt fit of chain parameters ended."""
+    """How a registration ended."""
 
     names: tuple
     iterations: int
     converged: bool
-    rms_before_mm: float
+    rms_start_mm: float
     rms_after_mm: float
-
-
-def fit_chain(chain, joints, positions, names, *, max_iterations=100, tolerance=1e-10):
-    """Levenberg–Marquardt over the named parameters so that FK(joints) meets ``positions``.
-
-    joints (N, n) rad; positions (N, 3) mm.  Returns (fitted chain, FitReport).  Steps are
-    solved with column scaling and a least-squares solver, so parameters the data cannot
-    determine stay where they are instead of running away.
-    """
-    names = list(names)
-    q = np.asarray(joints, dtype=float)
-    target = np.asarray(positions, dtype=float)
-    residual = (target - chain.fk_positions(q)).reshape(-1)
-    cost = residual @ residual
-    rms_before = np.sqrt(cost / len(q))
-    damping = 1e-3
-    converged = False
-    iteration = 0
-    for iteration in range(1, max_iterations + 1):
-        jac = chain.identification_jacobian(q, names)[:, :3, :].reshape(-1, len(names))
-        scale = np.linalg.norm(jac, axis=0)
-        scale[scale == 0.0] = 1.0
-        js = jac / scale
-        normal = js.T @ js
-        gradient = js.T @ residual
-        while True:
-            lhs = normal + damping * np.diag(np.diag(normal) + 1e-12)
-            step = np.linalg.lstsq(lhs, gradient, rcond=1e-12)[0] / scale
-            candidate = chain.perturbed(names, step)
-            new_residual = (target - candidate.fk_positions(q)).reshape(-1)
-            new_cost = new_residual @ new_residual
-            if new_cost <= cost or damping > 1e12:
-                break
-            damping *= 10.0
-        if new_cost > cost:
-            break
-        improvement = cost - new_cost
-        chain, residual, cost = candidate, new_residual, new_cost
-        damping = max(damping / 10.0, 1e-12)
-        if improvement <= tolerance * max(cost, 1e-30) or np.max(np.abs(step)) < 1e-13:
-            converged = True
-            break
-    report = FitReport(tuple(names), iteration, converged, float(rms_before), float(np.sqrt(cost / len(q))))
-    return chain, report
 
 
 def register_base_and_tool(chain, joints, positions, *, tool=True, max_iterations=100):
@@ -102,4 +59,7 @@ def register_base_and_tool(chain, joints, positions, *, tool=True, max_iteration
     rot, shift = kabsch(nominal, positions)
     chain = chain.replace(base=make_transform(rot, shift) @ chain.base)
     names = list(BASE) + (list(TOOL_POSITION) if tool else [])
-    return fit_chain(chain, q, positions, names, max_iterations=max_iterations)
+    rms = lambda c: float(np.sqrt(np.mean(np.sum((positions - c.fk_positions(q)) ** 2, axis=1))))  # noqa: E731
+    start = rms(chain)
+    chain, iterations, converged, _ = levenberg_marquardt(chain, q, positions, names, max_iterations=max_iterations)
+    return chain, FitReport(tuple(names), iterations, converged, start, rms(chain))

@@ -11,7 +11,6 @@ import time
 import numpy as np
 from rich.table import Table
 
-from ..compensation import Compensator
 from ..compensation.methods import fit_kriging
 from ..estimation.metrics import error_stats
 from ..io.library import builtin

@@ -16,7 +16,7 @@ from ..compensation.methods import (
 from ..errors import FileFormatError, InputError, RobocalWarning
 from ..estimation.metrics import error_stats
 from ..io.library import load_robot
-from ..io.tables import Measurements, read_measurements, read_targets, write_commands, write_measurements
+from ..io.tables import read_measurements, read_targets, write_commands, write_measurements
 from ..spatial import compose_pose, pose_to_xyz_rpy, rpy_to_matrix
 from .model_file import ModelFile, load_model, save_model
 

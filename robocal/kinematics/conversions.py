@@ -85,7 +85,7 @@ def _poe_to_mdh(chain: Chain) -> Chain:
     frame = np.eye(4)  # frame i-1 in the robot base frame
     for i in range(n):
         w, p = chain.axes[i], chain.points[i]
-        x_prev, y_prev, z_prev, o_prev = frame[:3, 0], frame[:3, 1], frame[:3, 2], frame[:3, 3]
+        o_prev = frame[:3, 3]
         # Express the axis line in frame i-1.
         w_loc = frame[:3, :3].T @ w
         p_loc = frame[:3, :3].T @ (p - o_prev)
