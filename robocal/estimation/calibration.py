@@ -97,7 +97,7 @@ class KinematicCalibration:
     """
 
     def __init__(self, parameters="full", *, loss="linear", f_scale=None, position_sigma=0.02,
-                 orientation_sigma=0.01, register=True, max_iterations=50, tolerance=1e-12):
+                 orientation_sigma=0.01, register=True, max_iterations=50, tolerance=1e-9):
         if loss not in LOSSES:
             raise InputError(f"loss must be one of {', '.join(LOSSES)}, got {loss!r}")
         self.parameters = parameters
@@ -176,8 +176,9 @@ class KinematicCalibration:
         fitted, identified, total_iterations = start, None, 0
         for _ in range(3):
             jac = fitted.identification_jacobian(q, names)[:, :rows_per_pose, :]
-            _, report = analyse(fitted, (jac * weights[:, :, None]).reshape(-1, len(names)), names)
+            _, report = analyse(fitted, (jac * weights[:, :, None]).reshape(-1, len(names)), names, explain=False)
             if report.identified == identified:
+                _, report = analyse(fitted, (jac * weights[:, :, None]).reshape(-1, len(names)), names)
                 break
             identified = report.identified
             fitted, iterations, converged, robust = levenberg_marquardt(

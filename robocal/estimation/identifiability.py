@@ -83,9 +83,10 @@ def _reason(chain, name, partners, parallel, moves):
     return f"{name} cannot be separated from {listed}: they move the TCP the same way in these poses"
 
 
-def analyse(chain, jacobian, names, tolerance=RANK_TOLERANCE):
+def analyse(chain, jacobian, names, tolerance=RANK_TOLERANCE, explain=True):
     """Select the identifiable parameters of a (rows, P) Jacobian whose columns are ``names``
-    in order of preference; returns (kept column indices, IdentifiabilityReport)."""
+    in order of preference; returns (kept column indices, IdentifiabilityReport).
+    ``explain=False`` skips the reasons (the fixed parameters map to "")."""
     rows, count = jacobian.shape
     norms = np.linalg.norm(jacobian, axis=0)
     biggest = norms.max() if count else 0.0
@@ -94,15 +95,15 @@ def analyse(chain, jacobian, names, tolerance=RANK_TOLERANCE):
     # QR in the order of preference: |R_jj| is the part of column j outside the span of all
     # columns before it, which is exactly the greedy selection.
     diag = np.abs(np.diag(np.linalg.qr(scaled, mode="r")))
-    kept, fixed = [], {}
-    parallel = _parallel_pairs(chain)
+    kept = [j for j in range(count) if moving[j] and diag[j] > tolerance]
+    fixed = {names[j]: "" for j in range(count) if j not in kept}
+    parallel = _parallel_pairs(chain) if explain and fixed else set()
     for j in range(count):
+        if not explain or j in kept:
+            continue
         if not moving[j]:
             fixed[names[j]] = _reason(chain, names[j], [], parallel, moves=False)
-        elif diag[j] > tolerance:
-            kept.append(j)
-    for j in range(count):
-        if moving[j] and j not in kept:
+        else:
             previous = [k for k in kept if k < j]
             coef = np.linalg.lstsq(scaled[:, previous], scaled[:, j], rcond=None)[0]
             order = np.argsort(-np.abs(coef))

@@ -45,13 +45,19 @@ def levenberg_marquardt(chain, joints, positions, names, *, rotations=None, weig
         scale[scale == 0] = 1.0
         a_s = a / scale
         normal, gradient = a_s.T @ a_s, a_s.T @ b
+        # First-order optimality: the residual is orthogonal to every (scaled) column.
+        if np.max(np.abs(gradient)) <= 1e-12 * max(np.linalg.norm(b), 1e-300):
+            converged = True
+            break
+        diag = np.diag(np.diag(normal))
         while True:
-            step = np.linalg.lstsq(normal + damping * np.diag(np.diag(normal) + 1e-300), gradient,
-                                   rcond=None)[0] / scale
+            step_s = np.linalg.solve(normal + damping * diag, gradient)
+            step = step_s / scale
             candidate = chain.perturbed(names, step)
             new = residual(candidate, joints, positions, rotations) * weights
             new_cost = np.sum(robust[:, None] * new**2)
-            if new_cost <= cost or damping > 1e10:
+            # Give up raising the damping once the step is too small to matter.
+            if new_cost <= cost or damping > 1e10 or np.linalg.norm(step_s) <= 1e-12 * max(np.linalg.norm(b), 1e-300):
                 break
             damping *= 10.0
         if new_cost > cost:

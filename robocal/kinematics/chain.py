@@ -184,8 +184,14 @@ class Chain:
         """
         ops, tags = [], {}
 
+        identity = np.eye(4)
+
         def emit(kind, value=0.0, **kw):
-            if kind in ("mark", "joint") or (kind == "const" and not np.allclose(kw["matrix"], np.eye(4), rtol=0, atol=0)) or (kind not in ("const",) and value != 0.0):
+            # Factors that do nothing (zero angles and offsets, identity frames) are left out.
+            if kind == "const":
+                if not np.array_equal(kw["matrix"], identity):
+                    ops.append(Op(kind, value, **kw))
+            elif kind in ("mark", "joint") or value != 0.0:
                 ops.append(Op(kind, value, **kw))
 
         def tag(name, mark, motion, axis, coef=1.0):
