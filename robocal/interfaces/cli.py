@@ -173,7 +173,7 @@ def calibrate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
     out_file: str = typer.Option(..., "--out", help="Model file (JSON) to write."),
-    method: str = typer.Option("kriging", help="kinematic, kriging, ann, hybrid or constraint."),
+    method: str = typer.Option("kinematic", help="kinematic, kriging, hybrid (ann and constraint: not yet)."),
     register: str = typer.Option("auto", help="Register base and tool first: auto, yes or no."),
     trend: str = typer.Option("constant", help="Kriging trend: constant, linear or quadratic."),
     correlation: str = typer.Option("gaussian", help="Kriging correlation: gaussian or matern52."),
@@ -189,7 +189,7 @@ def calibrate(
 ):
     """Fit a calibration / error model to measurements and save it as a model file.
 
-    Example: robocal calibrate ur5 meas.csv --method kriging --out model.json
+    Example: robocal calibrate ur5 meas.csv --method kinematic --out model.json
     """
     from ..estimation.kriging import Kriging
 

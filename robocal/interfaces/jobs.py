@@ -31,7 +31,7 @@ def _positions_required(data, method):
         raise InputError(f"{data.path} has no x, y, z columns: the {method} method needs measured positions")
 
 
-def calibrate_job(robot, measurements, out, *, method="kriging", register="auto", kriging=None,
+def calibrate_job(robot, measurements, out, *, method="kinematic", register="auto", kriging=None,
                   parameters="full", loss="linear", root=None, tip=None):
     """Fit a method to a measurement file and save the model file."""
     if method not in IMPLEMENTED_METHODS:
