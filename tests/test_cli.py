@@ -77,3 +77,17 @@ def test_dataset_rejects_unknown_name_and_bad_split(tmp_path):
     assert result.exit_code == 2 and "unknown dataset" in result.output
     result = runner.invoke(app, ["dataset", "ur5-tsinghua", "--out", str(tmp_path / "x"), "--split", "1.5"])
     assert result.exit_code == 2 and "between 0 and 1" in result.output
+
+
+def test_validate_cross_validates_against_the_registered_nominal(tmp_path):
+    meas = tmp_path / "meas.csv"
+    result = runner.invoke(app, ["simulate", "ur10", "--errors", "typical", "--n", "120", "--noise", "0.02",
+                                 "--out", str(meas), "--json"])
+    assert result.exit_code == 0, result.output
+    result = runner.invoke(app, ["validate", "ur10", str(meas), "--folds", "4", "--sizes", "40,80", "--json"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.output)
+    pooled = data["cross_validation"]["pooled"]
+    assert pooled["n"] == 120  # every pose predicted once, by a model that did not see it
+    assert pooled["mean_mm"] < 0.5 * data["nominal_cross_validation"]["pooled"]["mean_mm"]
+    assert [p["n_train"] for p in data["learning_curve"]] == [40, 80]

@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..errors import InputError, RobocalError, RobocalWarning
-from .jobs import calibrate_job, compensate_job, dataset_job, evaluate_job, simulate_job
+from .jobs import calibrate_job, compensate_job, dataset_job, evaluate_job, simulate_job, validate_job
 
 app = typer.Typer(
     help="robocal: calibrate industrial robots and compensate their positioning errors.",
@@ -238,6 +238,51 @@ def compensate(
         err.print(f"[yellow]warning:[/] {len(result['unreachable_rows'])} target(s) cannot be reached "
                   f"(rows {rows}{more}): their joint cells are empty and reachable = 0")
     _print_result(result, as_json, f"commands -> {out_file}")
+
+
+@app.command()
+@user_errors
+def validate(
+    robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
+    measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
+    method: str = typer.Option("kinematic", help="kinematic, kriging or hybrid."),
+    folds: int = typer.Option(5, help="Number of cross-validation folds."),
+    sizes: str = typer.Option(None, help="Learning curve: training sizes, e.g. 20,50,100,200."),
+    seed: int = typer.Option(0, help="Seed of the fold assignment and the Kriging search."),
+    register: str = typer.Option("auto", help="Register base and tool first: auto, yes or no."),
+    parameters: str = typer.Option("full", help="kinematic/hybrid: parameter set, offsets or full."),
+    loss: str = typer.Option("linear", help="kinematic/hybrid: linear, huber or soft_l1."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+):
+    """Held-out accuracy of a method: k-fold cross-validation and an optional learning curve.
+
+    Every pose is predicted by a model that did not see it; the nominal robot, registered on
+    the same folds, is the baseline.
+
+    Example: robocal validate ur5 meas.csv --method kinematic --folds 5 --sizes 20,50,100,200
+    """
+    size_list = None if sizes is None else [int(v) for v in _floats(sizes, 0, "--sizes")]
+    result = validate_job(robot, measurements, method=method, folds=folds, sizes=size_list, seed=seed,
+                          register=register, parameters=parameters, loss=loss)
+    if as_json:
+        print(json.dumps(result, indent=2))
+        return
+    table = Table(title=f"{method}, {folds}-fold cross-validation on {result['poses']} poses (mm)")
+    for col in ("model", "mean", "RMS", "max"):
+        table.add_column(col, justify="right")
+    for label, key in ((method, "cross_validation"), ("nominal, registered", "nominal_cross_validation")):
+        stats = result[key].get("pooled", result[key])
+        table.add_row(label, f"{stats['mean_mm']:.4f}", f"{stats['rms_mm']:.4f}", f"{stats['max_mm']:.4f}")
+    out.print(table)
+    if "learning_curve" in result:
+        curve = Table(title="learning curve: held-out error against training poses (mm)")
+        for col in ("training poses", "mean", "RMS", "max"):
+            curve.add_column(col, justify="right")
+        for point in result["learning_curve"]:
+            stats = point["held_out"]
+            curve.add_row(str(point["n_train"]), f"{stats['mean_mm']:.4f}", f"{stats['rms_mm']:.4f}",
+                          f"{stats['max_mm']:.4f}")
+        out.print(curve)
 
 
 @app.command()

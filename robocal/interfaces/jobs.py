@@ -183,3 +183,57 @@ def dataset_job(name, prefix, *, split=None, seed=0):
         written.update(train=f"{prefix}_train.csv", test=f"{prefix}_test.csv", train_poses=cut,
                        test_poses=data.n_poses - cut)
     return {"dataset": name, "poses": data.n_poses, "source": data.path, **written}
+
+
+def _fitter(method, chain, q, data, register, parameters, loss, kriging_seed):
+    """fit(train_index) -> predict(test_index) for a method, on data already in memory."""
+    from ..estimation.kriging import Kriging
+
+    rotations = None if data.orientations is None else rpy_to_matrix(np.radians(data.orientations))
+
+    def take(array, index):
+        return None if array is None else array[index]
+
+    def fit(train):
+        if method == "nominal":
+            from ..estimation.registration import register_base_and_tool
+
+            registered, _ = register_base_and_tool(chain, q[train], data.positions[train])
+            return lambda test: registered.fk_positions(q[test])
+        kriging = Kriging(nugget="estimate", random_state=kriging_seed)
+        if method == "kriging":
+            compensator = fit_kriging(chain, q[train], data.positions[train], register=register, kriging=kriging)[0]
+        else:
+            fit_method = fit_kinematic if method == "kinematic" else partial(fit_hybrid, kriging=kriging)
+            compensator = fit_method(chain, q[train], data.positions[train], orientations=take(rotations, train),
+                                     sigmas=take(data.sigmas, train), parameters=parameters, loss=loss,
+                                     register=register)[0]
+        return lambda test: compensator.predict_positions(q[test])
+
+    return fit
+
+
+def validate_job(robot, measurements, *, method="kinematic", folds=5, sizes=None, seed=0, register="auto",
+                 parameters="full", loss="linear", root=None, tip=None):
+    """k-fold cross-validation (and a learning curve) of a method, beside the nominal robot
+    registered on the same training folds."""
+    from ..estimation.validation import k_fold, learning_curve
+
+    if method not in IMPLEMENTED_METHODS:
+        raise InputError(f"method {method!r} is not available; available: {', '.join(IMPLEMENTED_METHODS)}")
+    chain = load_robot(robot, root=root, tip=tip)
+    data = read_measurements(measurements, n_joints=chain.n_joints)
+    _positions_required(data, method)
+    q = chain.joints_from_file(data.joints)
+    fitter = _fitter(method, chain, q, data, register, parameters, loss, seed)
+    def summary(cv):  # the per-pose arrays stay out of the JSON
+        return {key: cv[key] for key in ("k", "folds", "pooled")}
+
+    result = {"method": method, "file": str(measurements), "poses": data.n_poses, "folds": folds,
+              "cross_validation": summary(k_fold(data.n_poses, fitter, data.positions, k=folds, seed=seed)),
+              "nominal_cross_validation": summary(k_fold(
+                  data.n_poses, _fitter("nominal", chain, q, data, register, parameters, loss, seed),
+                  data.positions, k=folds, seed=seed))}
+    if sizes:
+        result["learning_curve"] = learning_curve(data.n_poses, fitter, data.positions, sizes, seed=seed)
+    return result
