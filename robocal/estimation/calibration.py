@@ -93,11 +93,13 @@ class KinematicCalibration:
     weighted residual norm; ``f_scale`` in those units, default 3x the median).
     position_sigma (mm) and orientation_sigma (deg) weight rows when the data carry no
     sigmas.  register: start from a Kabsch fit of the base (use False for data already in
-    the base frame of a chain whose base is right).
+    the base frame of a chain whose base is right).  tolerance: stop when an iteration lowers
+    the cost by less than this fraction (on tracker data 1e-7 and 1e-9 give the same held-out
+    error to 1e-5 mm; noise-free data still converge to rounding).
     """
 
     def __init__(self, parameters="full", *, loss="linear", f_scale=None, position_sigma=0.02,
-                 orientation_sigma=0.01, register=True, max_iterations=50, tolerance=1e-9):
+                 orientation_sigma=0.01, register=True, max_iterations=50, tolerance=1e-7):
         if loss not in LOSSES:
             raise InputError(f"loss must be one of {', '.join(LOSSES)}, got {loss!r}")
         self.parameters = parameters
