@@ -75,5 +75,9 @@ class Compensator:
     def commands(self, targets, hint=None, *, iterate=False):
         """Joint commands (through IK of the model) for (N, 4, 4) targets."""
         corrected, error = self.corrected_targets(targets, iterate=iterate)
-        result = solve_ik(self.chain, corrected, hint=hint, nominal=self.nominal)
-        return CommandResult(result.q, result.success, corrected, error)
+        # A compliant model is solved on its rigid geometry, then the commands are moved so
+        # that the joints, once gravity has bent them, stand where the rigid solution is.
+        rigid = getattr(self.chain, "rigid", self.chain)
+        result = solve_ik(rigid, corrected, hint=hint, nominal=self.nominal)
+        q = result.q if rigid is self.chain else self.chain.commands_for(result.q)
+        return CommandResult(q, result.success, corrected, error)

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..kinematics.compliant import CompliantChain, compliance_index
+from ..kinematics.gravity import default_mass_model
 from ..spatial import make_transform
 from .identifiability import NEAR_PARALLEL, STRONG_CORRELATION, analyse
 from .least_squares import levenberg_marquardt
@@ -18,8 +20,13 @@ from .least_squares import residual as residual_of
 from .metrics import error_stats
 from .registration import kabsch
 
-PARAMETER_SETS = ("offsets", "full")
+PARAMETER_SETS = ("offsets", "full", "full+compliance")
 LOSSES = ("linear", "huber", "soft_l1")
+# A joint whose gravity torque never exceeds this share of the most loaded joint's gets no
+# compliance parameter: its deflection would be far below the measurement noise.
+LOADED_SHARE = 0.01
+# Compliances are reported in micro-radians per N·m (a 150 kg-class joint: about 0.01).
+COMPLIANCE_UNIT = 1e6
 # Nominal geometry of the right robot in the right unit lands within a few mm; a calibrated
 # model that still misses by this much is fitting the wrong robot, unit or data.
 WRONG_ROBOT_RMS_MM = 10.0
@@ -43,11 +50,12 @@ class CalibrationResult:
 
     def to_dict(self, chain):
         """Deviations and standard errors in file units (deg for angles, mm for lengths)."""
-        unit = np.array([np.degrees(1.0) if chain.is_angular(n) else 1.0 for n in self.names])
+        unit = np.array([np.degrees(1.0) if chain.is_angular(n)
+                         else COMPLIANCE_UNIT if compliance_index(n) is not None else 1.0 for n in self.names])
         return {
             "parameters": {n: {"deviation": float(v), "std_error": float(s)}
                            for n, v, s in zip(self.names, self.values * unit, self.std_errors * unit)},
-            "units": "mm for lengths, deg for angles",
+            "units": "mm for lengths, deg for angles, urad/(N*m) for compliances",
             "correlated_pairs": [list(p) for p in self.correlated_pairs],
             "identifiability": self.identifiability.to_dict(),
             "residual_before": self.residual_before,
@@ -70,6 +78,8 @@ def candidate_parameters(chain, parameters="full", *, base=True, tool_orientatio
         return names + chain.parameter_names(("offsets",))
     from ..kinematics import to_poe
 
+    chain = getattr(chain, "rigid", chain)
+
     axes = to_poe(chain).axes
     parallel = [np.linalg.norm(np.cross(axes[i], axes[i + 1])) < NEAR_PARALLEL for i in range(chain.n_joints - 1)]
     for k in range(1, chain.n_joints + 1):
@@ -86,10 +96,22 @@ def candidate_parameters(chain, parameters="full", *, base=True, tool_orientatio
     return names
 
 
+def with_compliance(chain, joints):
+    """``chain`` made compliant (all compliances zero, the default mass model) and the names
+    of the compliances of its loaded joints: revolute joints whose gravity torque over
+    ``joints`` reaches LOADED_SHARE of the most loaded joint's."""
+    compliant = CompliantChain(chain, default_mass_model(chain), np.zeros(chain.n_joints))
+    peak = np.abs(compliant.gravity_torque(joints)).max(axis=0)
+    loaded = chain.revolute & (peak > LOADED_SHARE * max(peak.max(), 1e-300))
+    return compliant, [f"compliance{k + 1}" for k in np.flatnonzero(loaded)]
+
+
 class KinematicCalibration:
     """Levenberg–Marquardt identification of a chain's parameters, scikit-learn style.
 
-    parameters: 'offsets' or 'full'.  loss: 'linear', 'huber' or 'soft_l1' (per pose, on the
+    parameters: 'offsets', 'full' or 'full+compliance' (full, plus one compliance per joint
+    that gravity loads, the deflection being proportional to the gravity torque of
+    :func:`robocal.kinematics.gravity.default_mass_model`).  loss: 'linear', 'huber' or 'soft_l1' (per pose, on the
     weighted residual norm; ``f_scale`` in those units, default 3x the median).
     position_sigma (mm) and orientation_sigma (deg) weight rows when the data carry no
     sigmas.  register: start from a Kabsch fit of the base (use False for data already in
@@ -156,6 +178,10 @@ class KinematicCalibration:
         with_orientation = rotations is not None
         rows_per_pose = 6 if with_orientation else 3
         names = candidate_parameters(chain, self.parameters, tool_orientation=with_orientation)
+        compliant = None
+        if self.parameters == "full+compliance":
+            compliant, compliances = with_compliance(chain, q)
+            names += compliances
         if len(q) * rows_per_pose < len(names) or distinct * rows_per_pose < len(names):
             need = int(np.ceil(len(names) / rows_per_pose))
             raise InputError(
@@ -169,6 +195,8 @@ class KinematicCalibration:
             start = chain.replace(base=make_transform(rot, shift) @ chain.base)
         if with_orientation:
             start = self._start_tool_rotation(start, q, rotations)
+        if compliant is not None:
+            start = compliant.replace(base=start.base, tool=start.tool)
         weights = self._weights(len(q), sigmas, with_orientation)
         before = error_stats((target - start.fk_positions(q)))
 
@@ -178,9 +206,11 @@ class KinematicCalibration:
         fitted, identified, total_iterations = start, None, 0
         for _ in range(3):
             jac = fitted.identification_jacobian(q, names)[:, :rows_per_pose, :]
-            _, report = analyse(fitted, (jac * weights[:, :, None]).reshape(-1, len(names)), names, explain=False)
+            scaled = (jac * weights[:, :, None]).reshape(-1, len(names))
+            rigid = getattr(fitted, "rigid", fitted)
+            _, report = analyse(rigid, scaled, names, explain=False)
             if report.identified == identified:
-                _, report = analyse(fitted, (jac * weights[:, :, None]).reshape(-1, len(names)), names)
+                _, report = analyse(rigid, scaled, names)
                 break
             identified = report.identified
             fitted, iterations, converged, robust = levenberg_marquardt(

@@ -179,7 +179,7 @@ def calibrate(
     correlation: str = typer.Option("gaussian", help="Kriging correlation: gaussian or matern52."),
     nugget: str = typer.Option("estimate", help="Kriging nugget: 'estimate' or a number."),
     shared_theta: bool = typer.Option(False, "--shared-theta", help="One theta for the three outputs."),
-    parameters: str = typer.Option("full", help="kinematic/hybrid: parameter set, offsets or full."),
+    parameters: str = typer.Option("full", help="kinematic/hybrid: parameter set, offsets, full or full+compliance (plus the stiffness of every joint gravity loads)."),
     loss: str = typer.Option("linear", help="kinematic/hybrid: linear, huber or soft_l1 (robust)."),
     seed: int = typer.Option(0, help="Seed of the Kriging likelihood's multi-start search."),
     fixture: str = typer.Option(None, help="Fixture TOML (constraint method)."),
@@ -250,7 +250,7 @@ def validate(
     sizes: str = typer.Option(None, help="Learning curve: training sizes, e.g. 20,50,100,200."),
     seed: int = typer.Option(0, help="Seed of the fold assignment and the Kriging search."),
     register: str = typer.Option("auto", help="Register base and tool first: auto, yes or no."),
-    parameters: str = typer.Option("full", help="kinematic/hybrid: parameter set, offsets or full."),
+    parameters: str = typer.Option("full", help="kinematic/hybrid: parameter set, offsets, full or full+compliance (plus the stiffness of every joint gravity loads)."),
     loss: str = typer.Option("linear", help="kinematic/hybrid: linear, huber or soft_l1."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):

@@ -70,7 +70,8 @@ def load_compensator(model_path, robot=None):
     except (InputError, KeyError, TypeError, ValueError) as exc:
         raise FileFormatError(f"{model_path}: the error model is damaged ({exc}); "
                               "regenerate the file with 'robocal calibrate'") from None
-    return model, Compensator(model.kinematics, error_model, nominal=model.kinematics)
+    rigid = getattr(model.kinematics, "rigid", model.kinematics)
+    return model, Compensator(model.kinematics, error_model, nominal=rigid)
 
 
 def evaluate_job(model_path, measurements):

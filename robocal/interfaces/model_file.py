@@ -6,6 +6,7 @@ Layout (schema 1)::
      "created": "2026-11-22T04:30:00Z", "method": "kriging",
      "robot": {"name": ..., "hash": ..., "model": {robot document}},     # the nominal robot
      "kinematics": {robot document},        # the chain compensation uses (registered/calibrated)
+     "joint_compliance": {...} or absent,   # full+compliance: masses (kg), compliances (urad/(N*m))
      "reference": {robot document},         # nominal geometry in the measurement frame
      "error_model": {...} or null,          # e.g. Kriging.to_dict()
      "training": {...}, "options": {...},
@@ -26,6 +27,8 @@ from .. import __version__
 from ..errors import FileFormatError, InputError
 from ..io.atomic import write_text_atomic
 from ..io.robot_file import chain_from_dict, robot_to_toml
+from ..kinematics.compliant import CompliantChain
+from ..kinematics.gravity import MassModel
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -34,6 +37,7 @@ else:  # pragma: no cover
 
 SCHEMA = "robocal.model"
 SCHEMA_VERSION = 1
+COMPLIANCE_UNIT = 1e6  # rad/(N*m) -> urad/(N*m) in the file
 METHODS = ("kinematic", "kriging", "ann", "hybrid", "constraint")
 
 
@@ -75,14 +79,31 @@ class ModelFile:
             "method": self.method,
             "robot": {"name": self.nominal.name, "hash": robot_hash(self.nominal),
                       "model": chain_document(self.nominal)},
-            "kinematics": chain_document(self.kinematics),
+            "kinematics": chain_document(getattr(self.kinematics, "rigid", self.kinematics)),
             "reference": chain_document(self.reference if self.reference is not None else self.kinematics),
             "error_model": self.error_model,
             "training": self.training,
             "options": self.options,
         }
+        if isinstance(self.kinematics, CompliantChain):
+            doc["joint_compliance"] = _compliance_document(self.kinematics)
         doc["checksum"] = hashlib.sha256(_canonical(doc).encode()).hexdigest()
         return doc
+
+
+def _compliance_document(chain):
+    return {"link_masses_kg": chain.mass_model.link_masses.tolist(), "payload_kg": chain.mass_model.payload,
+            "compliance_urad_per_nm": (chain.compliance * COMPLIANCE_UNIT).tolist(),
+            "gravity": "-z of the robot base"}
+
+
+def _compliant(chain, doc, path):
+    """``chain`` with the joint compliance of a model file's 'joint_compliance' entry."""
+    try:
+        mass = MassModel(doc["link_masses_kg"], doc["payload_kg"])
+        return CompliantChain(chain, mass, [c / COMPLIANCE_UNIT for c in doc["compliance_urad_per_nm"]])
+    except (KeyError, TypeError, ValueError, InputError) as exc:
+        raise FileFormatError(f"{path}: 'joint_compliance' is damaged ({exc}); regenerate the file") from None
 
 
 def save_model(model: ModelFile, path):
@@ -133,6 +154,8 @@ def load_model(path, robot=None) -> ModelFile:
     kinematics = chain_from_dict(_require(doc, "kinematics", dict, path), f"{path} (kinematics)")
     reference = (chain_from_dict(doc["reference"], f"{path} (reference)") if isinstance(doc.get("reference"), dict)
                  else kinematics)
+    if "joint_compliance" in doc:
+        kinematics = _compliant(kinematics, _require(doc, "joint_compliance", dict, path), path)
     if kinematics.n_joints != nominal.n_joints:
         raise FileFormatError(f"{path}: the calibrated kinematics and the robot have different joint counts")
     if robot is not None and robot_hash(robot) != robot_doc.get("hash"):

@@ -21,6 +21,7 @@
 import numpy as np
 
 from ..errors import InputError
+from ..kinematics.gravity import default_mass_model, size_factor
 from . import liu2022
 from .joint_effects import Compliance
 from .true_robot import TrueRobot
@@ -31,9 +32,6 @@ LINK_LENGTH_SIGMA = 0.2  # mm
 LINK_ANGLE_SIGMA = 0.02  # deg
 FRAME_LENGTH_SIGMA = 2.0  # mm, base and tool
 FRAME_ANGLE_SIGMA = 0.2  # deg, base and tool
-REFERENCE_LENGTH = 3463.0  # mm of links between joint origins and TCP (KR 150-2)
-REFERENCE_ARM_MASS = 1000.0  # kg
-REFERENCE_PAYLOAD = 150.0  # kg
 REFERENCE_STIFFNESS = 1e8  # N·m/rad
 BACKLASH = 0.005  # deg, half-width
 NOISE = 0.02  # mm
@@ -78,15 +76,10 @@ def _typical_deviations(chain, rng):
 
 def _typical_compliance(chain):
     """The 150 kg-class compliance scaled to ``chain``'s size (see the module docstring)."""
-    # Distances between consecutive joint origins (and the last one to the TCP) do not depend
-    # on the configuration: both ends are fixed in the same link.
-    _, origins, tcp = chain.joint_frames(np.zeros(chain.n_joints))
-    ends = np.concatenate([origins[0, 1:], tcp[0, None, :3, 3]])
-    lengths = np.linalg.norm(ends - origins[0], axis=1)
-    size = lengths.sum() / REFERENCE_LENGTH
+    mass = default_mass_model(chain)
     return Compliance(
         # Prismatic joints (rare on such arms) are left rigid.
-        stiffness=np.where(chain.revolute, REFERENCE_STIFFNESS * size**4, np.inf),
-        link_masses=REFERENCE_ARM_MASS * size**3 * lengths / lengths.sum(),
-        payload=REFERENCE_PAYLOAD * size**3,
+        stiffness=np.where(chain.revolute, REFERENCE_STIFFNESS * size_factor(chain)**4, np.inf),
+        link_masses=mass.link_masses,
+        payload=mass.payload,
     )

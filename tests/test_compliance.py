@@ -1,0 +1,109 @@
+"""full+compliance calibration: the compliant model's Jacobian, recovery of a simulated
+robot's joint stiffness, commands that land a bending robot on its targets, model files."""
+import json
+
+import numpy as np
+import pytest
+
+from robocal.compensation import Compensator
+from robocal.errors import FileFormatError
+from robocal.estimation.calibration import KinematicCalibration
+from robocal.interfaces.model_file import ModelFile, load_model, save_model
+from robocal.io.library import builtin
+from robocal.kinematics.compliant import CompliantChain
+from robocal.kinematics.gravity import default_mass_model
+from robocal.simulation import TrueRobot, make_true_robot, uniform_joints
+
+KR150 = builtin("kr150-2")
+
+
+def _bending_robot(chain, seed, noise=0.02):
+    """Geometric deviations and gravity compliance of the typical preset, no backlash."""
+    typical = make_true_robot(chain, "typical", seed=seed)
+    return TrueRobot(nominal=chain, deviations=typical.deviations, compliance=typical.compliance,
+                     noise=noise, seed=seed)
+
+
+@pytest.mark.parametrize("name", ["kr150-2", "fanuc-r2000ic-165f", "panda"])
+def test_compliant_identification_jacobian_matches_finite_differences(name):
+    rigid = builtin(name)
+    chain = CompliantChain(rigid, default_mass_model(rigid), np.linspace(1e-8, 3e-8, rigid.n_joints))
+    q = rigid.random_configurations(5, rng=2)
+    geometric = ["theta2", "d3", "base_rx", "tool_y"]
+    names = geometric + [f"compliance{k}" for k in range(2, rigid.n_joints + 1)]
+
+    def numeric(model, name):
+        step = 1e-9 if name.startswith("compliance") else 1e-6
+        up = model.perturbed([name], [step]).fk_positions(q)
+        return (up - model.perturbed([name], [-step]).fk_positions(q)) / (2 * step)
+
+    jac = chain.identification_jacobian(q, names)
+    for j, name in enumerate(names):
+        expected = numeric(chain, name)
+        # Geometric columns leave out how the torque itself changes with the geometry,
+        # c * dtau/dp: a relative 1e-4 at this compliance.  Compliance columns are exact.
+        rtol = 1e-3 if name in geometric else 1e-6
+        np.testing.assert_allclose(jac[:, :3, j], expected, atol=rtol * np.abs(expected).max() + 1e-20, err_msg=name)
+    # At zero compliance the geometric columns are the rigid chain's, exactly.
+    stiff = CompliantChain(rigid, default_mass_model(rigid), np.zeros(rigid.n_joints))
+    for j, name in enumerate(geometric):
+        expected = numeric(stiff, name)
+        np.testing.assert_allclose(stiff.identification_jacobian(q, [name])[:, :3, 0], expected,
+                                   atol=1e-6 * np.abs(expected).max(), err_msg=name)
+
+
+def test_full_compliance_recovers_the_stiffness_and_beats_rigid_calibration():
+    truth = _bending_robot(KR150, seed=3)
+    rng = np.random.default_rng(1)
+    q, q_test = uniform_joints(KR150, 300, rng), uniform_joints(KR150, 300, rng)
+    measured = truth.measure(q, rng)
+    held_out = truth.positions(q_test)
+    rigid = KinematicCalibration("full").fit(KR150, q, measured)
+    bending = KinematicCalibration("full+compliance").fit(KR150, q, measured)
+    error_rigid = np.linalg.norm(rigid.predict(q_test) - held_out, axis=1).mean()
+    error_bending = np.linalg.norm(bending.predict(q_test) - held_out, axis=1).mean()
+    assert error_bending < 0.2 * error_rigid
+    # Axes 2 and 3 carry the arm: their compliance is identified to a few percent (the
+    # simulation and the calibration share the mass model, so the value itself is comparable).
+    true = 1.0 / truth.compliance.stiffness
+    found = bending.chain_.compliance
+    np.testing.assert_allclose(found[1:3], true[1:3], rtol=0.05)
+    # Joint 1 turns about the vertical: gravity never loads it, so it gets no parameter.
+    assert "compliance1" not in bending.result_.names and found[0] == 0.0
+    report = bending.result_.to_dict(bending.chain_)
+    assert report["parameters"]["compliance2"]["deviation"] == pytest.approx(true[1] * 1e6, rel=0.05)
+
+
+def test_commands_land_a_bending_robot_on_its_targets():
+    truth = _bending_robot(KR150, seed=5, noise=0.0)
+    rng = np.random.default_rng(4)
+    q = uniform_joints(KR150, 300, rng)
+    cal = KinematicCalibration("full+compliance").fit(KR150, q, truth.positions(q))
+    targets = truth.actual.fk(uniform_joints(KR150, 50, rng))
+    result = Compensator(cal.chain_, nominal=KR150).commands(targets)
+    assert result.success.all()
+    reached = truth.positions(result.q)
+    # Without the compliance step the commands miss by the deflection itself (tenths of a mm).
+    rigid_commands = Compensator(cal.chain_.rigid, nominal=KR150).commands(targets).q
+    missed = np.linalg.norm(truth.positions(rigid_commands) - targets[:, :3, 3], axis=1)
+    landed = np.linalg.norm(reached - targets[:, :3, 3], axis=1)
+    assert landed.max() < 0.01 < missed.max()
+
+
+def test_model_file_keeps_the_compliance_and_refuses_a_damaged_one(tmp_path):
+    chain = CompliantChain(KR150, default_mass_model(KR150), np.array([0, 1e-8, 2e-8, 0, 5e-9, 0]))
+    path = tmp_path / "model.json"
+    save_model(ModelFile(method="kinematic", nominal=KR150, kinematics=chain), path)
+    loaded = load_model(path, robot=KR150).kinematics
+    q = KR150.random_configurations(20, rng=0)
+    np.testing.assert_allclose(loaded.fk_positions(q), chain.fk_positions(q), atol=1e-9)
+    doc = json.loads(path.read_text())
+    doc["joint_compliance"]["compliance_urad_per_nm"] = [0.01, 0.02]
+    body = {k: v for k, v in doc.items() if k != "checksum"}
+    import hashlib
+
+    from robocal.interfaces.model_file import _canonical
+    doc["checksum"] = hashlib.sha256(_canonical(body).encode()).hexdigest()
+    path.write_text(json.dumps(doc))
+    with pytest.raises(FileFormatError, match="joint_compliance"):
+        load_model(path)
