@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..errors import InputError, RobocalError, RobocalWarning
-from .jobs import calibrate_job, compensate_job, dataset_job, evaluate_job, simulate_job, validate_job
+from .jobs import calibrate_job, compensate_job, dataset_job, evaluate_job, export_job, simulate_job, validate_job
 
 app = typer.Typer(
     help="robocal: calibrate industrial robots and compensate their positioning errors.",
@@ -238,6 +238,25 @@ def compensate(
         err.print(f"[yellow]warning:[/] {len(result['unreachable_rows'])} target(s) cannot be reached "
                   f"(rows {rows}{more}): their joint cells are empty and reachable = 0")
     _print_result(result, as_json, f"commands -> {out_file}")
+
+
+@app.command()
+@user_errors
+def export(
+    model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
+    fmt: str = typer.Option("toml", "--format", help="toml (robot file) or urdf."),
+    out_file: str = typer.Option(..., "--out", help="Robot file to write."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+):
+    """Calibrated kinematics as a robot TOML or URDF, for a controller that takes new
+    parameters (direct compensation) or for ROS.
+
+    Example: robocal export model.json --format urdf --out calibrated.urdf
+    """
+    result = export_job(model, out_file, fmt=fmt)
+    for what in result["left_out"]:
+        err.print(f"[yellow]note:[/] a robot file cannot hold {what}")
+    _print_result(result, as_json, f"{result['convention']} robot -> {out_file}")
 
 
 @app.command()

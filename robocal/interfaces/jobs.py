@@ -107,6 +107,36 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
             "predicted_error": error_stats(result.predicted_error)}
 
 
+EXPORT_FORMATS = ("toml", "urdf")
+
+
+def export_job(model_path, out, *, fmt="toml"):
+    """The calibrated kinematics of a model file as a robot TOML or a URDF, for a controller
+    that accepts new parameters (direct compensation) or for ROS."""
+    from ..io.robot_file import write_robot
+    from ..io.urdf import write_urdf
+
+    if fmt not in EXPORT_FORMATS:
+        raise InputError(f"format must be one of {', '.join(EXPORT_FORMATS)}, got {fmt!r}")
+    model = load_model(model_path)
+    chain = getattr(model.kinematics, "rigid", model.kinematics)
+    left_out = []
+    if chain is not model.kinematics:
+        left_out.append("the joint compliance (robocal compensate applies it)")
+    if model.error_model is not None:
+        left_out.append(f"the {model.error_model.get('type', 'error')} model of the residual error "
+                        "(robocal compensate applies it)")
+    chain = chain.replace(name=f"{model.nominal.name} (calibrated, {model.method})")
+    description = (f"Calibrated by robocal from {model.training.get('file', 'measurements')}; "
+                   "[base] is the measurement frame -> robot base.")
+    if fmt == "toml":
+        write_robot(chain, out, description=description)
+    else:
+        write_urdf(chain, out, allow_coupled=True)
+    return {"model": str(model_path), "format": fmt, "out": str(out), "robot": chain.name,
+            "convention": chain.convention, "left_out": left_out}
+
+
 def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", noise=None, seed=0,
                  truth=None, orientation=False, box=None, rpy=None, hint=None, root=None, tip=None):
     """Measurements of a simulated "true" robot, in the order the robot visits the poses."""
