@@ -115,6 +115,4 @@ def evaluate(compensator, nominal_chain, joints, positions):
     """Residual statistics of the model and of the nominal chain on measured data."""
     after = positions - compensator.predict_positions(joints)
     before = positions - nominal_chain.fk_positions(joints)
-    result = error_stats(after)
-    result["nominal"] = error_stats(before)
-    return result
+    return {**error_stats(after), "nominal": error_stats(before)}

@@ -24,3 +24,30 @@ def error_stats(errors):
         out[f"{axis}_mean_mm"] = float(magnitude.mean())
         out[f"{axis}_max_mm"] = float(magnitude.max())
     return out
+
+
+def iso9283_position(joints, attained, commanded):
+    """ISO 9283-style position accuracy AP and repeatability RP (mm) of the poses in a file.
+
+    Rows with the same joint command (to 1e-6) are visits of one pose.  Per pose, AP is the
+    distance from the mean attained position to the commanded one (what the model says the
+    command reaches); RP = mean(l) + 3 std(l), l the distance of each visit from that mean,
+    for poses visited at least twice.  Returns {"poses", "ap_mean_mm", "ap_max_mm",
+    "repeated_poses", "rp_max_mm" (None when no pose was repeated)}.
+    """
+    joints = np.asarray(joints, dtype=float)
+    attained, commanded = (np.asarray(a, dtype=float).reshape(-1, 3) for a in (attained, commanded))
+    _, pose_of = np.unique(np.round(joints, 6), axis=0, return_inverse=True)
+    pose_of = pose_of.reshape(-1)
+    count = np.bincount(pose_of)
+    mean = np.array([np.bincount(pose_of, attained[:, k]) for k in range(3)]).T / count[:, None]
+    target = np.array([np.bincount(pose_of, commanded[:, k]) for k in range(3)]).T / count[:, None]
+    ap = np.linalg.norm(mean - target, axis=1)
+    spread = np.linalg.norm(attained - mean[pose_of], axis=1)
+    repeated = np.flatnonzero(count >= 2)
+    rp = []
+    for p in repeated:
+        l = spread[pose_of == p]
+        rp.append(l.mean() + 3.0 * l.std(ddof=1))
+    return {"poses": int(len(count)), "ap_mean_mm": float(ap.mean()), "ap_max_mm": float(ap.max()),
+            "repeated_poses": int(len(repeated)), "rp_max_mm": float(max(rp)) if rp else None}

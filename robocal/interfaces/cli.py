@@ -242,6 +242,28 @@ def compensate(
 
 @app.command()
 @user_errors
+def report(
+    model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
+    measurements: str = typer.Argument(..., help="Measurement CSV to score (held-out poses, ideally)."),
+    out_file: str = typer.Option(..., "--out", help="HTML report to write (one self-contained file)."),
+    pdf: str = typer.Option(None, "--pdf", help="Also write the tables and figures as a PDF."),
+    validation: str = typer.Option(None, "--validation",
+                                   help="JSON of 'robocal validate --json': adds cross-validation and the learning curve."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+):
+    """Accuracy report for a customer: data, identified parameters, errors before and after,
+    ISO 9283-style accuracy and plots, in one HTML file that opens offline.
+
+    Example: robocal report model.json test.csv --out report.html
+    """
+    from .report import report_job
+
+    result = report_job(model, measurements, out_file, validation=validation, pdf=pdf)
+    _print_result(result, as_json, f"report -> {out_file}")
+
+
+@app.command()
+@user_errors
 def export(
     model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
     fmt: str = typer.Option("toml", "--format", help="toml (robot file) or urdf."),

@@ -8,7 +8,6 @@ from ..compensation import Compensator
 from ..compensation.methods import (
     error_model_from_dict,
     error_model_to_dict,
-    evaluate,
     fit_hybrid,
     fit_kinematic,
     fit_kriging,
@@ -74,20 +73,29 @@ def load_compensator(model_path, robot=None):
     return model, Compensator(model.kinematics, error_model, nominal=rigid)
 
 
-def evaluate_job(model_path, measurements):
-    """Residual of a model on measured data, and of the nominal robot."""
+def evaluation(model_path, measurements):
+    """A model file on measured data: (model, compensator, data, q, before (N, 3), after
+    (N, 3), statistics as ``evaluate --json`` prints them)."""
     import warnings
 
     model, compensator = load_compensator(model_path)
     data = read_measurements(measurements, n_joints=model.kinematics.n_joints)
     _positions_required(data, model.method)
     q = model.kinematics.joints_from_file(data.joints)
-    result = evaluate(compensator, model.reference, q, data.positions)
+    before = data.positions - model.reference.fk_positions(q)
+    after = data.positions - compensator.predict_positions(q)
+    result = {**error_stats(after), "nominal": error_stats(before)}
     if result["mean_mm"] > SUSPICIOUS_RESIDUAL_MM:
         warnings.warn(RobocalWarning(
             f"the residual is {result['mean_mm']:.1f} mm mean after calibration: is {measurements} "
             f"from robot '{model.nominal.name}', in mm and degrees, in the frame the model was fitted in?"))
-    return {"model": str(model_path), "method": model.method, "file": str(measurements), **result}
+    stats = {"model": str(model_path), "method": model.method, "file": str(measurements), **result}
+    return model, compensator, data, q, before, after, stats
+
+
+def evaluate_job(model_path, measurements):
+    """Residual of a model on measured data, and of the nominal robot."""
+    return evaluation(model_path, measurements)[-1]
 
 
 def compensate_job(model_path, targets_path, out, *, iterate=False):

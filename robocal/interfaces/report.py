@@ -1,0 +1,200 @@
+"""robocal report: one self-contained HTML file (images embedded, opens offline) that an
+integrator can hand to a customer, and optionally the same figures and tables as a PDF.
+
+Every number comes from the same functions ``evaluate --json`` uses, so the two agree.
+"""
+import base64
+import datetime as _dt
+import html
+import io
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..errors import FileFormatError, InputError
+from ..estimation.metrics import error_stats, iso9283_position
+from ..io.atomic import write_bytes_atomic, write_text_atomic
+from . import plots
+from .jobs import evaluation
+
+STATS = (("n", "poses", "{:d}"), ("mean_mm", "mean", "{:.4f}"), ("rms_mm", "RMS", "{:.4f}"),
+         ("max_mm", "max", "{:.4f}"), ("p95_mm", "95 %", "{:.4f}"), ("x_mean_mm", "|x| mean", "{:.4f}"),
+         ("y_mean_mm", "|y| mean", "{:.4f}"), ("z_mean_mm", "|z| mean", "{:.4f}"))
+
+STYLE = """
+body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
+h1 { font-size: 1.6em; margin-bottom: 0.1em; } h2 { border-bottom: 1px solid #ccc; margin-top: 1.6em; }
+table { border-collapse: collapse; margin: 0.6em 0; } td, th { padding: 0.2em 0.7em; border: 1px solid #ddd; }
+th { background: #f3f3f3; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
+.note { color: #555; font-size: 0.92em; } img { max-width: 100%; }
+"""
+
+
+def _table(header, rows, numeric_from=1):
+    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
+    body = "".join(
+        "<tr>" + "".join(f"<td class=\"{'num' if k >= numeric_from else ''}\">{html.escape(str(v))}</td>"
+                         for k, v in enumerate(row)) + "</tr>" for row in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def _stats_row(label, stats):
+    return [label] + [fmt.format(stats[key]) if key in stats else "" for key, _, fmt in STATS]
+
+
+def _png(fig):
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110)
+    return base64.b64encode(buffer.getvalue()).decode("ascii")
+
+
+def _read_validation(path):
+    import json
+
+    try:
+        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise FileFormatError(f"{path}: not the JSON 'robocal validate --json' prints ({exc})") from None
+    if not isinstance(doc, dict) or "cross_validation" not in doc:
+        raise FileFormatError(f"{path}: no 'cross_validation' in it: write it with 'robocal validate ... --json > FILE'")
+    return doc
+
+
+def _figures(model, compensator, data, q, before, after, validation):
+    """(title, caption, Figure) for every plot that applies to this model."""
+    joints_deg = np.asarray(data.joints, dtype=float)
+    figures = [
+        ("Error distribution", "Single-point position error |e| of every pose in the file.",
+         plots.error_distribution(before, after)),
+        ("Error vectors over the workspace", "Arrows: the error at each measured position, scaled "
+         "as the titles say; grey dots: the poses.", plots.error_vectors(data.positions, before, after)),
+        ("Error against the joint angles", "Where in the joint space the error comes from "
+         "(joint values as in the file).", plots.error_against_joints(joints_deg, before, after)),
+    ]
+    error_model = compensator.error_model
+    if error_model is not None and hasattr(error_model, "predict") and model.error_model.get("type") == "kriging":
+        points = model.kinematics.fk_positions(q)
+        figures.append(("Kriging uncertainty", "Predicted standard deviation of the error model: "
+                        "small where training poses are, growing away from them.",
+                        plots.kriging_uncertainty(error_model, points)))
+    history = getattr(error_model, "history_", None)
+    if history is not None and len(history):
+        figures.append(("Genetic algorithm", "Best fitness per generation.", plots.fitness_history(history)))
+    if validation is not None and validation.get("learning_curve"):
+        figures.append(("Learning curve", "Held-out error against the number of training poses "
+                        f"({validation['method']}, from {validation['file']}).",
+                        plots.learning_curve(validation["learning_curve"])))
+    return figures
+
+
+def _calibration_section(calibration):
+    if not calibration:
+        return ""
+    ident = calibration["identifiability"]
+    rows = [(name, f"{v['deviation']:.6g}", f"{v['std_error']:.2g}") for name, v in calibration["parameters"].items()]
+    parts = [f"<h2>Identified parameters</h2><p class=note>Deviations from the starting model "
+             f"({html.escape(calibration['units'])}) with their standard errors; "
+             f"{ident['rank']} parameters from {ident['rows']} equations; "
+             f"{calibration['iterations']} iterations, {'converged' if calibration['converged'] else 'stopped at the iteration limit'}.</p>",
+             _table(("parameter", "deviation", "standard error"), rows),
+             "<h3>Identifiability</h3>",
+             _table(("condition number", "O1", "O3", "noise amplification"),
+                    [(f"{ident['condition_number']:.3g}", f"{ident['o1']:.3g}", f"{ident['o3']:.3g}",
+                      f"{ident['noise_amplification']:.3g}")], numeric_from=0)]
+    if ident["fixed"]:
+        parts.append("<p>Fixed, because the data cannot determine them:</p><ul>"
+                     + "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in ident["fixed"].items())
+                     + "</ul>")
+    if calibration["correlated_pairs"]:
+        parts.append("<p>Strongly correlated pairs: " + ", ".join(
+            f"{html.escape(a)} / {html.escape(b)} ({r:+.3f})" for a, b, r in calibration["correlated_pairs"]) + "</p>")
+    if calibration.get("outlier_rows"):
+        parts.append(f"<p>Rows down-weighted as outliers: {', '.join(map(str, calibration['outlier_rows']))}</p>")
+    return "".join(parts)
+
+
+def report_job(model_path, measurements, out, *, validation=None, pdf=None):
+    """Write the HTML report (and the PDF when ``pdf`` is a path); returns what was written
+    and the numbers it shows."""
+    if not str(out).lower().endswith((".html", ".htm")):
+        raise InputError(f"the report is HTML: give --out a .html file name, got {out}")
+    if pdf is not None and not str(pdf).lower().endswith(".pdf"):
+        raise InputError(f"--pdf needs a .pdf file name, got {pdf}")
+    model, compensator, data, q, before, after, stats = evaluation(model_path, measurements)
+    cv = _read_validation(validation) if validation else None
+    training = model.training
+    held_out = Path(str(training.get("file", ""))).resolve() != Path(str(measurements)).resolve()
+    label = "held-out poses" if held_out else "training poses (not held out: scores what the model has seen)"
+    iso_before = iso9283_position(data.joints, data.positions, model.reference.fk_positions(q))
+    iso_after = iso9283_position(data.joints, data.positions, compensator.predict_positions(q))
+    figures = _figures(model, compensator, data, q, before, after, cv)
+
+    accuracy_rows = []
+    if training.get("residual_before"):
+        accuracy_rows.append(_stats_row("training, nominal", training["residual_before"]))
+    if training.get("residual_after_training"):
+        accuracy_rows.append(_stats_row("training, calibrated", training["residual_after_training"]))
+    accuracy_rows += [_stats_row(f"{'held-out' if held_out else 'this file'}, nominal", stats["nominal"]),
+                      _stats_row(f"{'held-out' if held_out else 'this file'}, calibrated", error_stats(after))]
+    iso_rows = [(name, r["poses"], f"{r['ap_mean_mm']:.4f}", f"{r['ap_max_mm']:.4f}", r["repeated_poses"],
+                 "" if r["rp_max_mm"] is None else f"{r['rp_max_mm']:.4f}")
+                for name, r in (("nominal", iso_before), ("calibrated", iso_after))]
+    now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    summary = [
+        ("robot", model.nominal.name), ("method", model.method), ("model file", str(model_path)),
+        ("model created", model.created), ("trained on", f"{training.get('file', '?')} ({training.get('n_poses', '?')} poses, "
+                                                          f"{training.get('kind', '?')} data)"),
+        ("scored on", f"{measurements} ({data.n_poses} poses, {data.kind} data): {label}"),
+        ("frame", "measurement frame; base and tool registered to the data" if training.get("registered")
+         else "measurement frame = robot base frame as given"),
+        ("units", "mm and degrees"), ("report written", f"{now} by robocal {__version__}"),
+    ]
+    if cv is not None:
+        pooled, nominal = cv["cross_validation"]["pooled"], cv["nominal_cross_validation"]["pooled"]
+        summary.append(("cross-validation", f"{cv['folds']}-fold on {cv['file']}: {pooled['mean_mm']:.4f} mm mean "
+                        f"(nominal {nominal['mean_mm']:.4f} mm)"))
+    body = [f"<h1>Accuracy report: {html.escape(model.nominal.name)}</h1>",
+            f"<p class=note>{html.escape(model.method)} model, scored on {html.escape(label)}.</p>",
+            "<h2>Summary</h2>", _table(("", ""), summary, numeric_from=9),
+            "<h2>Position error</h2><p class=note>Single-point error |e| = |measured − model| in mm; "
+            "'nominal' is the uncalibrated robot (registered in the measurement frame when the model was).</p>",
+            _table(["data"] + [name for _, name, _ in STATS], accuracy_rows),
+            "<h3>ISO 9283-style position accuracy</h3><p class=note>Rows with the same joint command are "
+            "visits of one pose; AP = distance from the mean attained position to the commanded one "
+            "(the model's), RP = mean + 3 σ of the visits' spread (poses visited twice or more).</p>",
+            _table(("model", "poses", "AP mean (mm)", "AP max (mm)", "repeated poses", "RP max (mm)"), iso_rows),
+            _calibration_section(training.get("calibration"))]
+    for title, caption, fig in figures:
+        body.append(f"<h2>{html.escape(title)}</h2><p class=note>{html.escape(caption)}</p>"
+                    f"<img alt=\"{html.escape(title)}\" src=\"data:image/png;base64,{_png(fig)}\">")
+    document = (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>robocal report: "
+                f"{html.escape(model.nominal.name)}</title><style>{STYLE}</style></head><body>"
+                + "".join(body) + "</body></html>\n")
+    write_text_atomic(out, document)
+    if pdf is not None:
+        _write_pdf(pdf, summary, accuracy_rows, [fig for _, _, fig in figures])
+    import matplotlib.pyplot as plt
+
+    for _, _, fig in figures:
+        plt.close(fig)
+    return {"out": str(out), "pdf": None if pdf is None else str(pdf), "figures": [t for t, _, _ in figures],
+            "held_out": held_out, "iso9283": {"nominal": iso_before, "calibrated": iso_after}, **stats}
+
+
+def _write_pdf(path, summary, accuracy_rows, figures):
+    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    buffer = io.BytesIO()
+    with PdfPages(buffer) as pages:
+        cover = plt.figure(figsize=(8.27, 11.69))
+        lines = [f"{k}: {v}" for k, v in summary] + ["", "position error (mm): " + ", ".join(n for _, n, _ in STATS)]
+        lines += [" | ".join(str(v) for v in row) for row in accuracy_rows]
+        cover.text(0.06, 0.95, "robocal accuracy report", fontsize=16, va="top")
+        cover.text(0.06, 0.9, "\n".join(lines), fontsize=7.5, va="top", family="monospace", wrap=True)
+        pages.savefig(cover)
+        plt.close(cover)
+        for fig in figures:
+            pages.savefig(fig)
+    write_bytes_atomic(path, buffer.getvalue())
