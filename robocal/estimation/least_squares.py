@@ -76,3 +76,52 @@ def levenberg_marquardt(chain, joints, positions, names, *, rotations=None, weig
             converged = True
             break
     return chain, iteration, converged, robust
+
+
+def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50, tolerance=1e-12):
+    """Minimise |r|^2 over deviations of the named parameters, for any residual of the chain.
+
+    linearise(chain) -> (r (m,), J (m, P)) with r(chain.perturbed(names, x)) ~ r + J x;
+    residual(chain) -> r alone (trial steps need only the cost).  Same damping, column
+    scaling and stopping rules as :func:`levenberg_marquardt`, which specialises them to
+    measured positions with robust weights.  Returns (chain, iterations, converged).
+    """
+    names = list(names)
+    current, jac = linearise(chain)
+    cost = float(current @ current)
+    damping = 1e-4
+    converged = False
+    iteration = 0
+    for iteration in range(1, max_iterations + 1):
+        if iteration > 1:
+            current, jac = linearise(chain)
+        size = max(np.linalg.norm(current), 1e-300)
+        scale = np.linalg.norm(jac, axis=0)
+        scale[scale == 0] = 1.0
+        a_s = jac / scale
+        normal, gradient = a_s.T @ a_s, -(a_s.T @ current)
+        if np.max(np.abs(gradient)) <= 1e-12 * size:
+            converged = True
+            break
+        diag = np.diag(np.diag(normal))
+        while True:
+            step_s = np.linalg.solve(normal + damping * diag, gradient)
+            step = step_s / scale
+            candidate = chain.perturbed(names, step)
+            new = residual(candidate)
+            new_cost = float(new @ new)
+            if new_cost <= cost or damping > 1e10 or np.linalg.norm(step_s) <= 1e-12 * size:
+                break
+            damping *= 10.0
+        if new_cost > cost:
+            converged = True
+            break
+        improvement = cost - new_cost
+        chain, cost = candidate, new_cost
+        damping = max(damping / 10.0, 1e-12)
+        if (improvement <= tolerance * max(new_cost, 1e-300)
+                or np.linalg.norm(step * scale) <= 1e-10 * size
+                or new_cost <= 1e-20 * len(new)):
+            converged = True
+            break
+    return chain, iteration, converged
