@@ -106,3 +106,48 @@ def ipa_ur10(series="B", root=None):
                                     tool=compose_pose([0.0, 0.3, 93.0], np.zeros(3)))
     data = Measurements(path=str(path), joints=joints, positions=xyz, orientations=rpy, sigmas=sigmas)
     return chain, data
+
+
+# The MUKCa fixture: two sockets 50 mm apart; the files name them hole_0 and hole_1.
+MUKCA_SOCKET_DISTANCE_MM = 50.0
+# Ball centre on the flange axis, a first guess for the calibration to refine: Franka's hand
+# TCP (103.4 mm beyond the flange) plus about 30 mm to the ball centre.
+MUKCA_BALL_MM = 103.4 + 30.0
+
+
+def mukca(unit="panda_1", root=None):
+    """Ball-in-socket data of a Franka Panda (MUKCa): joint angles only, no instrument.
+
+    unit: 'panda_1', 'panda_2' or 'panda_3'.  Placements are the unit's folders (sorted);
+    each row of ``<placement>/hole_k.csv`` (7 joint angles in rad, no header) is a
+    configuration with the ball in socket ``k``.
+    Returns (chain, measurements, fixture): the built-in Panda with the ball as its tool
+    (a guess, on the flange z axis), constraint measurements in file units (deg) with the
+    placement in ``fixture`` and ``"0"`` / ``"1"`` in ``socket``, and the two-socket fixture.
+    """
+    from .fixtures import Fixture
+
+    folder = (Path(root) if root else shared_data_dir()) / "mukca" / str(unit)
+    if not folder.is_dir():
+        units = sorted(p.name for p in folder.parent.glob("panda_*")) if folder.parent.is_dir() else []
+        raise InputError(f"no MUKCa unit {unit!r} in {folder.parent}" + (f"; units: {', '.join(units)}" if units else ""))
+    joints, placements, sockets = [], [], []
+    for placement in sorted(p for p in folder.iterdir() if p.is_dir()):
+        for path in sorted(placement.glob("hole_[0-9].csv")):
+            try:
+                q = np.loadtxt(path, delimiter=",", ndmin=2)
+            except ValueError as why:
+                raise FileFormatError(f"{path}: {why}") from None
+            if q.shape[1] != 7:
+                raise FileFormatError(f"{path}: expected 7 joint columns, got {q.shape[1]}")
+            joints.append(np.degrees(q))
+            placements += [placement.name] * len(q)
+            sockets += [path.stem.split("_")[1]] * len(q)
+    if not joints:
+        raise FileFormatError(f"{folder} holds no <placement>/hole_k.csv files")
+    fixture = Fixture(name="MUKCa two-socket fixture",
+                      sockets={"0": [0.0, 0.0, 0.0], "1": [MUKCA_SOCKET_DISTANCE_MM, 0.0, 0.0]})
+    chain = builtin("panda").replace(name=f"Franka Panda (MUKCa {unit}, ball tool)",
+                                     tool=compose_pose([0.0, 0.0, MUKCA_BALL_MM], np.zeros(3)))
+    data = Measurements(path=str(folder), joints=np.concatenate(joints), fixture=placements, socket=sockets)
+    return chain, data, fixture
