@@ -32,11 +32,12 @@ th { background: #f3f3f3; } td.num { text-align: right; font-variant-numeric: ta
 
 
 def _table(header, rows, numeric_from=1):
-    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
+    """An HTML table; ``header`` None for a two-column key/value table."""
+    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header or ())
     body = "".join(
         "<tr>" + "".join(f"<td class=\"{'num' if k >= numeric_from else ''}\">{html.escape(str(v))}</td>"
                          for k, v in enumerate(row)) + "</tr>" for row in rows)
-    return f"<table><tr>{head}</tr>{body}</table>"
+    return f"<table>{f'<tr>{head}</tr>' if head else ''}{body}</table>"
 
 
 def _stats_row(label, stats):
@@ -156,7 +157,7 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None):
                         f"(nominal {nominal['mean_mm']:.4f} mm)"))
     body = [f"<h1>Accuracy report: {html.escape(model.nominal.name)}</h1>",
             f"<p class=note>{html.escape(model.method)} model, scored on {html.escape(label)}.</p>",
-            "<h2>Summary</h2>", _table(("", ""), summary, numeric_from=9),
+            "<h2>Summary</h2>", _table(None, summary, numeric_from=2),
             "<h2>Position error</h2><p class=note>Single-point error |e| = |measured − model| in mm; "
             "'nominal' is the uncalibrated robot (registered in the measurement frame when the model was).</p>",
             _table(["data"] + [name for _, name, _ in STATS], accuracy_rows),
