@@ -17,10 +17,13 @@ from ..errors import InputError, RobocalError, RobocalWarning
 from .jobs import calibrate_job, compensate_job, dataset_job, evaluate_job, export_job, simulate_job, validate_job
 
 app = typer.Typer(
-    help="robocal: calibrate industrial robots and compensate their positioning errors.",
+    help="robocal: calibrate industrial robots and compensate their positioning errors.\n\n"
+         "Try: robocal demo; robocal calibrate ur5 meas.csv --out model.json; "
+         "robocal report model.json test.csv --out report.html",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode="markdown",  # reflow docstring paragraphs in --help
 )
 out = Console(highlight=False, soft_wrap=True)
 err = Console(stderr=True, highlight=False, soft_wrap=True)
@@ -251,8 +254,11 @@ def report(
                                    help="JSON of 'robocal validate --json': adds cross-validation and the learning curve."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
-    """Accuracy report for a customer: data, identified parameters, errors before and after,
-    ISO 9283-style accuracy and plots, in one HTML file that opens offline.
+    """Accuracy report in one HTML file that opens offline: data, parameters, errors, plots.
+
+    For a customer or a file: the data summary, the identified parameters with their standard
+    errors and what could not be identified, the error before and after (mean, RMS, max, 95 %,
+    per axis, ISO 9283-style AP/RP), and plots of where the error is.
 
     Example: robocal report model.json test.csv --out report.html
     """
@@ -270,8 +276,10 @@ def export(
     out_file: str = typer.Option(..., "--out", help="Robot file to write."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
-    """Calibrated kinematics as a robot TOML or URDF, for a controller that takes new
-    parameters (direct compensation) or for ROS.
+    """Calibrated kinematics as a robot TOML or URDF (direct compensation, or ROS).
+
+    For a controller that accepts new parameters, or a simulator; the base is the measurement
+    frame -> robot base the calibration found.
 
     Example: robocal export model.json --format urdf --out calibrated.urdf
     """
