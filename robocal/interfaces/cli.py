@@ -199,8 +199,11 @@ def calibrate(
     nugget_value = nugget if nugget == "estimate" else _floats(nugget, 1, "--nugget")[0]
     kriging = Kriging(regression=trend, correlation=correlation, nugget=nugget_value, shared_theta=shared_theta,
                       random_state=seed)
-    result = calibrate_job(robot, measurements, out_file, method=method, register=register,
-                           kriging=kriging, parameters=parameters, loss=loss, root=root, tip=tip)
+    from .progress import progress
+
+    with progress(f"fitting the {method} model", enabled=not as_json):
+        result = calibrate_job(robot, measurements, out_file, method=method, register=register,
+                               kriging=kriging, parameters=parameters, loss=loss, root=root, tip=tip)
     if not as_json and "calibration" in result:
         _print_calibration(result["calibration"])
     _print_result(result, as_json, f"{method} model -> {out_file}")
@@ -310,9 +313,14 @@ def validate(
 
     Example: robocal validate ur5 meas.csv --method kinematic --folds 5 --sizes 20,50,100,200
     """
+    from .progress import progress
+
     size_list = None if sizes is None else [int(v) for v in _floats(sizes, 0, "--sizes")]
-    result = validate_job(robot, measurements, method=method, folds=folds, sizes=size_list, seed=seed,
-                          register=register, parameters=parameters, loss=loss)
+    # Each fold fits the method and the registered nominal; each size of the curve 3 times.
+    fits = 2 * folds + 3 * len(size_list or [])
+    with progress("fitting", fits, enabled=not as_json) as advance:
+        result = validate_job(robot, measurements, method=method, folds=folds, sizes=size_list, seed=seed,
+                              register=register, parameters=parameters, loss=loss, on_fit=advance)
     if as_json:
         print(json.dumps(result, indent=2))
         return

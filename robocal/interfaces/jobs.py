@@ -253,9 +253,9 @@ def _fitter(method, chain, q, data, register, parameters, loss, kriging_seed):
 
 
 def validate_job(robot, measurements, *, method="kinematic", folds=5, sizes=None, seed=0, register="auto",
-                 parameters="full", loss="linear", root=None, tip=None):
+                 parameters="full", loss="linear", root=None, tip=None, on_fit=None):
     """k-fold cross-validation (and a learning curve) of a method, beside the nominal robot
-    registered on the same training folds."""
+    registered on the same training folds.  ``on_fit()`` is called after every fit."""
     from ..estimation.validation import k_fold, learning_curve
 
     if method not in IMPLEMENTED_METHODS:
@@ -264,14 +264,22 @@ def validate_job(robot, measurements, *, method="kinematic", folds=5, sizes=None
     data = read_measurements(measurements, n_joints=chain.n_joints)
     _positions_required(data, method)
     q = chain.joints_from_file(data.joints)
-    fitter = _fitter(method, chain, q, data, register, parameters, loss, seed)
+    def counted(fit):
+        def wrapped(train):
+            predict = fit(train)
+            if on_fit is not None:
+                on_fit()
+            return predict
+        return wrapped
+
+    fitter = counted(_fitter(method, chain, q, data, register, parameters, loss, seed))
     def summary(cv):  # the per-pose arrays stay out of the JSON
         return {key: cv[key] for key in ("k", "folds", "pooled")}
 
     result = {"method": method, "file": str(measurements), "poses": data.n_poses, "folds": folds,
               "cross_validation": summary(k_fold(data.n_poses, fitter, data.positions, k=folds, seed=seed)),
               "nominal_cross_validation": summary(k_fold(
-                  data.n_poses, _fitter("nominal", chain, q, data, register, parameters, loss, seed),
+                  data.n_poses, counted(_fitter("nominal", chain, q, data, register, parameters, loss, seed)),
                   data.positions, k=folds, seed=seed))}
     if sizes:
         result["learning_curve"] = learning_curve(data.n_poses, fitter, data.positions, sizes, seed=seed)
