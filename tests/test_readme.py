@@ -25,5 +25,6 @@ def test_readme_walkthrough_runs(tmp_path):
     env = dict(os.environ, PATH=os.path.dirname(sys.executable) + os.pathsep + os.environ.get("PATH", ""))
     done = subprocess.run(["bash", "-c", script], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
-    assert (tmp_path / "commands.csv").is_file()
+    for written in ("commands.csv", "ur5_commands.csv", "ur5_report.html", "ur5_calibrated.urdf"):
+        assert (tmp_path / written).is_file(), written
     assert "UR5" in done.stdout
