@@ -38,7 +38,8 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 
 
 def user_errors(func):
-    """Turn RobocalError into one line on stderr and exit status 2."""
+    """Turn RobocalError (and a system's refusal of a file) into one line on stderr and exit
+    status 2."""
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
@@ -48,6 +49,12 @@ def user_errors(func):
             if _state["debug"]:
                 raise
             err.print(f"[red]error:[/] {exc}")
+            raise typer.Exit(2) from None
+        except OSError as exc:  # a file the system would not read or write: the user's to fix
+            if _state["debug"]:
+                raise
+            where = f" {exc.filename}" if exc.filename else ""
+            err.print(f"[red]error:[/] cannot use{where}: {exc.strerror or exc}; check the path and its permissions")
             raise typer.Exit(2) from None
 
     return wrapper

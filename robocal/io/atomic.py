@@ -46,6 +46,8 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
         descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
     except PermissionError as error:
         raise InputError(f"cannot write {target}: no permission to create files in {directory}") from error
+    except OSError as error:
+        raise InputError(f"cannot write {target}: {error.strerror or error}; choose another --out") from error
     try:
         with os.fdopen(descriptor, "wb") as stream:
             stream.write(data)
