@@ -163,11 +163,12 @@ def _small_data(chain, rng):
     return socket_data(chain, q, placements, sockets, PLATE)
 
 
+@pytest.mark.parametrize("pairing", ["all", "spanning"])
 @pytest.mark.parametrize("name", ["panda", "kr150-2"])
-def test_constraint_jacobian_matches_finite_differences(name):
+def test_constraint_jacobian_matches_finite_differences(name, pairing):
     chain = to_poe(_robot(name)).perturbed({"ux3": 0.7, "wy2": 0.002, "tool_x": 3.0})
     data = _small_data(chain, np.random.default_rng(0))
-    pairs = constraint_pairs(data, "all")
+    pairs = constraint_pairs(data, pairing)
     names = ["tool_x", "tool_z", "theta2", "ux3", "uy5", "wx4", "wy6", "home_z", "home_ry"]
     r, jac = constraint_jacobian(chain, data.joints, pairs, names)
     assert np.allclose(r, constraint_residual(chain, data.joints, pairs))
@@ -200,6 +201,12 @@ def test_pair_counts_for_all_and_spanning():
         assert np.allclose(pairs.target, known)
     # Spanning pairs still touch every configuration of every socket that has a partner.
     assert set(np.unique(spanning.distance)) == set(range(12))
+    # All position pairs take a centred form of N rows with the same sum of squares.
+    p = chain.fk_positions(data.joints)
+    r = constraint_residual(chain, data.joints, every)
+    assert every.position_rows == 3 * 12 and r.size == 3 * 12 + len(every.distance)
+    i, j = every.position.T
+    assert np.isclose(r[:36] @ r[:36], np.sum((p[i] - p[j]) ** 2))
 
 
 def test_socket_errors_are_zero_for_the_true_chain_and_see_a_wrong_distance():

@@ -353,7 +353,7 @@ class ConstraintCalibration:
     ``names_`` and ``result_`` (a :class:`ConstraintResult`).
     """
 
-    def __init__(self, pairs="all", *, distance=True, max_iterations=50, tolerance=1e-10):
+    def __init__(self, pairs="all", *, distance=True, max_iterations=50, tolerance=1e-7):
         if pairs not in PAIRINGS:
             raise InputError(f"pairs must be one of {', '.join(PAIRINGS)}, got {pairs!r}")
         self.pairs = pairs
@@ -390,15 +390,16 @@ class ConstraintCalibration:
         # again at the fit until the identified set settles.
         fitted, names, iterations, converged = start, None, 0, False
         for _ in range(3):
-            report = _analysis(fitted, data, pairs, weights, candidates)
-            if list(report.identified) == names:
+            identified, report = _analysis(fitted, data, pairs, weights, candidates)
+            if identified == names:
                 break
-            names = list(report.identified)
+            names = identified
             fitted, steps, converged = damped_least_squares(
                 fitted, names, linearise, residual, max_iterations=self.max_iterations, tolerance=self.tolerance)
             iterations += steps
         else:
-            report = _analysis(fitted, data, pairs, weights, candidates)
+            _, report = _analysis(fitted, data, pairs, weights, candidates)
+        report = report()
         std, correlated = _covariance(fitted, data.joints, spanning, names)
         unobservable = ("base frame",) + (() if len(pairs.distance) else ("scale",))
         self.chain_ = fitted
@@ -421,7 +422,8 @@ class ConstraintCalibration:
 
 
 def _analysis(chain, data, pairs, weights, candidates):
-    """The identifiability report of the constraint Jacobian at ``chain``.
+    """The identifiability of the constraint Jacobian at ``chain``: ``(identified names,
+    report())``, the report with its reasons made only when asked for.
 
     The base and scale directions lead the columns (see the module docstring).  Only the
     column geometry matters, so the analysis runs on R of a QR decomposition (R^T R = A^T A):
@@ -438,20 +440,25 @@ def _analysis(chain, data, pairs, weights, candidates):
     rows = len(jac)
     jac = np.linalg.qr(jac, mode="r")
     names = list(BASE) + [SCALE] + candidates
-    kept, report = analyse(chain, jac, names, explain=True)
+    kept, _ = analyse(chain, jac, names, explain=False)
     real = [k for k in kept if k >= 7]
-    fixed = {name: _BASE_REASON for name in BASE}
-    if not len(pairs.distance):
-        fixed[SCALE] = _SCALE_REASON
-    absolute = columns.reshape(-1, columns.shape[2])
-    norms = np.linalg.norm(absolute, axis=0)
-    absolute = np.linalg.qr(absolute / np.where(norms > 0, norms, 1.0), mode="r")
-    for j, name in enumerate(names[7:], start=7):
-        if j not in kept:
-            fixed[name] = _label(name, report.fixed[name], absolute, j, [k for k in real if k < j])
-    _, stats = analyse(chain, jac[:, real], [names[k] for k in real], explain=False)
-    # o1 is normalised by the number of rows: those of the constraint Jacobian, not of R.
-    return replace(stats, fixed=fixed, rows=rows, o1=stats.o1 * np.sqrt(stats.rows / rows))
+
+    def report():
+        _, explained = analyse(chain, jac, names, explain=True)
+        fixed = {name: _BASE_REASON for name in BASE}
+        if not len(pairs.distance):
+            fixed[SCALE] = _SCALE_REASON
+        flat = columns.reshape(-1, columns.shape[2])
+        norms = np.linalg.norm(flat, axis=0)
+        compressed = np.linalg.qr(flat / np.where(norms > 0, norms, 1.0), mode="r")
+        for j, name in enumerate(names[7:], start=7):
+            if j not in kept:
+                fixed[name] = _label(name, explained.fixed[name], compressed, j, [k for k in real if k < j])
+        _, stats = analyse(chain, jac[:, real], [names[k] for k in real], explain=False)
+        # o1 is normalised by the number of rows: those of the constraint Jacobian, not of R.
+        return replace(stats, fixed=fixed, rows=rows, o1=stats.o1 * np.sqrt(stats.rows / rows))
+
+    return [names[k] for k in real], report
 
 
 def poe_deviations(start, fitted, names):
