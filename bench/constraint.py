@@ -76,9 +76,10 @@ def simulated(layouts):
         test = socket_plan(truth, fixture, 3, 10, rng=20)
         row = []
         for pairs in ("all", "spanning"):
-            cal, seconds = median_time(
-                lambda: ConstraintCalibration(pairs).fit(chain, train.joints, train.fixture_ids, train.socket_ids, fixture),
-                RUNS)
+            def fit():
+                return ConstraintCalibration(pairs).fit(chain, train.joints, train.fixture_ids, train.socket_ids, fixture)
+
+            cal, seconds = median_time(fit, RUNS)
             row.append((seconds, _true_error(cal.chain_, train, test)))
         nominal = _true_error(chain, train, test)
         print(f"{f'{placements} x {sockets} x {per_socket}':>34} {len(train.joints):>8} {row[0][0]:>8.3f} "
@@ -107,12 +108,16 @@ def real(units):
             for placement in placements:
                 train = (data.fixture != placement) if protocol == "leave one out" else (data.fixture == placement)
                 test = ~train
-                cal, seconds = median_time(
-                    lambda: ConstraintCalibration().fit(chain, q[train], data.fixture[train], data.socket[train], fixture), 3)
+                def fit():
+                    return ConstraintCalibration().fit(chain, q[train], data.fixture[train], data.socket[train], fixture)
+
+                cal, seconds = median_time(fit, 3)
                 args = (q[test], data.fixture[test], data.socket[test], fixture)
                 before, after = socket_errors(chain, *args), socket_errors(cal.chain_, *args)
-                folds.append((cal.result_.residual_before["mean_mm"], cal.result_.residual_after["mean_mm"], train.sum(),
-                              before["mean_mm"], after["mean_mm"], after["socket_distance"]["mean_mm"], test.sum(), seconds))
+                result = cal.result_
+                folds.append((result.residual_before["mean_mm"], result.residual_after["mean_mm"], train.sum(),
+                              before["mean_mm"], after["mean_mm"], after["socket_distance"]["mean_mm"], test.sum(),
+                              seconds))
             f = np.array(folds)
             # Pooled by configuration: fold means weighted by their sizes.
             pooled = [np.average(f[:, c], weights=f[:, w]) for c, w in ((0, 2), (1, 2), (3, 6), (4, 6), (5, 6))]

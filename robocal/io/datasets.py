@@ -130,7 +130,8 @@ def mukca(unit="panda_1", root=None):
     folder = (Path(root) if root else shared_data_dir()) / "mukca" / str(unit)
     if not folder.is_dir():
         units = sorted(p.name for p in folder.parent.glob("panda_*")) if folder.parent.is_dir() else []
-        raise InputError(f"no MUKCa unit {unit!r} in {folder.parent}" + (f"; units: {', '.join(units)}" if units else ""))
+        known = f"; units: {', '.join(units)}" if units else ""
+        raise InputError(f"no MUKCa unit {unit!r} in {folder.parent}{known}")
     joints, placements, sockets = [], [], []
     for placement in sorted(p for p in folder.iterdir() if p.is_dir()):
         for path in sorted(placement.glob("hole_[0-9].csv")):

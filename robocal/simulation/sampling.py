@@ -226,7 +226,8 @@ def socket_plan(robot, fixture, placements, per_socket, rng=None, *, max_tilt_de
     truth = robot if isinstance(robot, TrueRobot) else None
     chain = robot.actual if truth is not None else robot
     placements, per_socket = _count(placements), _count(per_socket)
-    for name, value in (("max_tilt_deg", max_tilt_deg), ("joint_noise_deg", joint_noise_deg), ("seating_mm", seating_mm)):
+    options = {"max_tilt_deg": max_tilt_deg, "joint_noise_deg": joint_noise_deg, "seating_mm": seating_mm}
+    for name, value in options.items():
         if not np.isfinite(value) or value < 0:
             raise InputError(f"{name} must be a finite value >= 0, got {value}")
     if max_tilt_deg >= 90.0:
@@ -285,7 +286,8 @@ class _Workspace:
         height = rng.uniform(0.0, self.shoulder[2] + PLACEMENT_HEIGHT[1] * self.reach)
         centre = np.array([radius * np.cos(azimuth), radius * np.sin(azimuth), height])
         tilt_axis = np.array([*_unit_circle(rng), 0.0])
-        rotation = so3_exp(tilt_axis * np.radians(rng.uniform(0.0, PLACEMENT_TILT_DEG))) @ rot_z(rng.uniform(-np.pi, np.pi))
+        tilt = so3_exp(tilt_axis * np.radians(rng.uniform(0.0, PLACEMENT_TILT_DEG)))
+        rotation = tilt @ rot_z(rng.uniform(-np.pi, np.pi))
         local = make_transform(rotation, centre - rotation @ sockets.mean(axis=0))
         return self.base @ local
 
