@@ -13,6 +13,14 @@ with masks (P, H), H = Σ h_l; its forward pass is a handful of batched matrix p
 """
 import numpy as np
 
+# OpenBLAS runs a matrix product on several threads once rows × inner × columns exceeds
+# 4 · 65536, and its idle threads then spin.  numpy and scipy each load their own OpenBLAS,
+# so an L-BFGS loop that alternates between them keeps two spinning pools fighting the main
+# thread for the cores: measured on 2 cores, 6 to 10 times slower than single-threaded
+# products, which are as fast at these sizes.  Products are therefore cut into row blocks
+# below that size.
+SINGLE_THREAD_PRODUCT = 4 * 65536
+
 
 class Layout:
     """Sizes of a network and where each layer's weights sit in the flat vector θ."""
@@ -56,6 +64,31 @@ class Layout:
         return theta
 
 
+def _block_rows(inner, columns):
+    return max(1, SINGLE_THREAD_PRODUCT // max(1, inner * columns))
+
+
+def matmul(a, b):
+    """a @ b for a (…, N, k) and b (…, k, m), in row blocks that BLAS keeps on one thread."""
+    rows = _block_rows(a.shape[-1], b.shape[-1])
+    if a.shape[-2] <= rows:
+        return np.matmul(a, b)
+    shape = np.broadcast_shapes(a.shape[:-2], b.shape[:-2]) + (a.shape[-2], b.shape[-1])
+    out = np.empty(shape, dtype=np.result_type(a, b))
+    for start in range(0, a.shape[-2], rows):
+        np.matmul(a[..., start:start + rows, :], b, out=out[..., start:start + rows, :])
+    return out
+
+
+def matmul_transposed(a, b):
+    """aᵀ @ b for a (N, k) and b (N, m), summed over row blocks (see :func:`matmul`)."""
+    rows = _block_rows(a.shape[1], b.shape[1])
+    out = a[:rows].T @ b[:rows]
+    for start in range(rows, len(a), rows):
+        out += a[start:start + rows].T @ b[start:start + rows]
+    return out
+
+
 def forward(layout, theta, mask, X):
     """Outputs of a population: θ (P, W), masks (P, H), X (N, d) → (P, N, m).
 
@@ -65,12 +98,12 @@ def forward(layout, theta, mask, X):
     layers = layout.unpack(theta)
     mask = mask.astype(theta.dtype, copy=False)
     for (W, b), s in zip(layers[:-1], layout.mask_slices):
-        z = np.matmul(a, W)  # (N, in) or (P, N, in) @ (P, in, out)
+        z = matmul(a, W)  # (N, in) or (P, N, in) @ (P, in, out)
         z += b[:, None, :]
         a = np.tanh(z, out=z)
         a *= mask[:, None, s]
     W, b = layers[-1]
-    out = np.matmul(a, W)
+    out = matmul(a, W)
     out += b[:, None, :]
     return out
 
@@ -90,9 +123,9 @@ def loss_and_gradient(layout, theta, mask, X, Y, weights):
     masks = [np.asarray(mask, dtype=float)[s] for s in layout.mask_slices]
     activations = [X]
     for (W, b), s in zip(layers[:-1], masks):
-        activations.append(np.tanh(activations[-1] @ W + b) * s)
+        activations.append(np.tanh(matmul(activations[-1], W) + b) * s)
     W, b = layers[-1]
-    residual = activations[-1] @ W + b - Y
+    residual = matmul(activations[-1], W) + b - Y
     weighted = residual * weights
     loss = float(np.sum(weighted * residual))
     gradient = np.empty_like(theta)
@@ -101,10 +134,10 @@ def loss_and_gradient(layout, theta, mask, X, Y, weights):
         W, _ = layers[index]
         w_slice, b_slice = layout.slices[index]
         a_in = activations[index]
-        gradient[w_slice] = (a_in.T @ delta).ravel()
+        gradient[w_slice] = matmul_transposed(a_in, delta).ravel()
         gradient[b_slice] = delta.sum(axis=0)
         if index:
             # a = tanh(z)·s with s ∈ {0, 1}, so da/dz = (1 − a²)·s.
             s = masks[index - 1]
-            delta = (delta @ W.T) * (1.0 - a_in * a_in) * s
+            delta = matmul(delta, W.T) * (1.0 - a_in * a_in) * s
     return loss, gradient
