@@ -375,8 +375,9 @@ def test_bad_input_is_explained(kr150, trained):
         NetworkErrorModel(hidden=(4, 4)).fit(q[:300], dp[:300, :2])
     with pytest.raises(InputError, match="one position error per joint vector"):
         NetworkErrorModel(hidden=(4, 4)).fit(q[:300], dp[:299])
-    with pytest.raises(InputError, match="at least two layer widths"):
-        NetworkErrorModel(hidden=(16,)).fit(q, dp)
+    for hidden in ((16,), (16, 0), ("a", 4), 16):
+        with pytest.raises(InputError, match="at least two layer widths"):
+            NetworkErrorModel(hidden=hidden).fit(q, dp)
     with pytest.raises(InputError, match="nothing for a network to learn"):
         NetworkErrorModel(hidden=(4, 4)).fit(q[:300], np.ones((300, 3)))
     with pytest.raises(InputError, match="another robot"):

@@ -91,8 +91,12 @@ class NetworkErrorModel:
 
     # ------------------------------------------------------------------ checks
     def _check_settings(self):
-        hidden = tuple(self.hidden) if np.ndim(self.hidden) == 1 else ()
-        if len(hidden) < 2 or not all(float(h).is_integer() and h >= 1 for h in hidden):
+        try:
+            hidden = tuple(self.hidden)
+            valid = len(hidden) >= 2 and all(float(h).is_integer() and h >= 1 for h in hidden)
+        except (TypeError, ValueError):
+            valid = False
+        if not valid:
             raise InputError(f"hidden must list at least two layer widths >= 1 (e.g. (16, 16)), "
                              f"got {self.hidden!r}")
         if self.trainer not in TRAINERS:
