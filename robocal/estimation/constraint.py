@@ -262,6 +262,14 @@ def socket_errors(chain, joints, fixture_ids, socket_ids, fixture):
     return _socket_errors(chain, socket_data(chain, joints, fixture_ids, socket_ids, fixture))
 
 
+def socket_deviations(chain, joints, fixture_ids, socket_ids, fixture):
+    """(N, 3) mm: each computed ball centre minus the mean of its (placement, socket) group,
+    and (N, 3) the ball centres; what :func:`socket_errors` summarises, pose by pose."""
+    data = socket_data(chain, joints, fixture_ids, socket_ids, fixture)
+    _, _, _, deviations, means = _socket_errors(chain, data, per_placement=True)
+    return deviations, means[data.group] + deviations
+
+
 def _socket_errors(chain, data, per_placement=False):
     p = chain.fk_positions(data.joints)
     sizes = data.group_sizes

@@ -154,15 +154,19 @@ def simulate(
     robot: str = typer.Argument(..., help="Built-in name or robot file."),
     out_file: str = typer.Option(..., "--out", help="Measurement CSV to write."),
     n: int = typer.Option(None, "--n", help="Number of poses (default 200; liu2022: 150)."),
-    sampling: str = typer.Option("joint", help="joint (uniform in the limits), lhs (Latin hypercube in --box) or grid (n^(1/3) per axis in --box)."),
+    sampling: str = typer.Option("joint", help="joint (uniform in the limits), lhs (Latin hypercube in --box), grid (n^(1/3) per axis in --box) or sockets (ball in the sockets of --fixture, joint angles only)."),
     errors: str = typer.Option("typical", help="none, typical or liu2022 (KR150-2 only)."),
-    noise: float = typer.Option(None, help="Measurement noise sigma in mm (overrides the preset)."),
+    noise: float = typer.Option(None, help="Measurement noise sigma in mm (overrides the preset); sockets: the ball's seating error."),
     seed: int = typer.Option(0, help="Random seed."),
     truth: str = typer.Option(None, help="Also write the hidden truth (JSON) here."),
     orientation: bool = typer.Option(False, "--orientation", help="Also write measured rx, ry, rz."),
     box: str = typer.Option(None, help="lhs box: xmin,xmax,ymin,ymax,zmin,zmax in mm."),
     rpy: str = typer.Option(None, help="lhs tool orientation rx,ry,rz in deg (default 180,0,0)."),
     hint: str = typer.Option(None, help="lhs posture hint q1,...,qn in deg (picks the IK branch)."),
+    fixture: str = typer.Option(None, help="sockets: fixture TOML (socket centres, mm)."),
+    placements: int = typer.Option(4, help="sockets: number of fixture placements."),
+    per_socket: int = typer.Option(10, "--per-socket", help="sockets: configurations per socket and placement."),
+    joint_noise: float = typer.Option(0.0, "--joint-noise", help="sockets: noise of the joint readings (deg)."),
     tip: str = typer.Option(None, help="URDF only: the tip link."),
     root: str = typer.Option(None, help="URDF only: the root link."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
@@ -170,10 +174,13 @@ def simulate(
     """Measure a simulated robot with known errors and write a measurement CSV.
 
     Example: robocal simulate kr150-2 --errors liu2022 --sampling lhs --out meas.csv
+
+    Ball in sockets: robocal simulate kr150-2 --sampling sockets --fixture fix.toml --placements 6 --per-socket 20 --out sockets.csv
     """
     result = simulate_job(robot, out_file, n=n, sampling=sampling, errors=errors, noise=noise, seed=seed,
                           truth=truth, orientation=orientation, box=_floats(box, 6, "--box"),
-                          rpy=_floats(rpy, 3, "--rpy"), hint=_floats(hint, 0, "--hint"), root=root, tip=tip)
+                          rpy=_floats(rpy, 3, "--rpy"), hint=_floats(hint, 0, "--hint"), root=root, tip=tip,
+                          fixture=fixture, placements=placements, per_socket=per_socket, joint_noise=joint_noise)
     _print_result(result, as_json, f"simulated {result['poses']} poses -> {out_file}")
 
 
@@ -183,7 +190,7 @@ def calibrate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
     out_file: str = typer.Option(..., "--out", help="Model file (JSON) to write."),
-    method: str = typer.Option("kinematic", help="kinematic, kriging, hybrid (ann and constraint: not yet)."),
+    method: str = typer.Option("kinematic", help="kinematic, kriging, hybrid or constraint (ball in sockets, with --fixture)."),
     register: str = typer.Option("auto", help="Register base and tool first: auto, yes or no."),
     trend: str = typer.Option("constant", help="Kriging trend: constant, linear or quadratic."),
     correlation: str = typer.Option("gaussian", help="Kriging correlation: gaussian or matern52."),
@@ -193,6 +200,7 @@ def calibrate(
     loss: str = typer.Option("linear", help="kinematic/hybrid: linear, huber or soft_l1 (robust)."),
     seed: int = typer.Option(0, help="Seed of the Kriging likelihood's multi-start search."),
     fixture: str = typer.Option(None, help="Fixture TOML (constraint method)."),
+    pairs: str = typer.Option("all", help="constraint: all pairs of configurations, or spanning (fewer, faster)."),
     tip: str = typer.Option(None, help="URDF only: the tip link."),
     root: str = typer.Option(None, help="URDF only: the root link."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
@@ -210,7 +218,8 @@ def calibrate(
 
     with progress(f"fitting the {method} model", enabled=not as_json):
         result = calibrate_job(robot, measurements, out_file, method=method, register=register,
-                               kriging=kriging, parameters=parameters, loss=loss, root=root, tip=tip)
+                               kriging=kriging, parameters=parameters, loss=loss, fixture=fixture, pairs=pairs,
+                               root=root, tip=tip)
     if not as_json and "calibration" in result:
         _print_calibration(result["calibration"])
     _print_result(result, as_json, f"{method} model -> {out_file}")
@@ -221,13 +230,17 @@ def calibrate(
 def evaluate(
     model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
     measurements: str = typer.Argument(..., help="Measurement CSV (use poses the model was not trained on)."),
+    fixture: str = typer.Option(None, help="Ball-in-socket data: the fixture TOML (default: the one the model stores)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Residual of a model on measured data, beside the nominal robot's.
 
+    On ball-in-socket data: the socket consistency (distance of each ball centre from the
+    mean of its socket group) and the socket-distance error.
+
     Example: robocal evaluate model.json test.csv --json
     """
-    result = evaluate_job(model, measurements)
+    result = evaluate_job(model, measurements, fixture=fixture)
     _print_result(result, as_json, f"{result['method']} model on {measurements}")
 
 
@@ -284,6 +297,7 @@ def export(
     model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
     fmt: str = typer.Option("toml", "--format", help="toml (robot file) or urdf."),
     out_file: str = typer.Option(..., "--out", help="Robot file to write."),
+    convention: str = typer.Option(None, help="Convert first, exactly: dh, mdh or poe (default: as calibrated)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Calibrated kinematics as a robot TOML or URDF (direct compensation, or ROS).
@@ -293,7 +307,7 @@ def export(
 
     Example: robocal export model.json --format urdf --out calibrated.urdf
     """
-    result = export_job(model, out_file, fmt=fmt)
+    result = export_job(model, out_file, fmt=fmt, convention=convention)
     for what in result["left_out"]:
         err.print(f"[yellow]note:[/] a robot file cannot hold {what}")
     _print_result(result, as_json, f"{result['convention']} robot -> {out_file}")

@@ -19,7 +19,7 @@ from ..io.tables import read_measurements, read_targets, write_commands, write_m
 from ..spatial import compose_pose, pose_to_xyz_rpy, rpy_to_matrix
 from .model_file import ModelFile, load_model, save_model
 
-IMPLEMENTED_METHODS = ("kinematic", "kriging", "hybrid")
+IMPLEMENTED_METHODS = ("kinematic", "kriging", "hybrid", "constraint")
 # A calibrated model that still misses by this much is almost certainly the wrong robot,
 # wrong units or a different measurement frame.
 SUSPICIOUS_RESIDUAL_MM = 20.0
@@ -30,8 +30,47 @@ def _positions_required(data, method):
         raise InputError(f"{data.path} has no x, y, z columns: the {method} method needs measured positions")
 
 
+def _constraints_required(data, fixture_path=None):
+    if data.fixture is None:
+        raise InputError(f"{data.path} has no fixture and socket columns: the constraint method needs ball-in-socket "
+                         "data (q1..qN, fixture, socket)")
+    if data.positions is not None:
+        raise InputError(f"{data.path} has x, y, z columns: that is instrument data; use --method kinematic, or "
+                         "give only fixture and socket columns for the constraint method")
+
+
+def fixture_document(fixture):
+    return {"name": fixture.name, "sockets": {k: v.tolist() for k, v in fixture.sockets.items()}}
+
+
+def fixture_from_document(doc, path):
+    from ..io.fixtures import Fixture
+
+    try:
+        return Fixture(name=doc["name"], sockets=doc["sockets"])
+    except (KeyError, TypeError, InputError) as exc:
+        raise FileFormatError(f"{path}: the fixture stored in the model is damaged ({exc}); regenerate the file") from None
+
+
+def _fit_constraint(chain, data, fixture_path, pairs):
+    from ..estimation.constraint import ConstraintCalibration
+    from ..io.fixtures import read_fixture
+
+    if fixture_path is None:
+        raise InputError("the constraint method needs the fixture: --fixture FIX.toml (socket centres in mm)")
+    _constraints_required(data)
+    fixture = read_fixture(fixture_path)
+    q = chain.joints_from_file(data.joints)
+    calibration = ConstraintCalibration(pairs=pairs).fit(chain, q, data.fixture, data.socket, fixture)
+    result = calibration.result_
+    record = {"calibration": result.to_dict(calibration.chain_), "fixture": fixture_document(fixture),
+              "fixture_file": str(fixture_path), "residual_before": result.residual_before,
+              "residual_after_training": result.residual_after}
+    return Compensator(calibration.chain_, None, nominal=chain), chain, record
+
+
 def calibrate_job(robot, measurements, out, *, method="kinematic", register="auto", kriging=None,
-                  parameters="full", loss="linear", root=None, tip=None):
+                  parameters="full", loss="linear", fixture=None, pairs="all", root=None, tip=None):
     """Fit a method to a measurement file and save the model file."""
     if method not in IMPLEMENTED_METHODS:
         raise InputError(
@@ -40,23 +79,28 @@ def calibrate_job(robot, measurements, out, *, method="kinematic", register="aut
         )
     chain = load_robot(robot, root=root, tip=tip)
     data = read_measurements(measurements, n_joints=chain.n_joints)
-    _positions_required(data, method)
-    q = chain.joints_from_file(data.joints)
-    if method == "kriging":
-        compensator, reference, record = fit_kriging(chain, q, data.positions, register=register, kriging=kriging)
+    if method == "constraint":
+        compensator, reference, record = _fit_constraint(chain, data, fixture, pairs)
     else:
-        rotations = None if data.orientations is None else rpy_to_matrix(np.radians(data.orientations))
-        fit = fit_kinematic if method == "kinematic" else partial(fit_hybrid, kriging=kriging)
-        compensator, reference, record = fit(chain, q, data.positions, orientations=rotations,
-                                             sigmas=data.sigmas, parameters=parameters, loss=loss,
-                                             register=register)
-        outliers = record["calibration"]["outliers"]
-        if outliers:
-            record["calibration"]["outlier_rows"] = [int(data.rows[i]) for i in outliers]
+        _positions_required(data, method)
+        q = chain.joints_from_file(data.joints)
+        if method == "kriging":
+            compensator, reference, record = fit_kriging(chain, q, data.positions, register=register, kriging=kriging)
+        else:
+            rotations = None if data.orientations is None else rpy_to_matrix(np.radians(data.orientations))
+            fit = fit_kinematic if method == "kinematic" else partial(fit_hybrid, kriging=kriging)
+            compensator, reference, record = fit(chain, q, data.positions, orientations=rotations,
+                                                 sigmas=data.sigmas, parameters=parameters, loss=loss,
+                                                 register=register)
+            outliers = record["calibration"]["outliers"]
+            if outliers:
+                record["calibration"]["outlier_rows"] = [int(data.rows[i]) for i in outliers]
     training = {"file": str(measurements), "n_poses": data.n_poses, "kind": data.kind, **record}
+    options = ({"pairs": pairs} if method == "constraint"
+               else {"register": register, "parameters": parameters, "loss": loss})
     model = ModelFile(method=method, nominal=chain, kinematics=compensator.chain, reference=reference,
                       error_model=error_model_to_dict(compensator.error_model), training=training,
-                      options={"register": register, "parameters": parameters, "loss": loss})
+                      options=options)
     save_model(model, out)
     return {"method": method, "robot": chain.name, "out": str(out), **training}
 
@@ -73,29 +117,57 @@ def load_compensator(model_path, robot=None):
     return model, Compensator(model.kinematics, error_model, nominal=rigid)
 
 
-def evaluation(model_path, measurements):
-    """A model file on measured data: (model, compensator, data, q, before (N, 3), after
-    (N, 3), statistics as ``evaluate --json`` prints them)."""
-    import warnings
-
+def load_model_and_data(model_path, measurements):
+    """(model, compensator, measurements, joints in rad) for a model file and a CSV."""
     model, compensator = load_compensator(model_path)
     data = read_measurements(measurements, n_joints=model.kinematics.n_joints)
+    return model, compensator, data, model.kinematics.joints_from_file(data.joints)
+
+
+def position_evaluation(model, compensator, data, q, model_path):
+    """(before (N, 3), after (N, 3), statistics as ``evaluate --json`` prints them) on measured positions."""
+    import warnings
+
     _positions_required(data, model.method)
-    q = model.kinematics.joints_from_file(data.joints)
     before = data.positions - model.reference.fk_positions(q)
     after = data.positions - compensator.predict_positions(q)
     result = {**error_stats(after), "nominal": error_stats(before)}
     if result["mean_mm"] > SUSPICIOUS_RESIDUAL_MM:
         warnings.warn(RobocalWarning(
-            f"the residual is {result['mean_mm']:.1f} mm mean after calibration: is {measurements} "
+            f"the residual is {result['mean_mm']:.1f} mm mean after calibration: is {data.path} "
             f"from robot '{model.nominal.name}', in mm and degrees, in the frame the model was fitted in?"))
-    stats = {"model": str(model_path), "method": model.method, "file": str(measurements), **result}
-    return model, compensator, data, q, before, after, stats
+    return before, after, {"model": str(model_path), "method": model.method, "file": str(data.path), **result}
 
 
-def evaluate_job(model_path, measurements):
-    """Residual of a model on measured data, and of the nominal robot."""
-    return evaluation(model_path, measurements)[-1]
+def socket_evaluation(model, data, q, model_path, fixture_path):
+    """(fixture, statistics) on ball-in-socket data: the socket consistency (distance of each
+    ball centre from the mean of its socket group) at the top level, the socket-distance
+    error under ``socket_distance``, and the same for the nominal robot under ``nominal``."""
+    from ..estimation.constraint import socket_errors
+    from ..io.fixtures import read_fixture
+
+    _constraints_required(data)
+    if fixture_path is not None:
+        fixture = read_fixture(fixture_path)
+    elif "fixture" in model.training:
+        fixture = fixture_from_document(model.training["fixture"], model_path)
+    else:
+        raise InputError(f"{data.path} is ball-in-socket data and {model_path} stores no fixture: "
+                         "give --fixture FIX.toml")
+    result = socket_errors(model.kinematics, q, data.fixture, data.socket, fixture)
+    result["nominal"] = socket_errors(model.reference, q, data.fixture, data.socket, fixture)
+    return fixture, {"model": str(model_path), "method": model.method, "file": str(data.path),
+                     "metric": "socket consistency: distance of each ball centre from the mean of its socket group",
+                     **result}
+
+
+def evaluate_job(model_path, measurements, fixture=None):
+    """Residual of a model on measured positions, and of the nominal robot; on ball-in-socket
+    data the socket consistency and socket-distance errors."""
+    model, compensator, data, q = load_model_and_data(model_path, measurements)
+    if data.positions is None:
+        return socket_evaluation(model, data, q, model_path, fixture)[-1]
+    return position_evaluation(model, compensator, data, q, model_path)[-1]
 
 
 def compensate_job(model_path, targets_path, out, *, iterate=False):
@@ -118,18 +190,24 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
 EXPORT_FORMATS = ("toml", "urdf")
 
 
-def export_job(model_path, out, *, fmt="toml"):
+def export_job(model_path, out, *, fmt="toml", convention=None):
     """The calibrated kinematics of a model file as a robot TOML or a URDF, for a controller
-    that accepts new parameters (direct compensation) or for ROS."""
+    that accepts new parameters (direct compensation) or for ROS; ``convention`` (dh, mdh,
+    poe) converts it exactly first (a calibrated model may have no exact DH form)."""
     from ..io.robot_file import write_robot
     from ..io.urdf import write_urdf
+    from ..kinematics import to_dh, to_mdh, to_poe
 
     if fmt not in EXPORT_FORMATS:
         raise InputError(f"format must be one of {', '.join(EXPORT_FORMATS)}, got {fmt!r}")
+    converters = {"dh": to_dh, "mdh": to_mdh, "poe": to_poe}
+    if convention is not None and convention not in converters:
+        raise InputError(f"convention must be one of dh, mdh, poe, got {convention!r}")
     model = load_model(model_path)
-    chain = getattr(model.kinematics, "rigid", model.kinematics)
+    rigid = getattr(model.kinematics, "rigid", model.kinematics)
+    chain = rigid if convention is None else converters[convention](rigid)
     left_out = []
-    if chain is not model.kinematics:
+    if rigid is not model.kinematics:
         left_out.append("the joint compliance (robocal compensate applies it)")
     if model.error_model is not None:
         left_out.append(f"the {model.error_model.get('type', 'error')} model of the residual error "
@@ -145,9 +223,31 @@ def export_job(model_path, out, *, fmt="toml"):
             "convention": chain.convention, "left_out": left_out}
 
 
+def _simulate_sockets(true_robot, out, fixture_path, placements, per_socket, noise, joint_noise, rng):
+    """Ball-in-socket readings of a true robot; ``noise`` is the seating error (mm)."""
+    from ..estimation.constraint import socket_errors
+    from ..io.fixtures import read_fixture
+    from ..simulation.sampling import socket_plan
+
+    if fixture_path is None:
+        raise InputError("--sampling sockets needs --fixture FIX.toml (socket centres in mm)")
+    fixture = read_fixture(fixture_path)
+    plan = socket_plan(true_robot, fixture, placements, per_socket, rng,
+                       joint_noise_deg=joint_noise, seating_mm=0.0 if noise is None else noise)
+    write_measurements(out, plan.measurements(true_robot.nominal))
+    return {"poses": int(len(plan.joints)), "placements": placements, "per_socket": per_socket,
+            "nominal_socket_consistency": socket_errors(true_robot.nominal, plan.joints, plan.fixture_ids,
+                                                        plan.socket_ids, fixture)}
+
+
 def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", noise=None, seed=0,
-                 truth=None, orientation=False, box=None, rpy=None, hint=None, root=None, tip=None):
-    """Measurements of a simulated "true" robot, in the order the robot visits the poses."""
+                 truth=None, orientation=False, box=None, rpy=None, hint=None, root=None, tip=None,
+                 fixture=None, placements=4, per_socket=10, joint_noise=0.0):
+    """Measurements of a simulated "true" robot, in the order the robot visits the poses.
+
+    ``--sampling sockets`` seats a ball (the tool) in the sockets of ``fixture`` at
+    ``placements`` random fixture poses, ``per_socket`` configurations each, and records
+    joint angles only (``noise`` is then the seating error, ``joint_noise`` in deg)."""
     from dataclasses import replace
 
     from ..simulation import grid, latin_hypercube_box, liu2022_plan, make_true_robot, uniform_joints, write_truth
@@ -160,6 +260,12 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
         if noise < 0:
             raise InputError(f"--noise must be >= 0 mm, got {noise}")
         true_robot = replace(true_robot, noise=float(noise))
+    if sampling == "sockets":
+        result = _simulate_sockets(true_robot, out, fixture, placements, per_socket, noise, joint_noise, rng)
+        if truth:
+            write_truth(truth, true_robot)
+        return {"robot": chain.name, "sampling": sampling, "errors": errors, "out": str(out),
+                "truth": str(truth) if truth else None, **result}
     if sampling == "joint":
         q = uniform_joints(chain, n or 200, rng)
     elif sampling in ("lhs", "grid"):
@@ -179,7 +285,7 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
                 per_axis = max(2, int(round((n or 125) ** (1.0 / 3.0))))
                 q = grid(chain, low, high, (per_axis,) * 3, rotation, hint=hint_rad)[0]
     else:
-        raise InputError(f"--sampling {sampling} is not available in this version; use joint, lhs or grid")
+        raise InputError(f"--sampling {sampling} is not available; use joint, lhs, grid or sockets")
     data = true_robot.measurements(q, rng, orientation=orientation)
     write_measurements(out, data)
     if truth:
@@ -193,34 +299,52 @@ DATASETS = {
     "ur5-tsinghua": ("ur5_tsinghua", {}),
     "ipa-ur10-a": ("ipa_ur10", {"series": "A"}),
     "ipa-ur10-b": ("ipa_ur10", {"series": "B"}),
+    "mukca-panda-1": ("mukca", {"unit": "panda_1"}),
+    "mukca-panda-2": ("mukca", {"unit": "panda_2"}),
+    "mukca-panda-3": ("mukca", {"unit": "panda_3"}),
 }
 
 
 def dataset_job(name, prefix, *, split=None, seed=0):
     """Write a shared dataset as robocal files: PREFIX.toml (the robot model the data were
     taken against) and PREFIX.csv, or PREFIX_train.csv / PREFIX_test.csv with ``split`` the
-    training fraction of a random split."""
+    training fraction of a random split; ball-in-socket data also PREFIX_fixture.toml, and
+    are split by whole fixture placements (held-out placements, as a user would test)."""
     from ..io import datasets
+    from ..io.fixtures import write_fixture
     from ..io.robot_file import write_robot
 
     if name not in DATASETS:
         raise InputError(f"unknown dataset {name!r}; available: {', '.join(DATASETS)}")
     loader, kwargs = DATASETS[name]
-    chain, data = getattr(datasets, loader)(**kwargs)
+    chain, data, *fixture = getattr(datasets, loader)(**kwargs)
     write_robot(chain, f"{prefix}.toml", description=f"robot model of the {name} dataset")
     written = {"robot": f"{prefix}.toml"}
+    if fixture:
+        write_fixture(f"{prefix}_fixture.toml", fixture[0])
+        written["fixture"] = f"{prefix}_fixture.toml"
     if split is None:
         write_measurements(f"{prefix}.csv", data)
         written["measurements"] = f"{prefix}.csv"
+        return {"dataset": name, "poses": data.n_poses, "source": data.path, **written}
+    if not 0.0 < split < 1.0:
+        raise InputError(f"--split is the training fraction and must lie between 0 and 1, got {split}")
+    rng = np.random.default_rng(seed)
+    if data.fixture is not None:
+        placements = np.unique(data.fixture)
+        if len(placements) < 2:
+            raise InputError(f"{name} has one fixture placement: nothing to hold out")
+        cut = min(max(int(round(split * len(placements))), 1), len(placements) - 1)
+        chosen = rng.permutation(placements)[:cut]
+        train = np.flatnonzero(np.isin(data.fixture, chosen))
+        written["train_placements"] = sorted(str(p) for p in chosen)
     else:
-        if not 0.0 < split < 1.0:
-            raise InputError(f"--split is the training fraction and must lie between 0 and 1, got {split}")
-        order = np.random.default_rng(seed).permutation(data.n_poses)
-        cut = int(round(split * data.n_poses))
-        write_measurements(f"{prefix}_train.csv", data.subset(np.sort(order[:cut])))
-        write_measurements(f"{prefix}_test.csv", data.subset(np.sort(order[cut:])))
-        written.update(train=f"{prefix}_train.csv", test=f"{prefix}_test.csv", train_poses=cut,
-                       test_poses=data.n_poses - cut)
+        train = np.sort(rng.permutation(data.n_poses)[:int(round(split * data.n_poses))])
+    test = np.setdiff1d(np.arange(data.n_poses), train)
+    write_measurements(f"{prefix}_train.csv", data.subset(train))
+    write_measurements(f"{prefix}_test.csv", data.subset(test))
+    written.update(train=f"{prefix}_train.csv", test=f"{prefix}_test.csv", train_poses=int(len(train)),
+                   test_poses=int(len(test)))
     return {"dataset": name, "poses": data.n_poses, "source": data.path, **written}
 
 

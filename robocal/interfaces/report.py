@@ -13,10 +13,10 @@ import numpy as np
 
 from .. import __version__
 from ..errors import FileFormatError, InputError
-from ..estimation.metrics import error_stats, iso9283_position
+from ..estimation.metrics import iso9283_position
 from ..io.atomic import write_bytes_atomic, write_text_atomic
 from . import plots
-from .jobs import evaluation
+from .jobs import load_model_and_data, position_evaluation, socket_evaluation
 
 STATS = (("n", "poses", "{:d}"), ("mean_mm", "mean", "{:.4f}"), ("rms_mm", "RMS", "{:.4f}"),
          ("max_mm", "max", "{:.4f}"), ("p95_mm", "95 %", "{:.4f}"), ("x_mean_mm", "|x| mean", "{:.4f}"),
@@ -62,14 +62,15 @@ def _read_validation(path):
     return doc
 
 
-def _figures(model, compensator, data, q, before, after, validation):
+def _figures(model, compensator, data, q, positions, before, after, validation):
     """(title, caption, Figure) for every plot that applies to this model."""
     joints_deg = np.asarray(data.joints, dtype=float)
+    what = "error" if data.positions is not None else "deviation of the ball centre from its socket group's mean"
     figures = [
-        ("Error distribution", "Single-point position error |e| of every pose in the file.",
+        ("Error distribution", f"Single-point {what}, every pose in the file.",
          plots.error_distribution(before, after)),
-        ("Error vectors over the workspace", "Arrows: the error at each measured position, scaled "
-         "as the titles say; grey dots: the poses.", plots.error_vectors(data.positions, before, after)),
+        ("Error vectors over the workspace", f"Arrows: the {what} at each position, scaled "
+         "as the titles say; grey dots: the poses.", plots.error_vectors(positions, before, after)),
         ("Error against the joint angles", "Where in the joint space the error comes from "
          "(joint values as in the file).", plots.error_against_joints(joints_deg, before, after)),
     ]
@@ -87,6 +88,26 @@ def _figures(model, compensator, data, q, before, after, validation):
                         f"({validation['method']}, from {validation['file']}).",
                         plots.learning_curve(validation["learning_curve"])))
     return figures
+
+
+def _iso_section(iso_before, iso_after):
+    rows = [(name, r["poses"], f"{r['ap_mean_mm']:.4f}", f"{r['ap_max_mm']:.4f}", r["repeated_poses"],
+             "" if r["rp_max_mm"] is None else f"{r['rp_max_mm']:.4f}")
+            for name, r in (("nominal", iso_before), ("calibrated", iso_after))]
+    return ("<h3>ISO 9283-style position accuracy</h3><p class=note>Rows with the same joint command are "
+            "visits of one pose; AP = distance from the mean attained position to the commanded one "
+            "(the model's), RP = mean + 3 σ of the visits' spread (poses visited twice or more).</p>"
+            + _table(("model", "poses", "AP mean (mm)", "AP max (mm)", "repeated poses", "RP max (mm)"), rows))
+
+
+def _socket_distance_section(stats):
+    rows = []
+    for name, entry in (("nominal", stats["nominal"]["socket_distance"]), ("calibrated", stats["socket_distance"])):
+        rows.append([name, entry["n"]] + [f"{entry[k]:.4f}" if k in entry else ""
+                                          for k in ("mean_mm", "rms_mm", "max_mm", "signed_mean_mm")])
+    return ("<h3>Socket distances</h3><p class=note>For each placement and pair of sockets: distance between "
+            "the mean ball centres minus the fixture's distance (mm).</p>"
+            + _table(("model", "pairs", "mean |error|", "RMS", "max |error|", "mean signed"), rows))
 
 
 def _calibration_section(calibration):
@@ -122,14 +143,28 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None):
         raise InputError(f"the report is HTML: give --out a .html file name, got {out}")
     if pdf is not None and not str(pdf).lower().endswith(".pdf"):
         raise InputError(f"--pdf needs a .pdf file name, got {pdf}")
-    model, compensator, data, q, before, after, stats = evaluation(model_path, measurements)
+    model, compensator, data, q = load_model_and_data(model_path, measurements)
+    if data.positions is None:
+        from ..estimation.constraint import socket_deviations
+
+        fixture, stats = socket_evaluation(model, data, q, model_path, None)
+        before, _ = socket_deviations(model.reference, q, data.fixture, data.socket, fixture)
+        after, centres = socket_deviations(model.kinematics, q, data.fixture, data.socket, fixture)
+        positions, iso_before, iso_after = centres, None, None
+        metric = ("Socket consistency: distance of each computed ball centre from the mean of its socket "
+                  "group, in mm (no instrument: the data are joint angles only)")
+    else:
+        before, after, stats = position_evaluation(model, compensator, data, q, model_path)
+        positions = data.positions
+        iso_before = iso9283_position(data.joints, data.positions, model.reference.fk_positions(q))
+        iso_after = iso9283_position(data.joints, data.positions, compensator.predict_positions(q))
+        metric = ("Single-point error |e| = |measured − model| in mm; 'nominal' is the uncalibrated robot "
+                  "(registered in the measurement frame when the model was).")
     cv = _read_validation(validation) if validation else None
     training = model.training
     held_out = Path(str(training.get("file", ""))).resolve() != Path(str(measurements)).resolve()
     label = "held-out poses" if held_out else "training poses (not held out: scores what the model has seen)"
-    iso_before = iso9283_position(data.joints, data.positions, model.reference.fk_positions(q))
-    iso_after = iso9283_position(data.joints, data.positions, compensator.predict_positions(q))
-    figures = _figures(model, compensator, data, q, before, after, cv)
+    figures = _figures(model, compensator, data, q, positions, before, after, cv)
 
     accuracy_rows = []
     if training.get("residual_before"):
@@ -137,10 +172,7 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None):
     if training.get("residual_after_training"):
         accuracy_rows.append(_stats_row("training, calibrated", training["residual_after_training"]))
     accuracy_rows += [_stats_row(f"{'held-out' if held_out else 'this file'}, nominal", stats["nominal"]),
-                      _stats_row(f"{'held-out' if held_out else 'this file'}, calibrated", error_stats(after))]
-    iso_rows = [(name, r["poses"], f"{r['ap_mean_mm']:.4f}", f"{r['ap_max_mm']:.4f}", r["repeated_poses"],
-                 "" if r["rp_max_mm"] is None else f"{r['rp_max_mm']:.4f}")
-                for name, r in (("nominal", iso_before), ("calibrated", iso_after))]
+                      _stats_row(f"{'held-out' if held_out else 'this file'}, calibrated", stats)]
     now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     summary = [
         ("robot", model.nominal.name), ("method", model.method), ("model file", str(model_path)),
@@ -158,13 +190,9 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None):
     body = [f"<h1>Accuracy report: {html.escape(model.nominal.name)}</h1>",
             f"<p class=note>{html.escape(model.method)} model, scored on {html.escape(label)}.</p>",
             "<h2>Summary</h2>", _table(None, summary, numeric_from=2),
-            "<h2>Position error</h2><p class=note>Single-point error |e| = |measured − model| in mm; "
-            "'nominal' is the uncalibrated robot (registered in the measurement frame when the model was).</p>",
+            f"<h2>Position error</h2><p class=note>{html.escape(metric)}</p>",
             _table(["data"] + [name for _, name, _ in STATS], accuracy_rows),
-            "<h3>ISO 9283-style position accuracy</h3><p class=note>Rows with the same joint command are "
-            "visits of one pose; AP = distance from the mean attained position to the commanded one "
-            "(the model's), RP = mean + 3 σ of the visits' spread (poses visited twice or more).</p>",
-            _table(("model", "poses", "AP mean (mm)", "AP max (mm)", "repeated poses", "RP max (mm)"), iso_rows),
+            _socket_distance_section(stats) if data.positions is None else _iso_section(iso_before, iso_after),
             _calibration_section(training.get("calibration"))]
     for title, caption, fig in figures:
         body.append(f"<h2>{html.escape(title)}</h2><p class=note>{html.escape(caption)}</p>"
@@ -179,8 +207,9 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None):
 
     for _, _, fig in figures:
         plt.close(fig)
+    extra = {} if iso_before is None else {"iso9283": {"nominal": iso_before, "calibrated": iso_after}}
     return {"out": str(out), "pdf": None if pdf is None else str(pdf), "figures": [t for t, _, _ in figures],
-            "held_out": held_out, "iso9283": {"nominal": iso_before, "calibrated": iso_after}, **stats}
+            "held_out": held_out, **extra, **stats}
 
 
 def _write_pdf(path, summary, accuracy_rows, figures):
