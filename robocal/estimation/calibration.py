@@ -11,8 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..kinematics.compliant import CompliantChain, compliance_index
-from ..kinematics.gravity import default_mass_model
+from ..kinematics.compliant import UNITS_NOTE, file_units, with_compliance
 from ..spatial import make_transform
 from .identifiability import NEAR_PARALLEL, STRONG_CORRELATION, analyse
 from .least_squares import levenberg_marquardt
@@ -22,11 +21,6 @@ from .registration import kabsch
 
 PARAMETER_SETS = ("offsets", "full", "full+compliance")
 LOSSES = ("linear", "huber", "soft_l1")
-# A joint whose gravity torque never exceeds this share of the most loaded joint's gets no
-# compliance parameter: its deflection would be far below the measurement noise.
-LOADED_SHARE = 0.01
-# Compliances are reported in micro-radians per N·m (a 150 kg-class joint: about 0.01).
-COMPLIANCE_UNIT = 1e6
 # Nominal geometry of the right robot in the right unit lands within a few mm; a calibrated
 # model that still misses by this much is fitting the wrong robot, unit or data.
 WRONG_ROBOT_RMS_MM = 10.0
@@ -50,12 +44,11 @@ class CalibrationResult:
 
     def to_dict(self, chain):
         """Deviations and standard errors in file units (deg for angles, mm for lengths)."""
-        unit = np.array([np.degrees(1.0) if chain.is_angular(n)
-                         else COMPLIANCE_UNIT if compliance_index(n) is not None else 1.0 for n in self.names])
+        unit = file_units(chain, self.names)
         return {
             "parameters": {n: {"deviation": float(v), "std_error": float(s)}
                            for n, v, s in zip(self.names, self.values * unit, self.std_errors * unit)},
-            "units": "mm for lengths, deg for angles, urad/(N*m) for compliances",
+            "units": UNITS_NOTE,
             "correlated_pairs": [list(p) for p in self.correlated_pairs],
             "identifiability": self.identifiability.to_dict(),
             "residual_before": self.residual_before,
@@ -94,16 +87,6 @@ def candidate_parameters(chain, parameters="full", *, base=True, tool_orientatio
     if chain.convention == "poe":
         names += chain.parameter_names(("home",))
     return names
-
-
-def with_compliance(chain, joints):
-    """``chain`` made compliant (all compliances zero, the default mass model) and the names
-    of the compliances of its loaded joints: revolute joints whose gravity torque over
-    ``joints`` reaches LOADED_SHARE of the most loaded joint's."""
-    compliant = CompliantChain(chain, default_mass_model(chain), np.zeros(chain.n_joints))
-    peak = np.abs(compliant.gravity_torque(joints)).max(axis=0)
-    loaded = chain.revolute & (peak > LOADED_SHARE * max(peak.max(), 1e-300))
-    return compliant, [f"compliance{k + 1}" for k in np.flatnonzero(loaded)]
 
 
 class KinematicCalibration:

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..kinematics.chain import FRAME_SUFFIXES
+from ..kinematics.compliant import UNITS_NOTE, compliance_index, file_units, with_compliance
 from ..spatial import so3_log
 from .identifiability import STRONG_CORRELATION, analyse
 from .least_squares import damped_least_squares
@@ -323,11 +324,11 @@ class ConstraintResult:
 
     def to_dict(self, chain):
         """Deviations and standard errors in file units (deg for angles, mm for lengths)."""
-        unit = np.array([np.degrees(1.0) if chain.is_angular(n) else 1.0 for n in self.names])
+        unit = file_units(chain, self.names)
         return {
             "parameters": {n: {"deviation": float(v), "std_error": float(s)}
                            for n, v, s in zip(self.names, self.values * unit, self.std_errors * unit)},
-            "units": "mm for lengths, deg for angles",
+            "units": UNITS_NOTE,
             "correlated_pairs": [list(p) for p in self.correlated_pairs],
             "identifiability": self.identifiability.to_dict(),
             "unobservable": list(self.unobservable),
@@ -354,17 +355,20 @@ class ConstraintCalibration:
 
     pairs: 'all' (every pair; the most equations) or 'spanning' (each configuration in
     about two pairs; far fewer rows).  distance: use distance constraints when the data
-    have them (False: position constraints only, scale then unidentifiable).
+    have them (False: position constraints only, scale then unidentifiable).  compliance:
+    also identify one compliance per joint gravity loads (see
+    :class:`~robocal.kinematics.compliant.CompliantChain`).
 
     After :meth:`fit`: ``chain_`` (the calibrated POE chain, tool = flange -> ball centre,
     base = the starting one), ``start_chain_`` (the starting model in POE form),
     ``names_`` and ``result_`` (a :class:`ConstraintResult`).
     """
 
-    def __init__(self, pairs="all", *, distance=True, max_iterations=50, tolerance=1e-7):
+    def __init__(self, pairs="all", *, distance=True, compliance=False, max_iterations=50, tolerance=1e-7):
         if pairs not in PAIRINGS:
             raise InputError(f"pairs must be one of {', '.join(PAIRINGS)}, got {pairs!r}")
         self.pairs = pairs
+        self.compliance = compliance
         self.distance = distance
         self.max_iterations = max_iterations
         self.tolerance = tolerance
@@ -385,6 +389,9 @@ class ConstraintCalibration:
         _check_equations(spanning, start, bool(len(pairs.distance)))
         before = _check_distances(start, data, bool(len(pairs.distance)))
         candidates = candidate_parameters(start)
+        if self.compliance:
+            start, compliances = with_compliance(start, data.joints)
+            candidates += compliances
         weights = _weights(pairs)
 
         def linearise(c):
@@ -448,11 +455,12 @@ def _analysis(chain, data, pairs, weights, candidates):
     rows = len(jac)
     jac = np.linalg.qr(jac, mode="r")
     names = list(BASE) + [SCALE] + candidates
-    kept, _ = analyse(chain, jac, names, explain=False)
+    rigid = getattr(chain, "rigid", chain)
+    kept, _ = analyse(rigid, jac, names, explain=False)
     real = [k for k in kept if k >= 7]
 
     def report():
-        _, explained = analyse(chain, jac, names, explain=True)
+        _, explained = analyse(rigid, jac, names, explain=True)
         fixed = {name: _BASE_REASON for name in BASE}
         if not len(pairs.distance):
             fixed[SCALE] = _SCALE_REASON
@@ -462,7 +470,7 @@ def _analysis(chain, data, pairs, weights, candidates):
         for j, name in enumerate(names[7:], start=7):
             if j not in kept:
                 fixed[name] = _label(name, explained.fixed[name], compressed, j, [k for k in real if k < j])
-        _, stats = analyse(chain, jac[:, real], [names[k] for k in real], explain=False)
+        _, stats = analyse(rigid, jac[:, real], [names[k] for k in real], explain=False)
         # o1 is normalised by the number of rows: those of the constraint Jacobian, not of R.
         return replace(stats, fixed=fixed, rows=rows, o1=stats.o1 * np.sqrt(stats.rows / rows))
 
@@ -473,33 +481,38 @@ def poe_deviations(start, fitted, names):
     """The deviations (rad, mm) that :meth:`Chain.perturbed` would apply to the POE chain
     ``start`` to give ``fitted``, for the named parameters (links, tool, home): exact, so a
     deviation read here means what the parameter name says."""
-    frames = start.poe_frames()
     out = []
     for name in names:
-        if "_" in name:
-            group, suffix = name.split("_")
-            before, after = getattr(start, group), getattr(fitted, group)
-            k = FRAME_SUFFIXES.index(suffix)
-            if k < 3:
-                out.append((before[:3, :3].T @ (after[:3, 3] - before[:3, 3]))[k])
-            else:
-                out.append(so3_log(before[:3, :3].T @ after[:3, :3])[k - 3])
+        k = compliance_index(name)
+        if k is not None:
+            out.append(fitted.compliance[k] - start.compliance[k])
             continue
-        stem = name.rstrip("0123456789")
-        i = int(name[len(stem):]) - 1
-        if stem == "theta":
-            out.append(fitted.theta[i] - start.theta[i])
-            continue
-        frame = frames[i]
-        w = frame[:3, :3].T @ fitted.axes[i]
-        p = frame[:3, :3].T @ (fitted.points[i] - frame[:3, 3])
-        # The moved frame is F Trans(ux, uy, 0) Rot([wx, wy, 0]): its origin is where the new
-        # axis crosses F's x-y plane, and Rot([wx, wy, 0]) turns z onto the new axis.
-        angle = np.arctan2(np.hypot(w[0], w[1]), w[2])
-        factor = angle / np.sin(angle) if angle > 1e-12 else 1.0
-        crossing = p - w * (p[2] / w[2])
-        out.append({"ux": crossing[0], "uy": crossing[1], "wx": -factor * w[1], "wy": factor * w[0]}[stem])
+        start_rigid, fitted_rigid = getattr(start, "rigid", start), getattr(fitted, "rigid", fitted)
+        out.append(_poe_deviation(start_rigid, fitted_rigid, name))
     return np.array(out, dtype=float)
+
+
+def _poe_deviation(start, fitted, name):
+    if "_" in name:
+        group, suffix = name.split("_")
+        before, after = getattr(start, group), getattr(fitted, group)
+        k = FRAME_SUFFIXES.index(suffix)
+        if k < 3:
+            return (before[:3, :3].T @ (after[:3, 3] - before[:3, 3]))[k]
+        return so3_log(before[:3, :3].T @ after[:3, :3])[k - 3]
+    stem = name.rstrip("0123456789")
+    i = int(name[len(stem):]) - 1
+    if stem == "theta":
+        return fitted.theta[i] - start.theta[i]
+    frame = start.poe_frames()[i]
+    w = frame[:3, :3].T @ fitted.axes[i]
+    p = frame[:3, :3].T @ (fitted.points[i] - frame[:3, 3])
+    # The moved frame is F Trans(ux, uy, 0) Rot([wx, wy, 0]): its origin is where the new
+    # axis crosses F's x-y plane, and Rot([wx, wy, 0]) turns z onto the new axis.
+    angle = np.arctan2(np.hypot(w[0], w[1]), w[2])
+    factor = angle / np.sin(angle) if angle > 1e-12 else 1.0
+    crossing = p - w * (p[2] / w[2])
+    return {"ux": crossing[0], "uy": crossing[1], "wx": -factor * w[1], "wy": factor * w[0]}[stem]
 
 
 def _label(name, reason, absolute, column, previous):

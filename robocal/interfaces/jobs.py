@@ -52,7 +52,7 @@ def fixture_from_document(doc, path):
         raise FileFormatError(f"{path}: the fixture stored in the model is damaged ({exc}); regenerate the file") from None
 
 
-def _fit_constraint(chain, data, fixture_path, pairs):
+def _fit_constraint(chain, data, fixture_path, pairs, parameters):
     from ..estimation.constraint import ConstraintCalibration
     from ..io.fixtures import read_fixture
 
@@ -61,7 +61,11 @@ def _fit_constraint(chain, data, fixture_path, pairs):
     _constraints_required(data)
     fixture = read_fixture(fixture_path)
     q = chain.joints_from_file(data.joints)
-    calibration = ConstraintCalibration(pairs=pairs).fit(chain, q, data.fixture, data.socket, fixture)
+    if parameters not in ("full", "full+compliance"):
+        raise InputError(f"the constraint method identifies the full POE model: --parameters full or "
+                         f"full+compliance, got {parameters!r}")
+    calibration = ConstraintCalibration(pairs=pairs, compliance=parameters == "full+compliance").fit(
+        chain, q, data.fixture, data.socket, fixture)
     result = calibration.result_
     record = {"calibration": result.to_dict(calibration.chain_), "fixture": fixture_document(fixture),
               "fixture_file": str(fixture_path), "residual_before": result.residual_before,
@@ -80,7 +84,7 @@ def calibrate_job(robot, measurements, out, *, method="kinematic", register="aut
     chain = load_robot(robot, root=root, tip=tip)
     data = read_measurements(measurements, n_joints=chain.n_joints)
     if method == "constraint":
-        compensator, reference, record = _fit_constraint(chain, data, fixture, pairs)
+        compensator, reference, record = _fit_constraint(chain, data, fixture, pairs, parameters)
     else:
         _positions_required(data, method)
         q = chain.joints_from_file(data.joints)
@@ -96,7 +100,7 @@ def calibrate_job(robot, measurements, out, *, method="kinematic", register="aut
             if outliers:
                 record["calibration"]["outlier_rows"] = [int(data.rows[i]) for i in outliers]
     training = {"file": str(measurements), "n_poses": data.n_poses, "kind": data.kind, **record}
-    options = ({"pairs": pairs} if method == "constraint"
+    options = ({"pairs": pairs, "parameters": parameters} if method == "constraint"
                else {"register": register, "parameters": parameters, "loss": loss})
     model = ModelFile(method=method, nominal=chain, kinematics=compensator.chain, reference=reference,
                       error_model=error_model_to_dict(compensator.error_model), training=training,

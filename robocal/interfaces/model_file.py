@@ -27,7 +27,7 @@ from .. import __version__
 from ..errors import FileFormatError, InputError
 from ..io.atomic import write_text_atomic
 from ..io.robot_file import chain_from_dict, robot_to_toml
-from ..kinematics.compliant import CompliantChain
+from ..kinematics.compliant import FILE_UNIT, CompliantChain
 from ..kinematics.gravity import MassModel
 
 if sys.version_info >= (3, 11):
@@ -37,7 +37,6 @@ else:  # pragma: no cover
 
 SCHEMA = "robocal.model"
 SCHEMA_VERSION = 1
-COMPLIANCE_UNIT = 1e6  # rad/(N*m) -> urad/(N*m) in the file
 METHODS = ("kinematic", "kriging", "ann", "hybrid", "constraint")
 
 
@@ -93,7 +92,7 @@ class ModelFile:
 
 def _compliance_document(chain):
     return {"link_masses_kg": chain.mass_model.link_masses.tolist(), "payload_kg": chain.mass_model.payload,
-            "compliance_urad_per_nm": (chain.compliance * COMPLIANCE_UNIT).tolist(),
+            "compliance_urad_per_nm": (chain.compliance * FILE_UNIT).tolist(),
             "gravity": "-z of the robot base"}
 
 
@@ -101,7 +100,7 @@ def _compliant(chain, doc, path):
     """``chain`` with the joint compliance of a model file's 'joint_compliance' entry."""
     try:
         mass = MassModel(doc["link_masses_kg"], doc["payload_kg"])
-        return CompliantChain(chain, mass, [c / COMPLIANCE_UNIT for c in doc["compliance_urad_per_nm"]])
+        return CompliantChain(chain, mass, [c / FILE_UNIT for c in doc["compliance_urad_per_nm"]])
     except (KeyError, TypeError, ValueError, InputError) as exc:
         raise FileFormatError(f"{path}: 'joint_compliance' is damaged ({exc}); regenerate the file") from None
 

@@ -20,12 +20,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from .gravity import MassModel
+from .gravity import MassModel, default_mass_model
 
 PREFIX = "compliance"
+# A joint whose gravity torque never exceeds this share of the most loaded joint's gets no
+# compliance parameter: its deflection would be far below any measurement noise.
+LOADED_SHARE = 0.01
+# Compliances are shown in micro-radians per N·m (a 150 kg-class joint: about 0.01).
+FILE_UNIT = 1e6
+UNITS_NOTE = "mm for lengths, deg for angles, urad/(N*m) for compliances"
 # Deflections of a few hundredths of a degree are gone after this many fixed-point steps
 # (each shrinks the error by about dtau/dq · c, below 1e-3).
 COMMAND_ITERATIONS = 6
+
+
+def file_units(chain, names):
+    """(P,) factors from internal units (mm, rad, rad/(N·m)) to the ones files and reports
+    show (mm, deg, µrad/(N·m))."""
+    return np.array([FILE_UNIT if compliance_index(n) is not None
+                     else np.degrees(1.0) if chain.is_angular(n) else 1.0 for n in names])
 
 
 def compliance_index(name):
@@ -147,3 +160,13 @@ class CompliantChain:
                 compliance[k] += value
         rigid = self.rigid.perturbed(geometric) if geometric else self.rigid
         return CompliantChain(rigid, self.mass_model, compliance)
+
+
+def with_compliance(chain, joints):
+    """``chain`` made compliant (all compliances zero, the default mass model) and the names
+    of the compliances of its loaded joints: revolute joints whose gravity torque over
+    ``joints`` reaches LOADED_SHARE of the most loaded joint's."""
+    compliant = CompliantChain(chain, default_mass_model(chain), np.zeros(chain.n_joints))
+    peak = np.abs(compliant.gravity_torque(joints)).max(axis=0)
+    loaded = chain.revolute & (peak > LOADED_SHARE * max(peak.max(), 1e-300))
+    return compliant, [f"{PREFIX}{k + 1}" for k in np.flatnonzero(loaded)]
