@@ -1,10 +1,15 @@
 """Turn desired TCP targets into commands that make the real robot reach them.
 
 A :class:`Compensator` holds the kinematic model used for IK (the nominal robot, registered
-or calibrated) and optionally a Cartesian error model ê(c): the predicted difference between
-where the robot really goes and where the model says, as a function of the commanded
-position c.  The robot commanded to c lands at c + e(c); to land on P, command c = P − ê(P)
-(one step), or solve c = P − ê(c) to a fixed point.
+or calibrated) and optionally an error model: the predicted difference between where the
+robot really goes and where the model says.
+
+* A Cartesian error model ê(c) of the commanded position c (Kriging): the robot commanded to
+  c lands at c + e(c); to land on P, command c = P − ê(P) (one step), or solve c = P − ê(c)
+  to a fixed point.
+* A joint-space error model Δp(q) of the joint command q (the GA-trained network): IK gives
+  q for the target, and the command moves against the predicted error through the
+  Jacobian, q′ = q − J⁺Δp(q) (:func:`~robocal.compensation.joint_space.correct_joints`).
 """
 from dataclasses import dataclass
 
@@ -12,6 +17,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..kinematics.ik import solve_ik
+from .joint_space import correct_joints
 
 
 @dataclass(frozen=True)
@@ -29,24 +35,37 @@ class CommandResult:
     predicted_error: np.ndarray
 
 
+ERROR_INPUTS = ("position", "joints")
+# Gauss–Newton steps of the joint-space correction with --iterate (one step otherwise).
+JOINT_ITERATIONS = 5
+
+
 @dataclass(frozen=True)
 class Compensator:
-    """Kinematic model + optional Cartesian error model (anything with ``predict(X)``)."""
+    """Kinematic model + optional error model (anything with ``predict``) of the commanded
+    TCP position (``error_input='position'``) or of the joint command (``'joints'``)."""
 
     chain: object
     error_model: object = None
     nominal: object = None  # the robot whose closed-form IK seeds the solver
+    error_input: str = "position"
+
+    def __post_init__(self):
+        if self.error_input not in ERROR_INPUTS:
+            raise InputError(f"error_input must be one of {', '.join(ERROR_INPUTS)}, got {self.error_input!r}")
 
     def predicted_error(self, positions):
-        """ê at commanded positions (N, 3) mm; zeros without an error model."""
+        """ê at commanded positions (N, 3) mm; zeros without a Cartesian error model."""
         positions = np.asarray(positions, dtype=float)
-        if self.error_model is None:
+        if self.error_model is None or self.error_input == "joints":
             return np.zeros_like(positions)
         return np.asarray(self.error_model.predict(positions), dtype=float).reshape(positions.shape)
 
     def predict_positions(self, joints):
-        """Where the real robot's TCP goes for joints (N, n) rad: model FK + ê."""
+        """Where the real robot's TCP goes for joints (N, n) rad: model FK + predicted error."""
         commanded = self.chain.fk_positions(joints)
+        if self.error_model is not None and self.error_input == "joints":
+            return commanded + np.asarray(self.error_model.predict(joints), dtype=float).reshape(commanded.shape)
         return commanded + self.predicted_error(commanded)
 
     def corrected_targets(self, targets, *, iterate=False, tolerance=1e-7, max_iterations=50):
@@ -74,10 +93,35 @@ class Compensator:
 
     def commands(self, targets, hint=None, *, iterate=False):
         """Joint commands (through IK of the model) for (N, 4, 4) targets."""
+        if self.error_model is not None and self.error_input == "joints":
+            return self._joint_space_commands(targets, hint, iterate)
         corrected, error = self.corrected_targets(targets, iterate=iterate)
+        q, success = self._ik(corrected, hint)
+        return CommandResult(q, success, corrected, error)
+
+    def _ik(self, targets, hint):
         # A compliant model is solved on its rigid geometry, then the commands are moved so
         # that the joints, once gravity has bent them, stand where the rigid solution is.
         rigid = getattr(self.chain, "rigid", self.chain)
-        result = solve_ik(rigid, corrected, hint=hint, nominal=self.nominal)
+        result = solve_ik(rigid, targets, hint=hint, nominal=self.nominal)
         q = result.q if rigid is self.chain else self.chain.commands_for(result.q)
-        return CommandResult(q, result.success, corrected, error)
+        return q, result.success
+
+    def _joint_space_commands(self, targets, hint, iterate):
+        """IK of the targets, then the joint-space correction; a corrected command outside
+        the joint limits counts as unreachable.  ``corrected`` is the model's pose at the
+        corrected command: what a controller keeping this model must be sent."""
+        targets = np.asarray(targets, dtype=float)
+        q, ok = self._ik(targets, hint)
+        q, ok = q.copy(), ok.copy()
+        if ok.any():
+            q[ok] = correct_joints(self.chain, self.error_model, q[ok],
+                                   iterations=JOINT_ITERATIONS if iterate else 1)
+            ok[ok] = self.chain.within_limits(q[ok])
+        q[~ok] = np.nan
+        corrected = targets.copy()
+        error = np.zeros((len(targets), 3))
+        if ok.any():
+            corrected[ok] = self.chain.fk(q[ok])
+            error[ok] = self.error_model.predict(q[ok])
+        return CommandResult(q, ok, corrected, error)

@@ -92,22 +92,66 @@ def fit_hybrid(chain, joints, positions, *, orientations=None, sigmas=None, para
     return Compensator(calibrated.chain, model, nominal=chain), reference, record
 
 
+NETWORK_BASES = ("nominal", "kinematic")
+
+
+def fit_network(chain, joints, positions, *, base="nominal", orientations=None, sigmas=None, parameters="full",
+                loss="linear", register="auto", network=None, progress=None):
+    """Method 3: a network of the position error over the joint vector, trained by a genetic
+    algorithm (then L-BFGS unless told otherwise), compensated in joint space.
+
+    base: the kinematic model whose error the network learns: 'nominal' (registered in the
+    measurement frame when needed, the method as specified) or 'kinematic' (the parametric
+    calibration first; the network learns what it leaves).  progress(generation, fitness).
+    """
+    from ..estimation.network import NetworkErrorModel
+    from . import Compensator
+
+    if base not in NETWORK_BASES:
+        raise InputError(f"the network's base model must be one of {', '.join(NETWORK_BASES)}, got {base!r}")
+    if base == "kinematic":
+        calibrated, reference, record = fit_kinematic(
+            chain, joints, positions, orientations=orientations, sigmas=sigmas, parameters=parameters,
+            loss=loss, register=register)
+        model_chain = calibrated.chain
+    else:
+        model_chain, record = prepare_frame(chain, joints, positions, register)
+        reference = model_chain
+    errors = positions - model_chain.fk_positions(joints)
+    model = network if network is not None else NetworkErrorModel(seed=0)
+    model.fit(joints, errors, progress=progress)
+    record["base_model"] = base
+    record["residual_before"] = record.get("residual_before") or error_stats(errors)
+    record["residual_after_training"] = error_stats(errors - model.predict(joints))
+    record["network"] = model.training_
+    return Compensator(model_chain, model, nominal=chain, error_input="joints"), reference, record
+
+
 def error_model_to_dict(model):
     """Serialise an error model for a model file."""
+    from ..estimation.network import NetworkErrorModel
+
     if model is None:
         return None
     if isinstance(model, Kriging):
         return {"type": "kriging", "parameters": model.to_dict()}
+    if isinstance(model, NetworkErrorModel):
+        return {"type": "network", "input": "joints", "parameters": model.to_dict()}
     raise InputError(f"cannot save an error model of type {type(model).__name__}")
 
 
 def error_model_from_dict(document):
-    """Rebuild an error model saved by :func:`error_model_to_dict`."""
+    """Rebuild an error model saved by :func:`error_model_to_dict`: (model, what it takes as
+    input, 'position' or 'joints')."""
+    from ..estimation.network import NetworkErrorModel
+
     if document is None:
-        return None
+        return None, "position"
     kind = document.get("type")
     if kind == "kriging":
-        return Kriging.from_dict(document["parameters"])
+        return Kriging.from_dict(document["parameters"]), "position"
+    if kind == "network":
+        return NetworkErrorModel.from_dict(document["parameters"]), "joints"
     raise InputError(f"unknown error model type {kind!r} in the model file")
 
 

@@ -190,7 +190,7 @@ def calibrate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
     out_file: str = typer.Option(..., "--out", help="Model file (JSON) to write."),
-    method: str = typer.Option("kinematic", help="kinematic, kriging, hybrid or constraint (ball in sockets, with --fixture)."),
+    method: str = typer.Option("kinematic", help="kinematic, kriging, hybrid, ann (GA-trained network, joint-space compensation) or constraint (ball in sockets, with --fixture)."),
     register: str = typer.Option("auto", help="Register base and tool first: auto, yes or no."),
     trend: str = typer.Option("constant", help="Kriging trend: constant, linear or quadratic."),
     correlation: str = typer.Option("gaussian", help="Kriging correlation: gaussian or matern52."),
@@ -198,7 +198,12 @@ def calibrate(
     shared_theta: bool = typer.Option(False, "--shared-theta", help="One theta for the three outputs."),
     parameters: str = typer.Option("full", help="kinematic/hybrid: parameter set, offsets, full or full+compliance (plus the stiffness of every joint gravity loads)."),
     loss: str = typer.Option("linear", help="kinematic/hybrid: linear, huber or soft_l1 (robust)."),
-    seed: int = typer.Option(0, help="Seed of the Kriging likelihood's multi-start search."),
+    seed: int = typer.Option(0, help="Seed of the Kriging multi-start search and of the network's training."),
+    hidden: str = typer.Option("16,16", help="ann: hidden layer widths, at least two."),
+    generations: int = typer.Option(300, help="ann: generation limit of the genetic algorithm."),
+    trainer: str = typer.Option("ga", help="ann: ga (genetic algorithm) or lbfgs (gradient from random starts)."),
+    refine: str = typer.Option("lbfgs", help="ann: refine the GA's best network by lbfgs, or none."),
+    base_model: str = typer.Option("nominal", "--base-model", help="ann: the network learns the error of the nominal robot or of the kinematic calibration."),
     fixture: str = typer.Option(None, help="Fixture TOML (constraint method)."),
     pairs: str = typer.Option("all", help="constraint: all pairs of configurations, or spanning (fewer, faster)."),
     tip: str = typer.Option(None, help="URDF only: the tip link."),
@@ -210,16 +215,21 @@ def calibrate(
     Example: robocal calibrate ur5 meas.csv --method kinematic --out model.json
     """
     from ..estimation.kriging import Kriging
+    from ..estimation.network import NetworkErrorModel
+    from .progress import progress
 
     nugget_value = nugget if nugget == "estimate" else _floats(nugget, 1, "--nugget")[0]
     kriging = Kriging(regression=trend, correlation=correlation, nugget=nugget_value, shared_theta=shared_theta,
                       random_state=seed)
-    from .progress import progress
-
-    with progress(f"fitting the {method} model", enabled=not as_json):
+    network = NetworkErrorModel(hidden=tuple(int(w) for w in _floats(hidden, 0, "--hidden")), trainer=trainer,
+                                refine=None if refine == "none" else refine, generations=generations, seed=seed)
+    genetic = method == "ann" and trainer == "ga"
+    with progress("genetic algorithm, generation" if genetic else f"fitting the {method} model",
+                  generations if genetic else None, enabled=not as_json) as advance:
         result = calibrate_job(robot, measurements, out_file, method=method, register=register,
                                kriging=kriging, parameters=parameters, loss=loss, fixture=fixture, pairs=pairs,
-                               root=root, tip=tip)
+                               network=network, base_model=base_model,
+                               progress=lambda generation, fitness: advance(best=fitness), root=root, tip=tip)
     if not as_json and "calibration" in result:
         _print_calibration(result["calibration"])
     _print_result(result, as_json, f"{method} model -> {out_file}")
@@ -318,7 +328,7 @@ def export(
 def validate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
-    method: str = typer.Option("kinematic", help="kinematic, kriging or hybrid."),
+    method: str = typer.Option("kinematic", help="kinematic, kriging, hybrid or ann."),
     folds: int = typer.Option(5, help="Number of cross-validation folds."),
     sizes: str = typer.Option(None, help="Learning curve: training sizes, e.g. 20,50,100,200."),
     seed: int = typer.Option(0, help="Seed of the fold assignment and the Kriging search."),

@@ -11,6 +11,7 @@ from ..compensation.methods import (
     fit_hybrid,
     fit_kinematic,
     fit_kriging,
+    fit_network,
 )
 from ..errors import FileFormatError, InputError, RobocalWarning
 from ..estimation.metrics import error_stats
@@ -19,7 +20,7 @@ from ..io.tables import read_measurements, read_targets, write_commands, write_m
 from ..spatial import compose_pose, pose_to_xyz_rpy, rpy_to_matrix
 from .model_file import ModelFile, load_model, save_model
 
-IMPLEMENTED_METHODS = ("kinematic", "kriging", "hybrid", "constraint")
+IMPLEMENTED_METHODS = ("kinematic", "kriging", "hybrid", "constraint", "ann")
 # A calibrated model that still misses by this much is almost certainly the wrong robot,
 # wrong units or a different measurement frame.
 SUSPICIOUS_RESIDUAL_MM = 20.0
@@ -74,7 +75,8 @@ def _fit_constraint(chain, data, fixture_path, pairs, parameters):
 
 
 def calibrate_job(robot, measurements, out, *, method="kinematic", register="auto", kriging=None,
-                  parameters="full", loss="linear", fixture=None, pairs="all", root=None, tip=None):
+                  parameters="full", loss="linear", fixture=None, pairs="all", network=None, base_model="nominal",
+                  progress=None, root=None, tip=None):
     """Fit a method to a measurement file and save the model file."""
     if method not in IMPLEMENTED_METHODS:
         raise InputError(
@@ -92,16 +94,19 @@ def calibrate_job(robot, measurements, out, *, method="kinematic", register="aut
             compensator, reference, record = fit_kriging(chain, q, data.positions, register=register, kriging=kriging)
         else:
             rotations = None if data.orientations is None else rpy_to_matrix(np.radians(data.orientations))
-            fit = fit_kinematic if method == "kinematic" else partial(fit_hybrid, kriging=kriging)
+            fit = {"kinematic": fit_kinematic, "hybrid": partial(fit_hybrid, kriging=kriging),
+                   "ann": partial(fit_network, network=network, base=base_model, progress=progress)}[method]
             compensator, reference, record = fit(chain, q, data.positions, orientations=rotations,
                                                  sigmas=data.sigmas, parameters=parameters, loss=loss,
                                                  register=register)
-            outliers = record["calibration"]["outliers"]
+            outliers = record["calibration"]["outliers"] if "calibration" in record else []
             if outliers:
                 record["calibration"]["outlier_rows"] = [int(data.rows[i]) for i in outliers]
     training = {"file": str(measurements), "n_poses": data.n_poses, "kind": data.kind, **record}
     options = ({"pairs": pairs, "parameters": parameters} if method == "constraint"
                else {"register": register, "parameters": parameters, "loss": loss})
+    if method == "ann":
+        options["base_model"] = base_model
     model = ModelFile(method=method, nominal=chain, kinematics=compensator.chain, reference=reference,
                       error_model=error_model_to_dict(compensator.error_model), training=training,
                       options=options)
@@ -113,12 +118,12 @@ def load_compensator(model_path, robot=None):
     """A model file -> (ModelFile, Compensator)."""
     model = load_model(model_path, robot=robot)
     try:
-        error_model = error_model_from_dict(model.error_model)
-    except (InputError, KeyError, TypeError, ValueError) as exc:
+        error_model, error_input = error_model_from_dict(model.error_model)
+    except (InputError, FileFormatError, KeyError, TypeError, ValueError) as exc:
         raise FileFormatError(f"{model_path}: the error model is damaged ({exc}); "
                               "regenerate the file with 'robocal calibrate'") from None
     rigid = getattr(model.kinematics, "rigid", model.kinematics)
-    return model, Compensator(model.kinematics, error_model, nominal=rigid)
+    return model, Compensator(model.kinematics, error_model, nominal=rigid, error_input=error_input)
 
 
 def load_model_and_data(model_path, measurements):
@@ -371,7 +376,10 @@ def _fitter(method, chain, q, data, register, parameters, loss, kriging_seed):
         if method == "kriging":
             compensator = fit_kriging(chain, q[train], data.positions[train], register=register, kriging=kriging)[0]
         else:
-            fit_method = fit_kinematic if method == "kinematic" else partial(fit_hybrid, kriging=kriging)
+            from ..estimation.network import NetworkErrorModel
+
+            fit_method = {"kinematic": fit_kinematic, "hybrid": partial(fit_hybrid, kriging=kriging),
+                          "ann": partial(fit_network, network=NetworkErrorModel(seed=kriging_seed))}[method]
             compensator = fit_method(chain, q[train], data.positions[train], orientations=take(rotations, train),
                                      sigmas=take(data.sigmas, train), parameters=parameters, loss=loss,
                                      register=register)[0]
@@ -388,6 +396,9 @@ def validate_job(robot, measurements, *, method="kinematic", folds=5, sizes=None
 
     if method not in IMPLEMENTED_METHODS:
         raise InputError(f"method {method!r} is not available; available: {', '.join(IMPLEMENTED_METHODS)}")
+    if method == "constraint":
+        raise InputError("validate folds position data; for ball-in-socket data hold out whole placements "
+                         "(robocal dataset ... --split, or split the CSV by fixture) and use robocal evaluate")
     chain = load_robot(robot, root=root, tip=tip)
     data = read_measurements(measurements, n_joints=chain.n_joints)
     _positions_required(data, method)
