@@ -21,8 +21,9 @@ def residual(chain, joints, positions, rotations=None):
 
 def levenberg_marquardt(chain, joints, positions, names, *, rotations=None, weights=None,
                         pose_weights=None, max_iterations=50, tolerance=1e-12):
-    """Fit the named parameters.  weights: (N, 3 or 6) row weights (1/sigma);
-    pose_weights: callable (weighted residual (N, k)) -> (N,) robust weights, or None.
+    """Fit the named parameters to measured positions (and rotations).  weights: (N, 3 or 6)
+    row weights (1/sigma); pose_weights: callable (weighted residual (N, k)) -> (N,) robust
+    weights, re-evaluated at every linearisation (iteratively reweighted least squares), or None.
 
     Returns (chain, iterations, converged, final pose weights).
     """
@@ -30,61 +31,37 @@ def levenberg_marquardt(chain, joints, positions, names, *, rotations=None, weig
     rows = 6 if rotations is not None else 3
     weights = np.ones((len(joints), rows)) if weights is None else weights
     robust_of = pose_weights or (lambda r: np.ones(len(r)))
-    current = residual(chain, joints, positions, rotations) * weights
-    robust = robust_of(current)
-    cost = np.sum(robust[:, None] * current**2)
-    damping = 1e-4
-    converged = False
-    iteration = 0
-    for iteration in range(1, max_iterations + 1):
-        jac = chain.identification_jacobian(joints, names)[:, :rows, :] * weights[:, :, None]
-        root = np.sqrt(robust)[:, None, None]
-        a = (jac * root).reshape(-1, len(names))
-        b = (current * root[:, :, 0]).reshape(-1)
-        scale = np.linalg.norm(a, axis=0)
-        scale[scale == 0] = 1.0
-        a_s = a / scale
-        normal, gradient = a_s.T @ a_s, a_s.T @ b
-        # First-order optimality: the residual is orthogonal to every (scaled) column.
-        if np.max(np.abs(gradient)) <= 1e-12 * max(np.linalg.norm(b), 1e-300):
-            converged = True
-            break
-        diag = np.diag(np.diag(normal))
-        while True:
-            step_s = np.linalg.solve(normal + damping * diag, gradient)
-            step = step_s / scale
-            candidate = chain.perturbed(names, step)
-            new = residual(candidate, joints, positions, rotations) * weights
-            new_cost = np.sum(robust[:, None] * new**2)
-            # Give up raising the damping once the step is too small to matter.
-            if new_cost <= cost or damping > 1e10 or np.linalg.norm(step_s) <= 1e-12 * max(np.linalg.norm(b), 1e-300):
-                break
-            damping *= 10.0
-        if new_cost > cost:
-            converged = True  # no step lowers the cost: a minimum to rounding
-            break
-        improvement = cost - new_cost
-        chain, current = candidate, new
-        damping = max(damping / 10.0, 1e-12)
-        robust = robust_of(current)
-        cost = np.sum(robust[:, None] * current**2)
-        # Converged when the step no longer changes the cost beyond rounding, or the scaled
-        # step is negligible (zero-residual problems never stop improving).
-        if (improvement <= tolerance * max(new_cost, 1e-300)
-                or np.linalg.norm(step * scale) <= 1e-10 * max(np.linalg.norm(b), 1e-300)
-                or new_cost <= 1e-20 * len(b)):
-            converged = True
-            break
-    return chain, iteration, converged, robust
+    state = {}
+
+    def weighted(c):
+        return residual(c, joints, positions, rotations) * weights
+
+    def linearise(c):
+        r = weighted(c)
+        state["robust"] = robust_of(r)
+        root = np.sqrt(state["robust"])
+        # Residual = measured - model, so its derivative is minus the identification Jacobian.
+        jac = c.identification_jacobian(joints, names)[:, :rows, :] * (weights * root[:, None])[:, :, None]
+        return (r * root[:, None]).reshape(-1), -jac.reshape(-1, len(names))
+
+    def weighted_only(c):
+        return (weighted(c) * np.sqrt(state["robust"])[:, None]).reshape(-1)
+
+    chain, iterations, converged = damped_least_squares(
+        chain, names, linearise, weighted_only, max_iterations=max_iterations, tolerance=tolerance)
+    robust = robust_of(weighted(chain)) if pose_weights else state["robust"]
+    return chain, iterations, converged, robust
 
 
 def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50, tolerance=1e-12):
     """Minimise |r|^2 over deviations of the named parameters, for any residual of the chain.
 
     linearise(chain) -> (r (m,), J (m, P)) with r(chain.perturbed(names, x)) ~ r + J x;
-    residual(chain) -> r alone (trial steps need only the cost).  Same damping, column
-    scaling and stopping rules as :func:`levenberg_marquardt`, which specialises them to
-    measured positions with robust weights.  Returns (chain, iterations, converged).
+    residual(chain) -> r alone (trial steps need only the cost).  Levenberg–Marquardt
+    damping on column-scaled normal equations; stops when a step lowers the cost by less than
+    ``tolerance`` of it, the step or the cost is negligible, or no step lowers the cost.
+    ``linearise`` may reweight the residual (robust losses): the cost is taken afresh at
+    every linearisation.  Returns (chain, iterations, converged).
     """
     names = list(names)
     current, jac = linearise(chain)
@@ -95,6 +72,7 @@ def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50
     for iteration in range(1, max_iterations + 1):
         if iteration > 1:
             current, jac = linearise(chain)
+            cost = float(current @ current)
         size = max(np.linalg.norm(current), 1e-300)
         scale = np.linalg.norm(jac, axis=0)
         scale[scale == 0] = 1.0
