@@ -26,6 +26,19 @@ LOSSES = ("linear", "huber", "soft_l1")
 WRONG_ROBOT_RMS_MM = 10.0
 
 
+def identified_parameters(chain, result):
+    """The part of a calibration record every method shares: each identified parameter's
+    deviation and standard error in file units, correlated pairs and the identifiability."""
+    unit = file_units(chain, result.names)
+    return {
+        "parameters": {n: {"deviation": float(v), "std_error": float(s)}
+                       for n, v, s in zip(result.names, result.values * unit, result.std_errors * unit)},
+        "units": UNITS_NOTE,
+        "correlated_pairs": [list(p) for p in result.correlated_pairs],
+        "identifiability": result.identifiability.to_dict(),
+    }
+
+
 @dataclass(frozen=True)
 class CalibrationResult:
     """What a calibration found (all JSON-ready through :meth:`to_dict`)."""
@@ -44,13 +57,8 @@ class CalibrationResult:
 
     def to_dict(self, chain):
         """Deviations and standard errors in file units (deg for angles, mm for lengths)."""
-        unit = file_units(chain, self.names)
         return {
-            "parameters": {n: {"deviation": float(v), "std_error": float(s)}
-                           for n, v, s in zip(self.names, self.values * unit, self.std_errors * unit)},
-            "units": UNITS_NOTE,
-            "correlated_pairs": [list(p) for p in self.correlated_pairs],
-            "identifiability": self.identifiability.to_dict(),
+            **identified_parameters(chain, self),
             "residual_before": self.residual_before,
             "residual_after": self.residual_after,
             "orientation_rms_deg": self.orientation_rms_deg,

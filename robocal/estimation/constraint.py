@@ -30,8 +30,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..kinematics.chain import FRAME_SUFFIXES
-from ..kinematics.compliant import UNITS_NOTE, compliance_index, file_units, with_compliance
+from ..kinematics.compliant import compliance_index, with_compliance
 from ..spatial import so3_log
+from .calibration import identified_parameters
 from .identifiability import STRONG_CORRELATION, analyse
 from .least_squares import damped_least_squares
 from .metrics import error_stats
@@ -324,13 +325,8 @@ class ConstraintResult:
 
     def to_dict(self, chain):
         """Deviations and standard errors in file units (deg for angles, mm for lengths)."""
-        unit = file_units(chain, self.names)
         return {
-            "parameters": {n: {"deviation": float(v), "std_error": float(s)}
-                           for n, v, s in zip(self.names, self.values * unit, self.std_errors * unit)},
-            "units": UNITS_NOTE,
-            "correlated_pairs": [list(p) for p in self.correlated_pairs],
-            "identifiability": self.identifiability.to_dict(),
+            **identified_parameters(chain, self),
             "unobservable": list(self.unobservable),
             "pairs": dict(self.pairs),
             "residual_before": self.residual_before,
