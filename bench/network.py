@@ -8,6 +8,9 @@ poses each trainer's time, and over 1,000 other poses the true error of the nomi
 ("before") and of the robot after joint-space compensation with the trained network
 (``correct_joints``, one step as specified; "after").
 
+Beside them, on the same poses, the kinematic calibration and Kriging, each compensating
+through its own IK of the same targets (Kriging up to 1,000 poses).
+
 Real data: held-out residuals (measured minus model) on UR5 Tsinghua (random half to train,
 half to test) and ipa UR10 series B (random 70 / 30), the splits of bench/calibration.py:
 the network alone on the nominal geometry with base and tool registered on the training
@@ -45,6 +48,7 @@ from robocal.simulation import TrueRobot, make_true_robot, uniform_joints  # noq
 SIZES = (200, 1000, 5000)
 QUICK_SIZES = (1000,)
 N_TEST = 1000
+KRIGING_MAX = 1000
 HIDDEN = (16, 16)
 TRAINERS = (
     ("GA alone", dict(trainer="ga", refine=None)),
@@ -103,8 +107,13 @@ def simulated_benchmark(sizes, inputs_list):
               f"{'max':>8}   {'after: mean':>11}{'RMS':>8}{'max':>8}  {'ratio':>6}  network")
     print(header)
     print("-" * len(header))
+    poses = chain.fk(test)
     for n in sizes:
         q, dp = joints[:n], measured[:n] - chain.fk_positions(joints[:n])
+        for label, seconds, commands in other_methods(chain, q, measured[:n], poses, test):
+            after = error_stats(truth.positions(commands) - target)
+            print(f"{n:>5}  {label:<22}{seconds:>8.2f}   {_stats(before):>28}   "
+                  f"{_stats(after):>27}  {before['mean_mm'] / after['mean_mm']:>5.1f}x", flush=True)
         for inputs in inputs_list:
             for label, settings in TRAINERS:
                 model, seconds = train(q, dp, inputs, settings)
@@ -112,6 +121,25 @@ def simulated_benchmark(sizes, inputs_list):
                 print(f"{n:>5}  {label:<14}{inputs:<8}{seconds:>8.2f}   {_stats(before):>28}   "
                       f"{_stats(after):>27}  {before['mean_mm'] / after['mean_mm']:>5.1f}x  "
                       f"{_note(model)}", flush=True)
+
+
+def other_methods(chain, q, measured, poses, hint):
+    """(label, fit seconds, joint commands for ``poses``) of the kinematic calibration and of
+    Kriging on the same training poses, each compensating through its own IK."""
+    from robocal.compensation import Compensator
+    from robocal.estimation.kriging import Kriging
+
+    t0 = time.perf_counter()
+    calibrated = KinematicCalibration().fit(chain, q, measured).chain_
+    seconds = time.perf_counter() - t0
+    yield "kinematic", seconds, Compensator(calibrated, nominal=chain).commands(poses, hint=hint).q
+    if len(q) > KRIGING_MAX:
+        print(f"{len(q):>5}  {'Kriging':<22}skipped: above {KRIGING_MAX} poses its O(n^3) fit takes minutes")
+        return
+    t0 = time.perf_counter()
+    kriging = Kriging(nugget="estimate", random_state=0).fit(chain.fk_positions(q), measured - chain.fk_positions(q))
+    seconds = time.perf_counter() - t0
+    yield "Kriging", seconds, Compensator(chain, kriging, nominal=chain).commands(poses, hint=hint).q
 
 
 # ----------------------------------------------------------------------------- real data
