@@ -28,3 +28,11 @@ def test_readme_walkthrough_runs(tmp_path):
     for written in ("commands.csv", "ur5_commands.csv", "ur5_report.html", "ur5_calibrated.urdf"):
         assert (tmp_path / written).is_file(), written
     assert "UR5" in done.stdout
+
+
+def test_readme_python_examples_run():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert len(blocks) >= 2
+    for block in blocks:
+        exec(compile(block, "README.md", "exec"), {})

@@ -1,5 +1,6 @@
 """Layer 6: compensation — a kinematic model plus an optional error model, turned into joint
 commands or corrected Cartesian targets."""
 from .compensator import CommandResult, Compensator
+from .joint_space import correct_joints
 
-__all__ = ["CommandResult", "Compensator"]
+__all__ = ["CommandResult", "Compensator", "correct_joints"]
