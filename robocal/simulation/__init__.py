@@ -5,7 +5,8 @@ gravity, gear backlash, measurement noise) that calibration is scored against;
 :func:`make_true_robot` builds one from a preset (``none``, ``typical``, ``liu2022``).
 The sampling plans choose the configurations to measure.
 """
-from .joint_effects import GRAVITY, Compliance, backlash_offsets
+from ..kinematics.gravity import GRAVITY
+from .joint_effects import Compliance, backlash_offsets
 from .presets import PRESETS, make_true_robot
 from .sampling import grid, latin_hypercube_box, liu2022_plan, uniform_joints
 from .true_robot import TrueRobot, read_truth, write_truth

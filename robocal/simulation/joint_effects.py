@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..kinematics.gravity import GRAVITY, MassModel, per_joint
+from ..kinematics.gravity import MassModel, per_joint
 
 
 @dataclass(frozen=True, eq=False)
