@@ -137,12 +137,14 @@ def _print_calibration(calibration):
 
 
 def _floats(text, count, name):
+    """``count`` comma-separated numbers (any number of them when count is 0)."""
     if text is None:
         return None
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
-        raise InputError(f"{name} must be {count} comma-separated numbers, got {text!r}") from None
+        how_many = f"{count} " if count else ""
+        raise InputError(f"{name} must be {how_many}comma-separated numbers, got {text!r}") from None
     if count and len(values) != count:
         raise InputError(f"{name} must be {count} comma-separated numbers, got {len(values)}")
     return values
@@ -221,6 +223,8 @@ def calibrate(
     nugget_value = nugget if nugget == "estimate" else _floats(nugget, 1, "--nugget")[0]
     kriging = Kriging(regression=trend, correlation=correlation, nugget=nugget_value, shared_theta=shared_theta,
                       random_state=seed)
+    if refine not in ("lbfgs", "none"):
+        raise InputError(f"--refine must be lbfgs or none, got {refine!r}")
     network = NetworkErrorModel(hidden=tuple(int(w) for w in _floats(hidden, 0, "--hidden")), trainer=trainer,
                                 refine=None if refine == "none" else refine, generations=generations, seed=seed)
     genetic = method == "ann" and trainer == "ga"

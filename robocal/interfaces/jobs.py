@@ -240,6 +240,9 @@ def _simulate_sockets(true_robot, out, fixture_path, placements, per_socket, noi
 
     if fixture_path is None:
         raise InputError("--sampling sockets needs --fixture FIX.toml (socket centres in mm)")
+    if placements < 1 or per_socket < 2:
+        raise InputError(f"--placements must be >= 1 and --per-socket >= 2 (two configurations in a socket make "
+                         f"a position constraint), got {placements} and {per_socket}")
     fixture = read_fixture(fixture_path)
     plan = socket_plan(true_robot, fixture, placements, per_socket, rng,
                        joint_noise_deg=joint_noise, seating_mm=0.0 if noise is None else noise)
