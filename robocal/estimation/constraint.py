@@ -398,10 +398,13 @@ class ConstraintCalibration:
             return _stack(c.fk_positions(data.joints), None, pairs, weights)[0]
 
         # Identifiability is local (see KinematicCalibration.fit): analyse, fit, analyse
-        # again at the fit until the identified set settles.
+        # again at the fit until the identified set settles.  The spanning pairs see every
+        # configuration and both kinds of constraint, so they tell which directions the data
+        # determine as all pairs do, with a tenth of the rows.
         fitted, names, iterations, converged = start, None, 0, False
+        analysed = (spanning, _weights(spanning))
         for _ in range(3):
-            identified, report = _analysis(fitted, data, pairs, weights, candidates)
+            identified, report = _analysis(fitted, data, *analysed, candidates)
             if identified == names:
                 break
             names = identified
@@ -409,7 +412,7 @@ class ConstraintCalibration:
                 fitted, names, linearise, residual, max_iterations=self.max_iterations, tolerance=self.tolerance)
             iterations += steps
         else:
-            _, report = _analysis(fitted, data, pairs, weights, candidates)
+            _, report = _analysis(fitted, data, *analysed, candidates)
         report = report()
         std, correlated = _covariance(fitted, data.joints, spanning, names)
         unobservable = ("base frame",) + (() if len(pairs.distance) else ("scale",))
