@@ -199,9 +199,9 @@ class KinematicCalibration:
             jac = fitted.identification_jacobian(q, names)[:, :rows_per_pose, :]
             scaled = (jac * weights[:, :, None]).reshape(-1, len(names))
             rigid = getattr(fitted, "rigid", fitted)
-            _, report = analyse(rigid, scaled, names, explain=False)
+            # Reasons only after a fit: the first analysis, at the start, is never the last.
+            _, report = analyse(rigid, scaled, names, explain=identified is not None)
             if report.identified == identified:
-                _, report = analyse(rigid, scaled, names)
                 break
             identified = report.identified
             fitted, iterations, converged, robust = levenberg_marquardt(
