@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from robocal.compensation import Compensator
-from robocal.errors import FileFormatError
+from robocal.errors import FileFormatError, InputError
 from robocal.estimation.calibration import KinematicCalibration
 from robocal.interfaces.model_file import ModelFile, load_model, save_model
 from robocal.io.library import builtin
@@ -125,3 +125,22 @@ def test_constraint_calibration_with_compliance_beats_the_rigid_one_on_a_bending
         held_out[compliance] = socket_errors(cal.chain_, plan.joints[~train], plan.fixture_ids[~train],
                                              plan.socket_ids[~train], fixture)["mean_mm"]
     assert held_out[True] < 0.3 * held_out[False]
+
+
+def test_the_payload_given_shapes_the_deflection_model():
+    from robocal.simulation import Compliance
+
+    typical = make_true_robot(KR150, "typical", seed=8)
+    unloaded = Compliance(typical.compliance.stiffness, typical.compliance.link_masses, payload=0.0)
+    truth = TrueRobot(nominal=KR150, deviations=typical.deviations, compliance=unloaded, noise=0.0, seed=8)
+    rng = np.random.default_rng(3)
+    q, q_test = uniform_joints(KR150, 300, rng), uniform_joints(KR150, 300, rng)
+    held_out = {}
+    for payload in (None, 0.0):
+        cal = KinematicCalibration("full+compliance", payload=payload).fit(KR150, q, truth.positions(q))
+        assert cal.chain_.mass_model.payload == pytest.approx(150.0 if payload is None else 0.0, abs=0.1)
+        held_out[payload] = np.linalg.norm(cal.predict(q_test) - truth.positions(q_test), axis=1).mean()
+    # The right payload makes the model exact; the rated one leaves a torque shape it cannot fit.
+    assert held_out[0.0] < 1e-3 < held_out[None]
+    with pytest.raises(InputError, match="payload"):
+        KinematicCalibration("full+compliance", payload=-1.0)

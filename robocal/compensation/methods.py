@@ -52,7 +52,7 @@ def fit_kriging(chain, joints, positions, *, register="auto", kriging=None):
 
 
 def fit_kinematic(chain, joints, positions, *, orientations=None, sigmas=None, parameters="full",
-                  loss="linear", register="auto"):
+                  loss="linear", register="auto", payload=None):
     """Parametric calibration: identify link parameters, base and tool by Levenberg–Marquardt.
 
     Returns (Compensator with the calibrated chain, record).  The record's "reference" is
@@ -62,7 +62,7 @@ def fit_kinematic(chain, joints, positions, *, orientations=None, sigmas=None, p
 
     if register not in ("auto", "yes", "no"):
         raise InputError(f"register must be 'auto', 'yes' or 'no', got {register!r}")
-    calibration = KinematicCalibration(parameters=parameters, loss=loss, register=register != "no")
+    calibration = KinematicCalibration(parameters=parameters, loss=loss, register=register != "no", payload=payload)
     calibration.fit(chain, joints, positions, orientations=orientations, sigmas=sigmas)
     reference, _ = register_base_and_tool(chain, joints, positions)
     record = {
@@ -75,14 +75,14 @@ def fit_kinematic(chain, joints, positions, *, orientations=None, sigmas=None, p
 
 
 def fit_hybrid(chain, joints, positions, *, orientations=None, sigmas=None, parameters="full",
-               loss="linear", register="auto", kriging=None):
+               loss="linear", register="auto", payload=None, kriging=None):
     """Kinematic calibration, then Kriging of what the calibrated model still misses
     (compliance, backlash, other non-geometric errors) over the calibrated TCP position."""
     from . import Compensator
 
     calibrated, reference, record = fit_kinematic(
         chain, joints, positions, orientations=orientations, sigmas=sigmas, parameters=parameters,
-        loss=loss, register=register)
+        loss=loss, register=register, payload=payload)
     model_positions = calibrated.chain.fk_positions(joints)
     residual = positions - model_positions
     model = kriging if kriging is not None else Kriging(nugget="estimate", random_state=0)
@@ -96,7 +96,7 @@ NETWORK_BASES = ("nominal", "kinematic")
 
 
 def fit_network(chain, joints, positions, *, base="nominal", orientations=None, sigmas=None, parameters="full",
-                loss="linear", register="auto", network=None, progress=None):
+                loss="linear", register="auto", payload=None, network=None, progress=None):
     """Method 3: a network of the position error over the joint vector, trained by a genetic
     algorithm (then L-BFGS unless told otherwise), compensated in joint space.
 
@@ -112,7 +112,7 @@ def fit_network(chain, joints, positions, *, base="nominal", orientations=None, 
     if base == "kinematic":
         calibrated, reference, record = fit_kinematic(
             chain, joints, positions, orientations=orientations, sigmas=sigmas, parameters=parameters,
-            loss=loss, register=register)
+            loss=loss, register=register, payload=payload)
         model_chain = calibrated.chain
     else:
         model_chain, record = prepare_frame(chain, joints, positions, register)

@@ -68,6 +68,16 @@ class CalibrationResult:
         }
 
 
+def check_payload(payload):
+    """None, or a validated payload mass in kg."""
+    if payload is None:
+        return None
+    value = float(payload)
+    if not np.isfinite(value) or value < 0:
+        raise InputError(f"payload must be a mass in kg >= 0, got {payload}")
+    return value
+
+
 def candidate_parameters(chain, parameters="full", *, base=True, tool_orientation=False):
     """Parameter names in order of preference for the identifiability analysis."""
     if parameters not in PARAMETER_SETS:
@@ -102,7 +112,8 @@ class KinematicCalibration:
 
     parameters: 'offsets', 'full' or 'full+compliance' (full, plus one compliance per joint
     that gravity loads, the deflection being proportional to the gravity torque of
-    :func:`robocal.kinematics.gravity.default_mass_model`).  loss: 'linear', 'huber' or 'soft_l1' (per pose, on the
+    :func:`robocal.kinematics.gravity.default_mass_model` with ``payload`` kg at the TCP, by
+    default the rated payload of a robot of that size).  loss: 'linear', 'huber' or 'soft_l1' (per pose, on the
     weighted residual norm; ``f_scale`` in those units, default 3x the median).
     position_sigma (mm) and orientation_sigma (deg) weight rows when the data carry no
     sigmas.  register: start from a Kabsch fit of the base (use False for data already in
@@ -112,7 +123,7 @@ class KinematicCalibration:
     """
 
     def __init__(self, parameters="full", *, loss="linear", f_scale=None, position_sigma=0.02,
-                 orientation_sigma=0.01, register=True, max_iterations=50, tolerance=1e-7):
+                 orientation_sigma=0.01, register=True, payload=None, max_iterations=50, tolerance=1e-7):
         if loss not in LOSSES:
             raise InputError(f"loss must be one of {', '.join(LOSSES)}, got {loss!r}")
         self.parameters = parameters
@@ -121,6 +132,7 @@ class KinematicCalibration:
         self.position_sigma = position_sigma
         self.orientation_sigma = orientation_sigma
         self.register = register
+        self.payload = check_payload(payload)
         self.max_iterations = max_iterations
         self.tolerance = tolerance
 
@@ -171,7 +183,7 @@ class KinematicCalibration:
         names = candidate_parameters(chain, self.parameters, tool_orientation=with_orientation)
         compliant = None
         if self.parameters == "full+compliance":
-            compliant, compliances = with_compliance(chain, q)
+            compliant, compliances = with_compliance(chain, q, self.payload)
             names += compliances
         if len(q) * rows_per_pose < len(names) or distinct * rows_per_pose < len(names):
             need = int(np.ceil(len(names) / rows_per_pose))

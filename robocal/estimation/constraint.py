@@ -32,7 +32,7 @@ from ..errors import InputError
 from ..kinematics.chain import FRAME_SUFFIXES
 from ..kinematics.compliant import compliance_index, with_compliance
 from ..spatial import so3_log
-from .calibration import identified_parameters
+from .calibration import check_payload, identified_parameters
 from .identifiability import STRONG_CORRELATION, analyse
 from .least_squares import damped_least_squares
 from .metrics import error_stats
@@ -353,18 +353,21 @@ class ConstraintCalibration:
     about two pairs; far fewer rows).  distance: use distance constraints when the data
     have them (False: position constraints only, scale then unidentifiable).  compliance:
     also identify one compliance per joint gravity loads (see
-    :class:`~robocal.kinematics.compliant.CompliantChain`).
+    :class:`~robocal.kinematics.compliant.CompliantChain`), ``payload`` kg at the TCP (the ball
+    and what carries it; default: the rated payload of a robot of that size).
 
     After :meth:`fit`: ``chain_`` (the calibrated POE chain, tool = flange -> ball centre,
     base = the starting one), ``start_chain_`` (the starting model in POE form),
     ``names_`` and ``result_`` (a :class:`ConstraintResult`).
     """
 
-    def __init__(self, pairs="all", *, distance=True, compliance=False, max_iterations=50, tolerance=1e-7):
+    def __init__(self, pairs="all", *, distance=True, compliance=False, payload=None, max_iterations=50,
+                 tolerance=1e-7):
         if pairs not in PAIRINGS:
             raise InputError(f"pairs must be one of {', '.join(PAIRINGS)}, got {pairs!r}")
         self.pairs = pairs
         self.compliance = compliance
+        self.payload = check_payload(payload)
         self.distance = distance
         self.max_iterations = max_iterations
         self.tolerance = tolerance
@@ -386,7 +389,7 @@ class ConstraintCalibration:
         before = _check_distances(start, data, bool(len(pairs.distance)))
         candidates = candidate_parameters(start)
         if self.compliance:
-            start, compliances = with_compliance(start, data.joints)
+            start, compliances = with_compliance(start, data.joints, self.payload)
             candidates += compliances
         weights = _weights(pairs)
 

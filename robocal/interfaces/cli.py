@@ -200,6 +200,7 @@ def calibrate(
     shared_theta: bool = typer.Option(False, "--shared-theta", help="One theta for the three outputs."),
     parameters: str = typer.Option("full", help="kinematic/hybrid: parameter set, offsets, full or full+compliance (plus the stiffness of every joint gravity loads)."),
     loss: str = typer.Option("linear", help="kinematic/hybrid: linear, huber or soft_l1 (robust)."),
+    payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (default: the rated payload of a robot of that size)."),
     seed: int = typer.Option(0, help="Seed of the Kriging multi-start search and of the network's training."),
     hidden: str = typer.Option("16,16", help="ann: hidden layer widths, at least two."),
     generations: int = typer.Option(300, help="ann: generation limit of the genetic algorithm."),
@@ -232,7 +233,7 @@ def calibrate(
                   generations if genetic else None, enabled=not as_json) as advance:
         result = calibrate_job(robot, measurements, out_file, method=method, register=register,
                                kriging=kriging, parameters=parameters, loss=loss, fixture=fixture, pairs=pairs,
-                               network=network, base_model=base_model,
+                               network=network, base_model=base_model, payload=payload,
                                progress=lambda generation, fitness: advance(best=fitness), root=root, tip=tip)
     if not as_json and "calibration" in result:
         _print_calibration(result["calibration"])

@@ -53,7 +53,7 @@ def fixture_from_document(doc, path):
         raise FileFormatError(f"{path}: the fixture stored in the model is damaged ({exc}); regenerate the file") from None
 
 
-def _fit_constraint(chain, data, fixture_path, pairs, parameters):
+def _fit_constraint(chain, data, fixture_path, pairs, parameters, payload):
     from ..estimation.constraint import ConstraintCalibration
     from ..io.fixtures import read_fixture
 
@@ -65,7 +65,8 @@ def _fit_constraint(chain, data, fixture_path, pairs, parameters):
     if parameters not in ("full", "full+compliance"):
         raise InputError(f"the constraint method identifies the full POE model: --parameters full or "
                          f"full+compliance, got {parameters!r}")
-    calibration = ConstraintCalibration(pairs=pairs, compliance=parameters == "full+compliance").fit(
+    calibration = ConstraintCalibration(pairs=pairs, compliance=parameters == "full+compliance",
+                                        payload=payload).fit(
         chain, q, data.fixture, data.socket, fixture)
     result = calibration.result_
     record = {"calibration": result.to_dict(calibration.chain_), "fixture": fixture_document(fixture),
@@ -76,7 +77,7 @@ def _fit_constraint(chain, data, fixture_path, pairs, parameters):
 
 def calibrate_job(robot, measurements, out, *, method="kinematic", register="auto", kriging=None,
                   parameters="full", loss="linear", fixture=None, pairs="all", network=None, base_model="nominal",
-                  progress=None, root=None, tip=None):
+                  payload=None, progress=None, root=None, tip=None):
     """Fit a method to a measurement file and save the model file."""
     if method not in IMPLEMENTED_METHODS:
         raise InputError(
@@ -86,7 +87,7 @@ def calibrate_job(robot, measurements, out, *, method="kinematic", register="aut
     chain = load_robot(robot, root=root, tip=tip)
     data = read_measurements(measurements, n_joints=chain.n_joints)
     if method == "constraint":
-        compensator, reference, record = _fit_constraint(chain, data, fixture, pairs, parameters)
+        compensator, reference, record = _fit_constraint(chain, data, fixture, pairs, parameters, payload)
     else:
         _positions_required(data, method)
         q = chain.joints_from_file(data.joints)
@@ -98,13 +99,15 @@ def calibrate_job(robot, measurements, out, *, method="kinematic", register="aut
                    "ann": partial(fit_network, network=network, base=base_model, progress=progress)}[method]
             compensator, reference, record = fit(chain, q, data.positions, orientations=rotations,
                                                  sigmas=data.sigmas, parameters=parameters, loss=loss,
-                                                 register=register)
+                                                 register=register, payload=payload)
             outliers = record["calibration"]["outliers"] if "calibration" in record else []
             if outliers:
                 record["calibration"]["outlier_rows"] = [int(data.rows[i]) for i in outliers]
     training = {"file": str(measurements), "n_poses": data.n_poses, "kind": data.kind, **record}
     options = ({"pairs": pairs, "parameters": parameters} if method == "constraint"
                else {"register": register, "parameters": parameters, "loss": loss})
+    if parameters == "full+compliance":
+        options["payload_kg"] = payload
     if method == "ann":
         options["base_model"] = base_model
     model = ModelFile(method=method, nominal=chain, kinematics=compensator.chain, reference=reference,

@@ -162,11 +162,12 @@ class CompliantChain:
         return CompliantChain(rigid, self.mass_model, compliance)
 
 
-def with_compliance(chain, joints):
-    """``chain`` made compliant (all compliances zero, the default mass model) and the names
-    of the compliances of its loaded joints: revolute joints whose gravity torque over
-    ``joints`` reaches LOADED_SHARE of the most loaded joint's."""
-    compliant = CompliantChain(chain, default_mass_model(chain), np.zeros(chain.n_joints))
+def with_compliance(chain, joints, payload=None):
+    """``chain`` made compliant (all compliances zero, the default mass model with ``payload``
+    kg at the TCP, or the scaled rated payload) and the names of the compliances of its loaded
+    joints: revolute joints whose gravity torque over ``joints`` reaches LOADED_SHARE of the
+    most loaded joint's."""
+    compliant = CompliantChain(chain, default_mass_model(chain, payload), np.zeros(chain.n_joints))
     peak = np.abs(compliant.gravity_torque(joints)).max(axis=0)
     loaded = chain.revolute & (peak > LOADED_SHARE * max(peak.max(), 1e-300))
     return compliant, [f"{PREFIX}{k + 1}" for k in np.flatnonzero(loaded)]

@@ -120,10 +120,11 @@ def size_factor(chain):
     return link_lengths(chain).sum() / REFERENCE_LENGTH
 
 
-def default_mass_model(chain):
-    """The reference design scaled to ``chain``'s size s: masses and payload grow as s³, the
-    moving mass spread over the links in proportion to their length."""
+def default_mass_model(chain, payload=None):
+    """The reference design scaled to ``chain``'s size s: masses grow as s³, the moving mass
+    spread over the links in proportion to their length; the payload (kg at the TCP) is the
+    rated one scaled the same way unless given."""
     lengths = link_lengths(chain)
     size = lengths.sum() / REFERENCE_LENGTH
     return MassModel(link_masses=REFERENCE_ARM_MASS * size**3 * lengths / lengths.sum(),
-                     payload=REFERENCE_PAYLOAD * size**3)
+                     payload=REFERENCE_PAYLOAD * size**3 if payload is None else payload)
