@@ -338,3 +338,37 @@ def test_joint_loop(tmp_path):
       <joint name="j2" type="revolute"><parent link="b"/><child link="a"/></joint>""")
     with pytest.raises(FileFormatError, match="form a loop"):
         read_urdf(path)
+
+
+def test_link_masses_travel_through_robot_files_urdf_and_conversions(tmp_path):
+    from robocal.io.library import builtin
+    from robocal.io.robot_file import read_robot, write_robot
+    from robocal.kinematics import to_dh, to_mdh
+    from robocal.kinematics.gravity import default_mass_model, scaled_mass_model
+
+    panda = builtin("panda")
+    assert panda.masses is not None and panda.masses.size == 7
+    write_robot(panda, tmp_path / "panda.toml")
+    np.testing.assert_array_equal(read_robot(tmp_path / "panda.toml").masses, panda.masses)
+    write_urdf(panda, tmp_path / "panda.urdf")
+    np.testing.assert_allclose(read_urdf(tmp_path / "panda.urdf", tip="tcp").masses, panda.masses)
+    np.testing.assert_array_equal(to_mdh(to_poe(panda)).masses, panda.masses)
+    # The gravity model takes the robot's own masses, and the scaled design without them.
+    np.testing.assert_array_equal(default_mass_model(panda).link_masses, panda.masses)
+    bare = panda.replace(masses=None)
+    np.testing.assert_array_equal(default_mass_model(bare).link_masses, scaled_mass_model(bare).link_masses)
+    kr = builtin("kr150-2")
+    assert kr.masses is None and to_dh(kr).masses is None
+    # A URDF whose moved links declare no <inertial> gives no masses, rather than zeros.
+    assert read_urdf(PANDA_URDF, tip="ball_link").masses is None
+
+
+def test_bad_masses_are_refused(tmp_path):
+    text = (Path(__file__).resolve().parents[1] / "robocal/io/robots/ur5.toml").read_text()
+    (tmp_path / "some.toml").write_text(text.replace("mass = 3.7\n", "", 1))
+    with pytest.raises(FileFormatError, match="mass"):
+        from robocal.io.robot_file import read_robot
+
+        read_robot(tmp_path / "some.toml")
+    with pytest.raises(InputError, match="masses"):
+        kr150().replace(masses=[1.0, 2.0])

@@ -31,7 +31,7 @@ else:  # pragma: no cover - exercised on Python 3.10 only
 
 _LINK_KEYS = {"dh": ("a", "alpha", "d", "theta"), "mdh": ("a", "alpha", "d", "theta"),
               "poe": ("axis", "point", "theta")}
-_OPTIONAL_JOINT_KEYS = ("min", "max", "type", "sign", "beta", "name")
+_OPTIONAL_JOINT_KEYS = ("min", "max", "type", "sign", "beta", "name", "mass")
 _TOP_KEYS = ("name", "convention", "description", "joints", "tool", "base", "flange", "home",
              "joint_map", "notes")
 
@@ -88,7 +88,7 @@ def chain_from_dict(doc, path="<robot>"):
         _fail(path, "no [[joints]] tables: list one per joint, base to tip")
     required = _LINK_KEYS[convention]
     allowed = required + _OPTIONAL_JOINT_KEYS + (() if convention == "poe" else ("beta",))
-    columns = {k: [] for k in ("theta", "d", "a", "alpha", "beta", "axis", "point", "min", "max")}
+    columns = {k: [] for k in ("theta", "d", "a", "alpha", "beta", "axis", "point", "min", "max", "mass")}
     types, signs = [], []
     for j, joint in enumerate(joints, start=1):
         where = f"joint {j}"
@@ -121,7 +121,11 @@ def chain_from_dict(doc, path="<robot>"):
             _fail(path, f"{where}: min {joint['min']} is above max {joint['max']}")
         columns["min"].append(lo)
         columns["max"].append(hi)
+        if "mass" in joint:
+            columns["mass"].append(_number(path, f"{where} mass", joint["mass"]))
     n = len(joints)
+    if columns["mass"] and len(columns["mass"]) != n:
+        _fail(path, f"mass (kg) is given for {len(columns['mass'])} of {n} joints: give it for every joint or none")
     if "joint_map" in doc:
         if any(s != 1.0 for s in signs):
             _fail(path, "give either per-joint sign or a joint_map, not both")
@@ -142,6 +146,7 @@ def chain_from_dict(doc, path="<robot>"):
         name=name, convention=convention, joint_types=tuple(types),
         theta=columns["theta"], joint_map=joint_map, lower=columns["min"], upper=columns["max"],
         base=_frame(path, doc, "base"), tool=_frame(path, doc, "tool"),
+        masses=columns["mass"] or None,
     )
     if convention == "poe":
         if "flange" in doc:
@@ -215,6 +220,8 @@ def robot_to_toml(chain: Chain, description=None) -> str:
         for key, value in (("min", chain.lower[i]), ("max", chain.upper[i])):
             if np.isfinite(value):
                 lines.append(f"{key} = {_fmt(angle(value))}")
+        if chain.masses is not None:
+            lines.append(f"mass = {_fmt(chain.masses[i])}")
         lines.append("")
     if chain.convention == "poe":
         lines += _frame_lines("home", chain.home) or ["[home]", "xyz = [0.0, 0.0, 0.0]", ""]

@@ -68,12 +68,16 @@ def read_urdf(path, *, root: str | None = None, tip: str | None = None, name: st
     joints = tree.path(root, tip)
 
     pose = np.eye(4)  # running pose of the current link in the root-link frame, at zero
-    joint_types, axes, points, lower, upper = [], [], [], [], []
+    joint_types, axes, points, lower, upper, masses = [], [], [], [], [], []
     for joint in joints:
         kind = _joint_type(joint, path)
         pose = pose @ _origin(joint, path)
         if kind == "fixed":
+            if masses:  # a link fixed to the one the last joint moves moves with it (a bare
+                # frame, with no <inertial>, weighs nothing)
+                masses[-1] += np.nan_to_num(tree.mass(joint.find("child").get("link")))
             continue
+        masses.append(tree.mass(joint.find("child").get("link")))
         if joint.find("mimic") is not None:
             raise InputError(
                 f"{path}: joint {_name(joint)!r} mimics another joint, which robocal does not "
@@ -103,6 +107,8 @@ def read_urdf(path, *, root: str | None = None, tip: str | None = None, name: st
         home=pose,
         lower=np.array(lower),
         upper=np.array(upper),
+        # Link masses only when every link a joint moves declares one.
+        masses=None if any(np.isnan(masses)) else np.array(masses),
     )
 
 
@@ -146,7 +152,8 @@ class _LinkTree:
 
     def __init__(self, robot: ET.Element, path: Path):
         self.file = path
-        self.links = {link.get("name") for link in robot.findall("link")} - {None}
+        self.elements = {link.get("name"): link for link in robot.findall("link") if link.get("name")}
+        self.links = set(self.elements)
         if not self.links:
             raise FileFormatError(f"{path} has no <link> elements: this is not a robot description")
         self.parent_joint = {}  # child link -> the joint that carries it
@@ -175,6 +182,14 @@ class _LinkTree:
                 "<link> element: declare the link or fix the name"
             )
         return link
+
+    def mass(self, link: str) -> float:
+        """The ``<inertial><mass value>`` of a link in kg, NaN when it declares none."""
+        element = self.elements[link].find("inertial/mass")
+        try:
+            return float(element.get("value")) if element is not None else float("nan")
+        except (TypeError, ValueError):
+            raise FileFormatError(f"{self.file}: link {link!r} has a <mass> without a numeric value") from None
 
     def check_link(self, link: str, role: str) -> str:
         if link not in self.links:
@@ -355,8 +370,12 @@ def chain_to_urdf(chain: Chain, *, robot_name: str | None = None, allow_coupled:
             "their limits are the bounds of q_model over the controller's joint-limit box. "
         ))
     links = ["world", "base_link"] + [f"link_{k}" for k in range(1, chain.n_joints + 1)] + ["flange", "tcp"]
-    for link in links:
-        ET.SubElement(robot, "link", name=link)
+    for k, link in enumerate(links):
+        element = ET.SubElement(robot, "link", name=link)
+        joint_index = k - 2  # link_1 .. link_n are moved by joints 1 .. n
+        if chain.masses is not None and 0 <= joint_index < chain.n_joints:
+            inertial = ET.SubElement(element, "inertial")
+            ET.SubElement(inertial, "mass", value=_numbers([chain.masses[joint_index]]))
     _fixed_joint(robot, "world_to_base", "world", "base_link", chain.base)
     for i, origin in enumerate(origins):
         joint_type = chain.joint_types[i]

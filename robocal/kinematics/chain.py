@@ -78,6 +78,8 @@ class Chain:
     base: np.ndarray = field(default_factory=lambda: np.eye(4))
     flange: np.ndarray = field(default_factory=lambda: np.eye(4))
     tool: np.ndarray = field(default_factory=lambda: np.eye(4))
+    # (n,) kg, link i's mass (the body joint i moves), for gravity loads; None: unknown.
+    masses: np.ndarray | None = None
 
     def __post_init__(self):
         if self.convention not in CONVENTIONS:
@@ -115,6 +117,11 @@ class Chain:
             raise InputError(f"robot {self.name!r}: joint {j} has min > max")
         for key in ("base", "flange", "tool"):
             set_(self, key, np.array(getattr(self, key), dtype=float).reshape(4, 4))
+        if self.masses is not None:
+            masses = np.array(self.masses, dtype=float).reshape(-1)
+            if masses.shape != (n,) or not np.all(np.isfinite(masses)) or np.any(masses < 0):
+                raise InputError(f"robot {self.name!r}: masses must be {n} finite values >= 0 kg, got {masses.tolist()}")
+            set_(self, "masses", masses)
 
     # ----------------------------------------------------------------- basic facts
     @property

@@ -72,7 +72,7 @@ def to_poe(chain: Chain) -> Chain:
         name=chain.name, convention="poe", joint_types=chain.joint_types, theta=theta,
         axes=rot[0, :, :, 2], points=origins[0], home=flange_pose[0],
         joint_map=chain.joint_map, lower=chain.lower, upper=chain.upper,
-        base=chain.base, tool=chain.tool,
+        base=chain.base, tool=chain.tool, masses=chain.masses,
     )
 
 
@@ -127,7 +127,7 @@ def _poe_to_mdh(chain: Chain) -> Chain:
         name=chain.name, convention="mdh", joint_types=chain.joint_types,
         theta=theta + chain.theta, d=d, a=a, alpha=alpha, beta=beta,
         joint_map=chain.joint_map, lower=chain.lower, upper=chain.upper,
-        base=chain.base, flange=flange, tool=chain.tool,
+        base=chain.base, flange=flange, tool=chain.tool, masses=chain.masses,
     )
 
 

@@ -120,7 +120,7 @@ def size_factor(chain):
     return link_lengths(chain).sum() / REFERENCE_LENGTH
 
 
-def default_mass_model(chain, payload=None):
+def scaled_mass_model(chain, payload=None):
     """The reference design scaled to ``chain``'s size s: masses grow as s³, the moving mass
     spread over the links in proportion to their length; the payload (kg at the TCP) is the
     rated one scaled the same way unless given."""
@@ -128,3 +128,12 @@ def default_mass_model(chain, payload=None):
     size = lengths.sum() / REFERENCE_LENGTH
     return MassModel(link_masses=REFERENCE_ARM_MASS * size**3 * lengths / lengths.sum(),
                      payload=REFERENCE_PAYLOAD * size**3 if payload is None else payload)
+
+
+def default_mass_model(chain, payload=None):
+    """The robot's own link masses when its file gives them (``mass`` per joint), else
+    :func:`scaled_mass_model`; the payload as there."""
+    scaled = scaled_mass_model(chain, payload)
+    if chain.masses is None:
+        return scaled
+    return MassModel(link_masses=chain.masses, payload=scaled.payload)

@@ -21,7 +21,7 @@
 import numpy as np
 
 from ..errors import InputError
-from ..kinematics.gravity import default_mass_model, size_factor
+from ..kinematics.gravity import scaled_mass_model, size_factor
 from . import liu2022
 from .joint_effects import Compliance
 from .true_robot import TrueRobot
@@ -76,7 +76,7 @@ def _typical_deviations(chain, rng):
 
 def _typical_compliance(chain):
     """The 150 kg-class compliance scaled to ``chain``'s size (see the module docstring)."""
-    mass = default_mass_model(chain)
+    mass = scaled_mass_model(chain)
     return Compliance(
         # Prismatic joints (rare on such arms) are left rigid.
         stiffness=np.where(chain.revolute, REFERENCE_STIFFNESS * size_factor(chain)**4, np.inf),
