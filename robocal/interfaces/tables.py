@@ -22,7 +22,8 @@ def robot_tables(chain):
         cols = ("axis", "point (mm)", "theta")
     else:
         cols = ("a (mm)", "alpha (deg)", "d (mm)", "theta (deg)", "beta (deg)")
-    for c in cols + ("min", "max", "sign"):
+    masses = ("mass (kg)",) if chain.masses is not None else ()
+    for c in cols + ("min", "max", "sign") + masses:
         table.add_column(c, justify="right")
     coupled = not np.allclose(chain.joint_map, np.diag(np.diag(chain.joint_map)))
     for i, kind in enumerate(chain.joint_types):
@@ -35,8 +36,9 @@ def robot_tables(chain):
             vals = (_fmt(chain.a[i]), _fmt(np.degrees(chain.alpha[i])), _fmt(chain.d[i]),
                     _fmt(ang(chain.theta[i])), _fmt(np.degrees(chain.beta[i])))
         sign = "coupled" if coupled else ("-1" if chain.joint_map[i, i] < 0 else "+1")
+        mass = (_fmt(chain.masses[i], 3),) if masses else ()
         table.add_row(str(i + 1), kind[0].upper(), *vals, _fmt(ang(chain.lower[i]), 2),
-                      _fmt(ang(chain.upper[i]), 2), sign)
+                      _fmt(ang(chain.upper[i]), 2), sign, *mass)
     frames = Table(title="frames (xyz mm, rpy deg)")
     for c in ("frame", "x", "y", "z", "rx", "ry", "rz"):
         frames.add_column(c, justify="right")
