@@ -80,7 +80,7 @@ def train(q, dp, inputs, settings):
 
 def _note(model):
     info = model.training_
-    hidden = "x".join(str(h) for h in model._layout.hidden)
+    hidden = "x".join(str(h) for h in model.hidden)
     note = f"{hidden}, {info['active_weights']} active weights"
     if "generations" in info:
         note += f", {info['generations']} generations ({info['stopped']})"
