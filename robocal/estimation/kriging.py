@@ -40,6 +40,7 @@ from scipy.linalg import lapack
 from scipy.optimize import minimize
 
 from ..errors import InputError, RobocalWarning
+from .arrays import as_matrix, standard_scaler
 
 REGRESSIONS = ("constant", "linear", "quadratic")
 CORRELATIONS = ("gaussian", "matern52")
@@ -292,7 +293,7 @@ class Kriging:
         """
         self._check_settings()
         y_is_vector = np.ndim(Y) == 1
-        X, Y = _as_matrix(X, "X"), _as_matrix(Y, "Y")
+        X, Y = as_matrix(X, "X"), as_matrix(Y, "Y")
         n, d = X.shape
         if len(Y) != n:
             raise InputError(f"X has {n} rows but Y has {len(Y)}: give one output row per input "
@@ -507,7 +508,7 @@ class Kriging:
         """
         if not hasattr(self, "_states"):
             raise InputError("this Kriging model is not fitted: call fit(X, Y) first")
-        X = _as_matrix(X, "X")
+        X = as_matrix(X, "X")
         if X.shape[1] != self.n_features_in_:
             raise InputError(f"X has {X.shape[1]} columns but the model was fitted on "
                              f"{self.n_features_in_}: give points with the same columns, in "
@@ -615,8 +616,8 @@ class Kriging:
             model = cls(regression=settings["regression"], correlation=settings["correlation"],
                         theta_bounds=tuple(settings["theta_bounds"]), nugget=settings["nugget"],
                         shared_theta=settings["shared_theta"])
-            X = _as_matrix(data["X"], "X")
-            Y = _as_matrix(data["Y"], "Y")
+            X = as_matrix(data["X"], "X")
+            Y = as_matrix(data["Y"], "Y")
             theta = np.array(data["theta"], dtype=float)
             nugget = np.array(data["nugget"], dtype=float)
             jitter = np.array(data["jitter"], dtype=float)
@@ -645,8 +646,8 @@ class _Training:
 
     def __init__(self, X, Y, regression, correlation):
         self.X, self.Y = X, Y
-        self.x_mean, self.x_scale = _scaler(X)
-        self.y_mean, self.y_scale = _scaler(Y)
+        self.x_mean, self.x_scale = standard_scaler(X)
+        self.y_mean, self.y_scale = standard_scaler(Y)
         Xs = (X - self.x_mean) / self.x_scale
         self.Ys = (Y - self.y_mean) / self.y_scale
         F = trend_basis(Xs, regression)
@@ -655,33 +656,3 @@ class _Training:
                              f"input is constant or the points lie on a lower-dimensional "
                              f"surface): use a lower-order trend or drop that input")
         self.problem = _Problem(Xs, F, correlation)
-
-
-def _as_matrix(values, name):
-    """A finite float array with 2 dimensions (a 1-D array becomes one column)."""
-    try:
-        array = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a numeric array") from None
-    if array.ndim == 1:
-        array = array[:, None]
-    if array.ndim != 2 or array.size == 0:
-        raise InputError(f"{name} must be a non-empty 2-D array (rows are points), got shape "
-                         f"{array.shape}")
-    bad = ~np.isfinite(array)
-    if bad.any():
-        rows = np.flatnonzero(bad.any(axis=1))
-        shown = ", ".join(str(i) for i in rows[:10]) + (" …" if len(rows) > 10 else "")
-        raise InputError(f"{name} contains NaN or infinite values in {len(rows)} rows "
-                         f"({shown}): remove or repair those rows")
-    return array
-
-
-def _scaler(A):
-    """Column means and standard deviations (n − 1 in the denominator, as DACE and SMT have
-    it, so θ is comparable with theirs).  A constant column gets its value and scale 1, so
-    that it standardises to exact zeros (its computed mean and spread can be off by rounding)."""
-    constant = A.min(axis=0) == A.max(axis=0)
-    mean = np.where(constant, A[0], A.mean(axis=0))
-    scale = np.where(constant, 1.0, A.std(axis=0, ddof=1))
-    return mean, scale

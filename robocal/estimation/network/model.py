@@ -24,7 +24,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from ...errors import FileFormatError, InputError
-from ..kriging import _as_matrix, _scaler
+from ..arrays import as_matrix, standard_scaler
 from .genetic import ALPHA, Encoding, Fitness, GeneticAlgorithm
 from .mlp import Layout, forward_one, loss_and_gradient
 
@@ -125,7 +125,7 @@ class NetworkErrorModel:
         A fit that raises leaves an already fitted model as it was.
         """
         hidden = self._check_settings()
-        q, dp = _as_matrix(q, "q (joint values)"), _as_matrix(dp, "dp (position errors)")
+        q, dp = as_matrix(q, "q (joint values)"), as_matrix(dp, "dp (position errors)")
         if dp.shape[1] != N_OUTPUTS:
             raise InputError(f"dp must have 3 columns (the x, y, z position errors in mm), got "
                              f"{dp.shape[1]}")
@@ -145,8 +145,8 @@ class NetworkErrorModel:
         if np.all(dp.min(axis=0) == dp.max(axis=0)):
             raise InputError("every position error is the same: there is nothing for a network "
                              "to learn (a constant offset is a base or tool frame error)")
-        x_mean, x_scale = _scaler(features)
-        y_mean, y_scale = _scaler(dp)
+        x_mean, x_scale = standard_scaler(features)
+        y_mean, y_scale = standard_scaler(dp)
         X = (features - x_mean) / x_scale
         Y = (dp - y_mean) / y_scale
         rng = np.random.default_rng(self.seed)
@@ -207,7 +207,7 @@ class NetworkErrorModel:
             raise InputError("this network is not trained: call fit(q, dp) first")
         if np.ndim(q) == 1 and np.size(q) == self.n_features_in_:
             return self.predict(np.asarray(q)[None])[0]
-        q = _as_matrix(q, "q (joint values)")
+        q = as_matrix(q, "q (joint values)")
         if q.shape[1] != self.n_features_in_:
             raise InputError(f"the network was trained on {self.n_features_in_} joint values per "
                              f"pose, got {q.shape[1]}: is this model for another robot?")
