@@ -90,3 +90,17 @@ def test_mukca_dataset_split_by_placement(tmp_path):
          "--fixture", tmp_path / "p3_fixture.toml", "--out", tmp_path / "p3.json")
     result = json.loads(_run("evaluate", tmp_path / "p3.json", tmp_path / "p3_test.csv", "--json").stdout)
     assert result["mean_mm"] < 0.25 * result["nominal"]["mean_mm"]
+
+
+def test_validate_leaves_one_placement_out(socket_files):
+    result = json.loads(_run("validate", "kr150-2", socket_files / "train.csv", "--method", "constraint",
+                             "--fixture", socket_files / "fix.toml", "--json").stdout)
+    folds = result["cross_validation"]["folds"]
+    assert [f["fold"] for f in folds] == [f"P{k}" for k in range(1, 7)]
+    assert all(f["n_train"] == 5 * 3 * 12 for f in folds)
+    pooled, nominal = result["cross_validation"]["pooled"], result["nominal_cross_validation"]["pooled"]
+    assert pooled["n"] == nominal["n"] == 6 * 3 * 12
+    assert pooled["mean_mm"] < 0.2 * nominal["mean_mm"]
+    curve = runner.invoke(app, ["validate", "kr150-2", str(socket_files / "train.csv"), "--method", "constraint",
+                                "--fixture", str(socket_files / "fix.toml"), "--sizes", "20,40"])
+    assert curve.exit_code == 2 and "placement by placement" in curve.output

@@ -333,13 +333,16 @@ def export(
 def validate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
-    method: str = typer.Option("kinematic", help="kinematic, kriging, hybrid or ann."),
+    method: str = typer.Option("kinematic", help="kinematic, kriging, hybrid, ann, or constraint (leave one placement out, with --fixture)."),
     folds: int = typer.Option(5, help="Number of cross-validation folds."),
     sizes: str = typer.Option(None, help="Learning curve: training sizes, e.g. 20,50,100,200."),
     seed: int = typer.Option(0, help="Seed of the fold assignment and the Kriging search."),
     register: str = typer.Option("auto", help="Register base and tool first: auto, yes or no."),
     parameters: str = typer.Option("full", help="kinematic/hybrid: parameter set, offsets, full or full+compliance (plus the stiffness of every joint gravity loads)."),
     loss: str = typer.Option("linear", help="kinematic/hybrid: linear, huber or soft_l1."),
+    fixture: str = typer.Option(None, help="constraint: the fixture TOML."),
+    pairs: str = typer.Option("all", help="constraint: all pairs or spanning."),
+    payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Held-out accuracy of a method: k-fold cross-validation and an optional learning curve.
@@ -353,17 +356,21 @@ def validate(
 
     size_list = None if sizes is None else [int(v) for v in _floats(sizes, 0, "--sizes")]
     # Each fold fits the method and the registered nominal; each size of the curve 3 times.
-    fits = 2 * folds + 3 * len(size_list or [])
+    fits = None if method == "constraint" else 2 * folds + 3 * len(size_list or [])
     with progress("fitting", fits, enabled=not as_json) as advance:
         result = validate_job(robot, measurements, method=method, folds=folds, sizes=size_list, seed=seed,
-                              register=register, parameters=parameters, loss=loss, on_fit=advance)
+                              register=register, parameters=parameters, loss=loss, fixture=fixture,
+                              pairs=pairs, payload=payload, on_fit=advance)
     if as_json:
         print(json.dumps(result, indent=2))
         return
-    table = Table(title=f"{method}, {folds}-fold cross-validation on {result['poses']} poses (mm)")
+    kind = ("leave-one-placement-out socket consistency" if method == "constraint"
+            else f"{result['folds']}-fold cross-validation")
+    table = Table(title=f"{method}, {kind} on {result['poses']} poses (mm)")
     for col in ("model", "mean", "RMS", "max"):
         table.add_column(col, justify="right")
-    for label, key in ((method, "cross_validation"), ("nominal, registered", "nominal_cross_validation")):
+    nominal = "nominal" if method == "constraint" else "nominal, registered"
+    for label, key in ((method, "cross_validation"), (nominal, "nominal_cross_validation")):
         stats = result[key].get("pooled", result[key])
         table.add_row(label, f"{stats['mean_mm']:.4f}", f"{stats['rms_mm']:.4f}", f"{stats['max_mm']:.4f}")
     out.print(table)

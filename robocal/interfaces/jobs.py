@@ -394,19 +394,58 @@ def _fitter(method, chain, q, data, register, parameters, loss, kriging_seed):
     return fit
 
 
+def _placement_validation(chain, data, fixture_path, pairs, parameters, payload, on_fit):
+    """Leave one fixture placement out at a time: the constraint model fitted on the others,
+    its socket consistency on the one left out, beside the nominal model's."""
+    from ..estimation.constraint import ConstraintCalibration, socket_deviations
+    from ..io.fixtures import read_fixture
+
+    if fixture_path is None:
+        raise InputError("the constraint method needs the fixture: --fixture FIX.toml (socket centres in mm)")
+    _constraints_required(data)
+    fixture = read_fixture(fixture_path)
+    placements = sorted(set(data.fixture.tolist()))
+    if len(placements) < 2:
+        raise InputError(f"{data.path} has one fixture placement: leave-one-placement-out needs two or more")
+    q = chain.joints_from_file(data.joints)
+    folds, nominal_folds, deviations, nominal_deviations = [], [], [], []
+    for placement in placements:
+        test = data.fixture == placement
+        calibration = ConstraintCalibration(pairs=pairs, compliance=parameters == "full+compliance",
+                                            payload=payload).fit(
+            chain, q[~test], data.fixture[~test], data.socket[~test], fixture)
+        if on_fit is not None:
+            on_fit()
+        for model, fold_list, pooled in ((calibration.chain_, folds, deviations),
+                                         (chain, nominal_folds, nominal_deviations)):
+            held_out, _ = socket_deviations(model, q[test], data.fixture[test], data.socket[test], fixture)
+            pooled.append(held_out)
+            fold_list.append({"fold": placement, "n_train": int((~test).sum()), "held_out": error_stats(held_out)})
+    return {"method": "constraint", "file": str(data.path), "poses": data.n_poses, "folds": len(placements),
+            "metric": "socket consistency on the placement left out",
+            "cross_validation": {"k": len(placements), "folds": folds,
+                                 "pooled": error_stats(np.concatenate(deviations))},
+            "nominal_cross_validation": {"k": len(placements), "folds": nominal_folds,
+                                         "pooled": error_stats(np.concatenate(nominal_deviations))}}
+
+
 def validate_job(robot, measurements, *, method="kinematic", folds=5, sizes=None, seed=0, register="auto",
-                 parameters="full", loss="linear", root=None, tip=None, on_fit=None):
+                 parameters="full", loss="linear", fixture=None, pairs="all", payload=None, root=None, tip=None,
+                 on_fit=None):
     """k-fold cross-validation (and a learning curve) of a method, beside the nominal robot
-    registered on the same training folds.  ``on_fit()`` is called after every fit."""
+    registered on the same training folds; for the constraint method, leave one fixture
+    placement out at a time.  ``on_fit()`` is called after every fit."""
     from ..estimation.validation import k_fold, learning_curve
 
     if method not in IMPLEMENTED_METHODS:
         raise InputError(f"method {method!r} is not available; available: {', '.join(IMPLEMENTED_METHODS)}")
-    if method == "constraint":
-        raise InputError("validate folds position data; for ball-in-socket data hold out whole placements "
-                         "(robocal dataset ... --split, or split the CSV by fixture) and use robocal evaluate")
     chain = load_robot(robot, root=root, tip=tip)
     data = read_measurements(measurements, n_joints=chain.n_joints)
+    if method == "constraint":
+        if sizes:
+            raise InputError("--sizes (a learning curve) is for position data; the constraint method is "
+                             "validated placement by placement")
+        return _placement_validation(chain, data, fixture, pairs, parameters, payload, on_fit)
     _positions_required(data, method)
     q = chain.joints_from_file(data.joints)
     def counted(fit):
