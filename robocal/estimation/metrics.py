@@ -44,10 +44,9 @@ def iso9283_position(joints, attained, commanded):
     target = np.array([np.bincount(pose_of, commanded[:, k]) for k in range(3)]).T / count[:, None]
     ap = np.linalg.norm(mean - target, axis=1)
     spread = np.linalg.norm(attained - mean[pose_of], axis=1)
-    repeated = np.flatnonzero(count >= 2)
-    rp = []
-    for p in repeated:
-        l = spread[pose_of == p]
-        rp.append(l.mean() + 3.0 * l.std(ddof=1))
+    spread_mean = np.bincount(pose_of, spread) / count
+    repeated = count >= 2
+    squares = np.bincount(pose_of, (spread - spread_mean[pose_of]) ** 2)
+    rp = spread_mean[repeated] + 3.0 * np.sqrt(squares[repeated] / (count[repeated] - 1))
     return {"poses": int(len(count)), "ap_mean_mm": float(ap.mean()), "ap_max_mm": float(ap.max()),
-            "repeated_poses": int(len(repeated)), "rp_max_mm": float(max(rp)) if rp else None}
+            "repeated_poses": int(repeated.sum()), "rp_max_mm": float(rp.max()) if rp.size else None}
