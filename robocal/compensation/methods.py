@@ -155,8 +155,12 @@ def error_model_from_dict(document):
     raise InputError(f"unknown error model type {kind!r} in the model file")
 
 
+def residuals(compensator, nominal_chain, joints, positions):
+    """(before, after): measured minus the nominal chain, and minus the model, (N, 3) mm."""
+    return positions - nominal_chain.fk_positions(joints), positions - compensator.predict_positions(joints)
+
+
 def evaluate(compensator, nominal_chain, joints, positions):
-    """Residual statistics of the model and of the nominal chain on measured data."""
-    after = positions - compensator.predict_positions(joints)
-    before = positions - nominal_chain.fk_positions(joints)
+    """Residual statistics of the model, and of the nominal chain under "nominal"."""
+    before, after = residuals(compensator, nominal_chain, joints, positions)
     return {**error_stats(after), "nominal": error_stats(before)}

@@ -12,6 +12,7 @@ from ..compensation.methods import (
     fit_kinematic,
     fit_kriging,
     fit_network,
+    residuals,
 )
 from ..errors import FileFormatError, InputError, RobocalWarning
 from ..estimation.metrics import error_stats
@@ -141,8 +142,7 @@ def position_evaluation(model, compensator, data, q, model_path):
     import warnings
 
     _positions_required(data, model.method)
-    before = data.positions - model.reference.fk_positions(q)
-    after = data.positions - compensator.predict_positions(q)
+    before, after = residuals(compensator, model.reference, q, data.positions)
     result = {**error_stats(after), "nominal": error_stats(before)}
     if result["mean_mm"] > SUSPICIOUS_RESIDUAL_MM:
         warnings.warn(RobocalWarning(
