@@ -113,8 +113,8 @@ class KinematicCalibration:
     parameters: 'offsets', 'full' or 'full+compliance' (full, plus one compliance per joint
     that gravity loads, the deflection being proportional to the gravity torque of
     :func:`robocal.kinematics.gravity.default_mass_model` with ``payload`` kg at the TCP, by
-    default the rated payload of a robot of that size).  loss: 'linear', 'huber' or 'soft_l1' (per pose, on the
-    weighted residual norm; ``f_scale`` in those units, default 3x the median).
+    default none if the robot file gives link masses, else the rated payload of a robot of
+    that size).  loss: 'linear', 'huber' or 'soft_l1' (per pose, on the weighted residual norm; ``f_scale`` in those units, default 3x the median).
     position_sigma (mm) and orientation_sigma (deg) weight rows when the data carry no
     sigmas.  register: start from a Kabsch fit of the base (use False for data already in
     the base frame of a chain whose base is right).  tolerance: stop when an iteration lowers

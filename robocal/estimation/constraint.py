@@ -354,7 +354,8 @@ class ConstraintCalibration:
     have them (False: position constraints only, scale then unidentifiable).  compliance:
     also identify one compliance per joint gravity loads (see
     :class:`~robocal.kinematics.compliant.CompliantChain`), ``payload`` kg at the TCP (the ball
-    and what carries it; default: the rated payload of a robot of that size).
+    and what carries it; default: none if the robot file gives link masses, else the rated
+    payload of a robot of that size).
 
     After :meth:`fit`: ``chain_`` (the calibrated POE chain, tool = flange -> ball centre,
     base = the starting one), ``start_chain_`` (the starting model in POE form),

@@ -200,7 +200,7 @@ def calibrate(
     shared_theta: bool = typer.Option(False, "--shared-theta", help="One theta for the three outputs."),
     parameters: str = typer.Option("full", help="kinematic/hybrid: parameter set, offsets, full or full+compliance (plus the stiffness of every joint gravity loads)."),
     loss: str = typer.Option("linear", help="kinematic/hybrid: linear, huber or soft_l1 (robust)."),
-    payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (default: the rated payload of a robot of that size)."),
+    payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (default: 0 if the robot file gives link masses, else the rated payload of a robot of that size)."),
     seed: int = typer.Option(0, help="Seed of the Kriging multi-start search and of the network's training."),
     hidden: str = typer.Option("16,16", help="ann: hidden layer widths, at least two."),
     generations: int = typer.Option(300, help="ann: generation limit of the genetic algorithm."),
@@ -388,7 +388,8 @@ def validate(
 @app.command()
 @user_errors
 def dataset(
-    name: str = typer.Argument(..., help="ur5-tsinghua, ipa-ur10-a or ipa-ur10-b."),
+    name: str = typer.Argument(..., help="ur5-tsinghua, ipa-ur10-a, ipa-ur10-b (laser tracker) or mukca-panda-1/2/3 "
+                                         "(ball in sockets; split by fixture placement)."),
     prefix: str = typer.Option(..., "--out", help="Prefix of the files to write (PREFIX.toml, PREFIX*.csv)."),
     split: float = typer.Option(None, help="Training fraction of a random train/test split, e.g. 0.5."),
     seed: int = typer.Option(0, help="Seed of the split."),

@@ -164,7 +164,7 @@ class CompliantChain:
 
 def with_compliance(chain, joints, payload=None):
     """``chain`` made compliant (all compliances zero, the default mass model with ``payload``
-    kg at the TCP, or the scaled rated payload) and the names of the compliances of its loaded
+    kg at the TCP, by default as there) and the names of the compliances of its loaded
     joints: revolute joints whose gravity torque over ``joints`` reaches LOADED_SHARE of the
     most loaded joint's."""
     compliant = CompliantChain(chain, default_mass_model(chain, payload), np.zeros(chain.n_joints))

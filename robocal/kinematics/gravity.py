@@ -131,9 +131,9 @@ def scaled_mass_model(chain, payload=None):
 
 
 def default_mass_model(chain, payload=None):
-    """The robot's own link masses when its file gives them (``mass`` per joint), else
-    :func:`scaled_mass_model`; the payload as there."""
-    scaled = scaled_mass_model(chain, payload)
+    """The robot's own link masses when its file gives them (``mass`` per joint) with
+    ``payload`` kg at the TCP (default 0: the file describes the arm, and a calibration
+    target weighs little), else :func:`scaled_mass_model`."""
     if chain.masses is None:
-        return scaled
-    return MassModel(link_masses=chain.masses, payload=scaled.payload)
+        return scaled_mass_model(chain, payload)
+    return MassModel(link_masses=chain.masses, payload=0.0 if payload is None else payload)
