@@ -357,6 +357,11 @@ def test_link_masses_travel_through_robot_files_urdf_and_conversions(tmp_path):
     np.testing.assert_array_equal(default_mass_model(panda).link_masses, panda.masses)
     bare = panda.replace(masses=None)
     np.testing.assert_array_equal(default_mass_model(bare).link_masses, scaled_mass_model(bare).link_masses)
+    # Measured masses come without an invented payload (the scaled design's would be 8 kg on a
+    # 3 kg robot); the scaled design keeps its rated payload; a given payload is used as is.
+    assert default_mass_model(panda).payload == 0.0
+    assert default_mass_model(bare).payload == scaled_mass_model(bare).payload > 0
+    assert default_mass_model(panda, 1.5).payload == default_mass_model(bare, 1.5).payload == 1.5
     kr = builtin("kr150-2")
     assert kr.masses is None and to_dh(kr).masses is None
     # A URDF whose moved links declare no <inertial> gives no masses, rather than zeros.
