@@ -342,19 +342,9 @@ def dataset_job(name, prefix, *, split=None, seed=0):
         write_measurements(f"{prefix}.csv", data)
         written["measurements"] = f"{prefix}.csv"
         return {"dataset": name, "poses": data.n_poses, "source": data.path, **written}
-    if not 0.0 < split < 1.0:
-        raise InputError(f"--split is the training fraction and must lie between 0 and 1, got {split}")
-    rng = np.random.default_rng(seed)
-    if data.fixture is not None:
-        placements = np.unique(data.fixture)
-        if len(placements) < 2:
-            raise InputError(f"{name} has one fixture placement: nothing to hold out")
-        cut = min(max(int(round(split * len(placements))), 1), len(placements) - 1)
-        chosen = rng.permutation(placements)[:cut]
-        train = np.flatnonzero(np.isin(data.fixture, chosen))
-        written["train_placements"] = sorted(str(p) for p in chosen)
-    else:
-        train = np.sort(rng.permutation(data.n_poses)[:int(round(split * data.n_poses))])
+    train, chosen = datasets.split_indices(data, split, seed)
+    if chosen is not None:
+        written["train_placements"] = chosen
     test = np.setdiff1d(np.arange(data.n_poses), train)
     write_measurements(f"{prefix}_train.csv", data.subset(train))
     write_measurements(f"{prefix}_test.csv", data.subset(test))

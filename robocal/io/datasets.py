@@ -152,3 +152,21 @@ def mukca(unit="panda_1", root=None):
                                      tool=compose_pose([0.0, 0.0, MUKCA_BALL_MM], np.zeros(3)))
     data = Measurements(path=str(folder), joints=np.concatenate(joints), fixture=placements, socket=sockets)
     return chain, data, fixture
+
+
+def split_indices(data, split, seed=0):
+    """Training rows of a random split of ``data`` (:class:`Measurements`) with ``split`` the
+    training fraction, and the training placements (sorted names) for ball-in-socket data,
+    which are split by whole fixture placements so that the test placements are unseen;
+    None for other data."""
+    if not 0.0 < split < 1.0:
+        raise InputError(f"--split is the training fraction and must lie between 0 and 1, got {split}")
+    rng = np.random.default_rng(seed)
+    if data.fixture is None:
+        return np.sort(rng.permutation(data.n_poses)[:int(round(split * data.n_poses))]), None
+    placements = np.unique(data.fixture)
+    if len(placements) < 2:
+        raise InputError(f"{data.path} has one fixture placement: nothing to hold out")
+    cut = min(max(int(round(split * len(placements))), 1), len(placements) - 1)
+    chosen = rng.permutation(placements)[:cut]
+    return np.flatnonzero(np.isin(data.fixture, chosen)), sorted(str(p) for p in chosen)
