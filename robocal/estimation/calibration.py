@@ -6,20 +6,20 @@ The Jacobian is the chain's analytic identification Jacobian and every step is a
 robot is calibrated in its own parameterisation: DH and modified DH carry Hayati's beta on
 parallel axes, which removes the DH singularity there, and export needs no conversion.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..errors import InputError
 from ..kinematics.compliant import UNITS_NOTE, file_units, with_compliance
 from ..spatial import make_transform
-from .identifiability import NEAR_PARALLEL, STRONG_CORRELATION, analyse
+from .identifiability import NEAR_PARALLEL, STRONG_CORRELATION, analyse, loose_gains
 from .least_squares import levenberg_marquardt
 from .least_squares import residual as residual_of
 from .metrics import error_stats
 from .registration import kabsch
 
-PARAMETER_SETS = ("offsets", "full", "full+compliance")
+PARAMETER_SETS = ("offsets", "full", "full+gains", "full+compliance", "full+compliance+gains")
 LOSSES = ("linear", "huber", "soft_l1")
 # Nominal geometry of the right robot in the right unit lands within a few mm; a calibrated
 # model that still misses by this much is fitting the wrong robot, unit or data.
@@ -78,10 +78,17 @@ def check_payload(payload):
     return value
 
 
-def candidate_parameters(chain, parameters="full", *, base=True, tool_orientation=False):
-    """Parameter names in order of preference for the identifiability analysis."""
+def parameter_terms(parameters):
+    """The extras a parameter set adds to the geometry: {'compliance', 'gains'} or fewer."""
     if parameters not in PARAMETER_SETS:
         raise InputError(f"parameter set must be one of {', '.join(PARAMETER_SETS)}, got {parameters!r}")
+    return set(parameters.split("+")[1:])
+
+
+def candidate_parameters(chain, parameters="full", *, base=True, tool_orientation=False):
+    """Parameter names in order of preference for the identifiability analysis (joint gains
+    last, so that the geometry explains what it can)."""
+    terms = parameter_terms(parameters)
     names = chain.parameter_names(("base",)) if base else []
     tool = chain.parameter_names(("tool",))
     names += tool if tool_orientation else tool[:3]
@@ -104,17 +111,21 @@ def candidate_parameters(chain, parameters="full", *, base=True, tool_orientatio
             names.append(f"beta{k}")
     if chain.convention == "poe":
         names += chain.parameter_names(("home",))
+    if "gains" in terms:
+        names += chain.parameter_names(("gains",))
     return names
 
 
 class KinematicCalibration:
     """Levenberg–Marquardt identification of a chain's parameters, scikit-learn style.
 
-    parameters: 'offsets', 'full' or 'full+compliance' (full, plus one compliance per joint
-    that gravity loads, the deflection being proportional to the gravity torque of
+    parameters: 'offsets', 'full', 'full+gains' (full, plus a gain per joint: a scale error
+    of its reading), 'full+compliance' (full, plus one compliance per joint that gravity
+    loads, the deflection being proportional to the gravity torque of
     :func:`robocal.kinematics.gravity.default_mass_model` with ``payload`` kg at the TCP, by
     default none if the robot file gives link masses, else the rated payload of a robot of
-    that size).  loss: 'linear', 'huber' or 'soft_l1' (per pose, on the weighted residual norm; ``f_scale`` in those units, default 3x the median).
+    that size) or 'full+compliance+gains'.  loss: 'linear', 'huber' or 'soft_l1' (per pose,
+    on the weighted residual norm; ``f_scale`` in those units, default 3x the median).
     position_sigma (mm) and orientation_sigma (deg) weight rows when the data carry no
     sigmas.  register: start from a Kabsch fit of the base (use False for data already in
     the base frame of a chain whose base is right).  tolerance: stop when an iteration lowers
@@ -182,7 +193,7 @@ class KinematicCalibration:
         rows_per_pose = 6 if with_orientation else 3
         names = candidate_parameters(chain, self.parameters, tool_orientation=with_orientation)
         compliant = None
-        if self.parameters == "full+compliance":
+        if "compliance" in parameter_terms(self.parameters):
             compliant, compliances = with_compliance(chain, q, self.payload)
             names += compliances
         if len(q) * rows_per_pose < len(names) or distinct * rows_per_pose < len(names):
@@ -206,24 +217,34 @@ class KinematicCalibration:
         # Identifiability is local: nominal geometry can make parameters look dependent
         # (a TCP exactly on the last axis) that the real robot separates.  Analyse, fit, and
         # analyse again at the fit until the identified set settles.
-        fitted, identified, total_iterations = start, None, 0
-        for _ in range(3):
-            jac = fitted.identification_jacobian(q, names)[:, :rows_per_pose, :]
-            scaled = (jac * weights[:, :, None]).reshape(-1, len(names))
-            rigid = getattr(fitted, "rigid", fitted)
-            # Reasons only after a fit: the first analysis, at the start, is never the last.
-            _, report = analyse(rigid, scaled, names, explain=identified is not None)
-            if report.identified == identified:
-                break
-            identified = report.identified
-            fitted, iterations, converged, robust = levenberg_marquardt(
-                fitted, q, target, identified, rotations=rotations, weights=weights,
-                pose_weights=self._robust_weights, max_iterations=self.max_iterations,
-                tolerance=self.tolerance)
-            total_iterations += iterations
-        ident = list(identified)
-        iterations = total_iterations
-        residual = residual_of(fitted, q, target, rotations)
+        def solve(names):
+            fitted, identified, total_iterations = start, None, 0
+            for _ in range(3):
+                jac = fitted.identification_jacobian(q, names)[:, :rows_per_pose, :]
+                scaled = (jac * weights[:, :, None]).reshape(-1, len(names))
+                rigid = getattr(fitted, "rigid", fitted)
+                # Reasons only after a fit: the first analysis, at the start, is never the last.
+                _, report = analyse(rigid, scaled, names, explain=identified is not None)
+                if report.identified == identified:
+                    break
+                identified = report.identified
+                fitted, iterations, converged, robust = levenberg_marquardt(
+                    fitted, q, target, identified, rotations=rotations, weights=weights,
+                    pose_weights=self._robust_weights, max_iterations=self.max_iterations,
+                    tolerance=self.tolerance)
+                total_iterations += iterations
+            ident = list(identified)
+            residual = residual_of(fitted, q, target, rotations)
+            std, pairs = self._covariance(fitted, q, residual, weights * robust[:, None], ident, rows_per_pose)
+            return fitted, ident, report, total_iterations, converged, robust, residual, std, pairs
+
+        fitted, ident, report, iterations, converged, robust, residual, std, pairs = solve(names)
+        loose = loose_gains(ident, std, chain.n_joints)
+        if loose:
+            fitted, ident, report, more, converged, robust, residual, std, pairs = solve(
+                [n for n in names if n not in loose])
+            iterations += more
+            report = replace(report, fixed={**report.fixed, **loose})
         after = error_stats(residual[:, :3])
         if after["rms_mm"] > WRONG_ROBOT_RMS_MM:
             raise InputError(
@@ -231,7 +252,6 @@ class KinematicCalibration:
                 "and unit (mm, degrees) for these data?"
             )
         values = self._deviations(chain, start, fitted, ident)
-        std, pairs = self._covariance(fitted, q, residual, weights * robust[:, None], ident, rows_per_pose)
         self.chain_ = fitted
         self.start_chain_ = start
         self.names_ = tuple(ident)

@@ -29,11 +29,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import InputError
-from ..kinematics.chain import FRAME_SUFFIXES
+from ..kinematics.chain import FRAME_SUFFIXES, GAIN
 from ..kinematics.compliant import compliance_index, with_compliance
 from ..spatial import so3_log
 from .calibration import check_payload, identified_parameters
-from .identifiability import STRONG_CORRELATION, analyse
+from .identifiability import STRONG_CORRELATION, analyse, loose_gains
 from .least_squares import damped_least_squares
 from .metrics import error_stats
 
@@ -337,13 +337,14 @@ class ConstraintResult:
 
 
 # ---------------------------------------------------------------------- estimator
-def candidate_parameters(chain):
+def candidate_parameters(chain, gains=False):
     """Parameters of the POE ``chain`` in order of preference: the ball offset, then each
-    joint's offset and axis placement from the last joint to the first, then the home pose."""
+    joint's offset and axis placement from the last joint to the first, then the home pose,
+    then (``gains``) each joint's gain."""
     names = list(TOOL_POSITION)
     for k in range(chain.n_joints, 0, -1):
         names += [f"{p}{k}" for p in ("theta", "ux", "uy", "wx", "wy")]
-    return names + chain.parameter_names(("home",))
+    return names + chain.parameter_names(("home",) + (("gains",) if gains else ()))
 
 
 class ConstraintCalibration:
@@ -355,19 +356,21 @@ class ConstraintCalibration:
     also identify one compliance per joint gravity loads (see
     :class:`~robocal.kinematics.compliant.CompliantChain`), ``payload`` kg at the TCP (the ball
     and what carries it; default: none if the robot file gives link masses, else the rated
-    payload of a robot of that size).
+    payload of a robot of that size).  gains: also identify a gain per joint (a scale error
+    of its reading).
 
     After :meth:`fit`: ``chain_`` (the calibrated POE chain, tool = flange -> ball centre,
     base = the starting one), ``start_chain_`` (the starting model in POE form),
     ``names_`` and ``result_`` (a :class:`ConstraintResult`).
     """
 
-    def __init__(self, pairs="all", *, distance=True, compliance=False, payload=None, max_iterations=50,
-                 tolerance=1e-7):
+    def __init__(self, pairs="all", *, distance=True, compliance=False, gains=False, payload=None,
+                 max_iterations=50, tolerance=1e-7):
         if pairs not in PAIRINGS:
             raise InputError(f"pairs must be one of {', '.join(PAIRINGS)}, got {pairs!r}")
         self.pairs = pairs
         self.compliance = compliance
+        self.gains = gains
         self.payload = check_payload(payload)
         self.distance = distance
         self.max_iterations = max_iterations
@@ -388,15 +391,15 @@ class ConstraintCalibration:
             spanning = replace(spanning, distance=spanning.distance[:0], target=spanning.target[:0])
         _check_equations(spanning, start, bool(len(pairs.distance)))
         before = _check_distances(start, data, bool(len(pairs.distance)))
-        candidates = candidate_parameters(start)
+        candidates = candidate_parameters(start, self.gains)
         if self.compliance:
             start, compliances = with_compliance(start, data.joints, self.payload)
             candidates += compliances
         weights = _weights(pairs)
 
-        def linearise(c):
-            return _stack(c.fk_positions(data.joints), c.identification_jacobian(data.joints, names)[:, :3, :],
-                          pairs, weights)
+        def linearise(names):
+            return lambda c: _stack(c.fk_positions(data.joints),
+                                    c.identification_jacobian(data.joints, names)[:, :3, :], pairs, weights)
 
         def residual(c):
             return _stack(c.fk_positions(data.joints), None, pairs, weights)[0]
@@ -405,20 +408,30 @@ class ConstraintCalibration:
         # again at the fit until the identified set settles.  The spanning pairs see every
         # configuration and both kinds of constraint, so they tell which directions the data
         # determine as all pairs do, with a tenth of the rows.
-        fitted, names, iterations, converged = start, None, 0, False
-        analysed = (spanning, _weights(spanning))
-        for _ in range(3):
-            identified, report = _analysis(fitted, data, *analysed, candidates)
-            if identified == names:
-                break
-            names = identified
-            fitted, steps, converged = damped_least_squares(
-                fitted, names, linearise, residual, max_iterations=self.max_iterations, tolerance=self.tolerance)
-            iterations += steps
-        else:
-            _, report = _analysis(fitted, data, *analysed, candidates)
-        report = report()
-        std, correlated = _covariance(fitted, data.joints, spanning, names)
+        def solve(candidates):
+            fitted, names, iterations, converged = start, None, 0, False
+            analysed = (spanning, _weights(spanning))
+            for _ in range(3):
+                identified, report = _analysis(fitted, data, *analysed, candidates)
+                if identified == names:
+                    break
+                names = identified
+                fitted, steps, converged = damped_least_squares(
+                    fitted, names, linearise(names), residual, max_iterations=self.max_iterations,
+                    tolerance=self.tolerance)
+                iterations += steps
+            else:
+                _, report = _analysis(fitted, data, *analysed, candidates)
+            std, correlated = _covariance(fitted, data.joints, spanning, names)
+            return fitted, names, report(), iterations, converged, std, correlated
+
+        fitted, names, report, iterations, converged, std, correlated = solve(candidates)
+        loose = loose_gains(names, std, start.n_joints)
+        if loose:
+            fitted, names, report, more, converged, std, correlated = solve(
+                [n for n in candidates if n not in loose])
+            iterations += more
+            report = replace(report, fixed={**report.fixed, **loose})
         unobservable = ("base frame",) + (() if len(pairs.distance) else ("scale",))
         self.chain_ = fitted
         self.start_chain_ = start
@@ -507,6 +520,8 @@ def _poe_deviation(start, fitted, name):
     i = int(name[len(stem):]) - 1
     if stem == "theta":
         return fitted.theta[i] - start.theta[i]
+    if stem == GAIN:
+        return (fitted.parameter_values([name]) - start.parameter_values([name]))[0]
     frame = start.poe_frames()[i]
     w = frame[:3, :3].T @ fitted.axes[i]
     p = frame[:3, :3].T @ (fitted.points[i] - frame[:3, 3])

@@ -15,6 +15,7 @@ from ..compensation.methods import (
     residuals,
 )
 from ..errors import FileFormatError, InputError, RobocalWarning
+from ..estimation.calibration import PARAMETER_SETS, parameter_terms
 from ..estimation.metrics import error_stats
 from ..io.library import load_robot
 from ..io.tables import read_measurements, read_targets, write_commands, write_measurements
@@ -54,8 +55,20 @@ def fixture_from_document(doc, path):
         raise FileFormatError(f"{path}: the fixture stored in the model is damaged ({exc}); regenerate the file") from None
 
 
-def _fit_constraint(chain, data, fixture_path, pairs, parameters, payload):
+def constraint_calibration(pairs, parameters, payload):
+    """The ConstraintCalibration that a --parameters set asks for (the full POE model, with
+    compliance and gains as named)."""
     from ..estimation.constraint import ConstraintCalibration
+
+    terms = parameter_terms(parameters)
+    if not parameters.startswith("full"):
+        raise InputError(f"the constraint method identifies the full POE model: --parameters "
+                         f"{', '.join(p for p in PARAMETER_SETS if p.startswith('full'))}, got {parameters!r}")
+    return ConstraintCalibration(pairs=pairs, compliance="compliance" in terms, gains="gains" in terms,
+                                 payload=payload)
+
+
+def _fit_constraint(chain, data, fixture_path, pairs, parameters, payload):
     from ..io.fixtures import read_fixture
 
     if fixture_path is None:
@@ -63,11 +76,7 @@ def _fit_constraint(chain, data, fixture_path, pairs, parameters, payload):
     _constraints_required(data)
     fixture = read_fixture(fixture_path)
     q = chain.joints_from_file(data.joints)
-    if parameters not in ("full", "full+compliance"):
-        raise InputError(f"the constraint method identifies the full POE model: --parameters full or "
-                         f"full+compliance, got {parameters!r}")
-    calibration = ConstraintCalibration(pairs=pairs, compliance=parameters == "full+compliance",
-                                        payload=payload).fit(
+    calibration = constraint_calibration(pairs, parameters, payload).fit(
         chain, q, data.fixture, data.socket, fixture)
     result = calibration.result_
     record = {"calibration": result.to_dict(calibration.chain_), "fixture": fixture_document(fixture),
@@ -107,7 +116,7 @@ def calibrate_job(robot, measurements, out, *, method="kinematic", register="aut
     training = {"file": str(measurements), "n_poses": data.n_poses, "kind": data.kind, **record}
     options = ({"pairs": pairs, "parameters": parameters} if method == "constraint"
                else {"register": register, "parameters": parameters, "loss": loss})
-    if parameters == "full+compliance":
+    if "compliance" in parameter_terms(parameters):
         options["payload_kg"] = payload
     if method == "ann":
         options["base_model"] = base_model
@@ -230,6 +239,9 @@ def export_job(model_path, out, *, fmt="toml", convention=None):
     if fmt == "toml":
         write_robot(chain, out, description=description)
     else:
+        if not np.array_equal(np.abs(chain.joint_map), np.eye(chain.n_joints)):
+            left_out.append("the joint map (a coupling, or calibrated joint gains): the URDF's joint values are "
+                            "the model variables joint_map·q, not the controller's readings (a robot file keeps it)")
         write_urdf(chain, out, allow_coupled=True)
     return {"model": str(model_path), "format": fmt, "out": str(out), "robot": chain.name,
             "convention": chain.convention, "left_out": left_out}
@@ -387,7 +399,7 @@ def _fitter(method, chain, q, data, register, parameters, loss, kriging_seed):
 def _placement_validation(chain, data, fixture_path, pairs, parameters, payload, on_fit):
     """Leave one fixture placement out at a time: the constraint model fitted on the others,
     its socket consistency on the one left out, beside the nominal model's."""
-    from ..estimation.constraint import ConstraintCalibration, socket_deviations
+    from ..estimation.constraint import socket_deviations
     from ..io.fixtures import read_fixture
 
     if fixture_path is None:
@@ -401,8 +413,7 @@ def _placement_validation(chain, data, fixture_path, pairs, parameters, payload,
     folds, nominal_folds, deviations, nominal_deviations = [], [], [], []
     for placement in placements:
         test = data.fixture == placement
-        calibration = ConstraintCalibration(pairs=pairs, compliance=parameters == "full+compliance",
-                                            payload=payload).fit(
+        calibration = constraint_calibration(pairs, parameters, payload).fit(
             chain, q[~test], data.fixture[~test], data.socket[~test], fixture)
         if on_fit is not None:
             on_fit()

@@ -345,9 +345,9 @@ def chain_to_urdf(chain: Chain, *, robot_name: str | None = None, allow_coupled:
     coupled = _is_coupled(chain.joint_map)
     if coupled and not allow_coupled:
         raise InputError(
-            f"robot {chain.name!r}: its joint_map couples joints (e.g. FANUC's J2/J3), which URDF "
-            "cannot express without mimic joints: pass allow_coupled=True to write the model "
-            "variables joint_map·q as the URDF joints instead"
+            f"robot {chain.name!r}: its joint_map couples joints (e.g. FANUC's J2/J3) or scales them "
+            "(calibrated joint gains), which URDF cannot express: pass allow_coupled=True to write "
+            "the model variables joint_map·q as the URDF joints instead, or export a robot file"
         )
     if coupled:
         signs = np.ones(chain.n_joints)
@@ -365,7 +365,7 @@ def chain_to_urdf(chain: Chain, *, robot_name: str | None = None, allow_coupled:
     ))
     if coupled:
         robot.append(ET.Comment(
-            " The joint_map of this robot couples controller joints. The URDF joint values below "
+            " The joint_map of this robot couples or scales controller joints. The URDF joint values below "
             "are the model variables q_model = joint_map . q, not the controller's joint values; "
             "their limits are the bounds of q_model over the controller's joint-limit box. "
         ))

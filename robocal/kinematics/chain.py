@@ -14,7 +14,9 @@ by q + d (DH/MDH) or along the axis by q + theta (POE).
 
 Units inside: mm and radians.  Joint values ``q`` are the controller's (rad or mm); the model
 variable is ``q_model = q @ joint_map.T`` (a per-joint sign on the diagonal, a coupling such
-as FANUC's J2/J3 off it).
+as FANUC's J2/J3 off it).  A joint's gain g (parameter ``gain<k>``) scales its row of the map
+by e^g: a transmission-ratio or encoder-scale error, g = ln of the row's length, so that a
+deviation of 1e-4 is 100 ppm.
 """
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -34,6 +36,7 @@ LINK_PARAMETERS = {
     "poe": ("theta", "ux", "uy", "wx", "wy"),
 }
 FRAME_SUFFIXES = ("x", "y", "z", "rx", "ry", "rz")
+GAIN = "gain"
 _ANGULAR_LINK = {"alpha", "beta", "wx", "wy"}
 # Where random configurations stop on a prismatic joint without limits.
 UNLIMITED_STROKE_MM = 1000.0
@@ -46,6 +49,13 @@ def _as_array(values, n, default=0.0):
     if out.shape != (n,):
         raise InputError(f"expected {n} values, got {out.size}")
     return out
+
+
+def gain_index(name, n_joints):
+    """Joint index (0-based) of a gain parameter name of an n-joint chain, or None."""
+    if name.startswith(GAIN) and name[len(GAIN):].isdigit() and 1 <= int(name[len(GAIN):]) <= n_joints:
+        return int(name[len(GAIN):]) - 1
+    return None
 
 
 def _axis_frame(axis, point):
@@ -321,13 +331,15 @@ class Chain:
     def parameter_names(self, groups=("links", "base", "tool")):
         """Names of the model parameters, in a fixed order.
 
-        groups: 'links' (per-joint parameters), 'offsets' (theta only), 'base', 'tool',
-        'home' (POE flange pose).
+        groups: 'links' (per-joint parameters), 'offsets' (theta only), 'gains' (joint
+        scale, see the module notes), 'base', 'tool', 'home' (POE flange pose).
         """
         names = []
         n = self.n_joints
         for g in groups:
-            if g == "links":
+            if g == "gains":
+                names += [f"{GAIN}{k}" for k in range(1, n + 1)]
+            elif g == "links":
                 names += [f"{p}{k}" for k in range(1, n + 1) for p in LINK_PARAMETERS[self.convention]]
             elif g == "offsets":
                 names += [f"theta{k}" for k in range(1, n + 1)]
@@ -362,7 +374,10 @@ class Chain:
             else:
                 stem = name.rstrip("0123456789")
                 i = int(name[len(stem):]) - 1
-                out.append(getattr(self, stem)[i] if stem in ("theta", "d", "a", "alpha", "beta") else 0.0)
+                if stem == GAIN:
+                    out.append(np.log(np.linalg.norm(self.joint_map[i])))
+                else:
+                    out.append(getattr(self, stem)[i] if stem in ("theta", "d", "a", "alpha", "beta") else 0.0)
         return np.array(out, dtype=float)
 
     def identification_jacobian(self, q, names=None):
@@ -373,6 +388,9 @@ class Chain:
         """
         names = self.parameter_names() if names is None else list(names)
         q2, _ = self._check_q(q)
+        gains = [j for j, name in enumerate(names) if gain_index(name, self.n_joints) is not None]
+        if gains:
+            return self._with_gain_columns(q2, names, gains)
         ops, tags = self._compiled
         unknown = [name for name in names if name not in tags]
         if unknown:
@@ -410,6 +428,22 @@ class Chain:
             place(out, (column[trans], slice(0, 3)), stack[which[trans], axis_of[trans]] * coef[trans, None, None])
         return np.transpose(out, (2, 1, 0))
 
+    def _with_gain_columns(self, q2, names, gains):
+        """Gain k moves the TCP as joint k's zero offset does, times the model joint value."""
+        joints = [gain_index(names[j], self.n_joints) for j in gains]
+        others = [j for j in range(len(names)) if j not in gains]
+        offsets = [self.offset_parameter(k) for k in joints]
+        jac = self.identification_jacobian(q2, [names[j] for j in others] + offsets)
+        out = np.empty(jac.shape[:2] + (len(names),))
+        out[:, :, others] = jac[:, :, :len(others)]
+        out[:, :, gains] = jac[:, :, len(others):] * self.model_joints(q2)[:, None, joints]
+        return out
+
+    def offset_parameter(self, k):
+        """Name of the parameter added to model joint k's variable (0-based k)."""
+        prismatic = self.joint_types[k] == "prismatic" and self.convention != "poe"
+        return f"{'d' if prismatic else 'theta'}{k + 1}"
+
     def _groups(self):
         return ("links", "base", "tool", "home") if self.convention == "poe" else ("links", "base", "tool")
 
@@ -433,7 +467,12 @@ class Chain:
         frame_dev = {"base": np.zeros(6), "tool": np.zeros(6), "home": np.zeros(6)}
         poe_dev = np.zeros((self.n_joints, 4))
         valid = set(self._compiled[1])
+        joint_map = self.joint_map.copy()
         for name, value in items.items():
+            k = gain_index(name, self.n_joints)
+            if k is not None:
+                joint_map[k] *= np.exp(value)
+                continue
             if name not in valid:
                 raise InputError(f"parameter {name!r} does not exist in a {self.convention} model")
             if "_" in name:
@@ -447,6 +486,8 @@ class Chain:
             else:
                 poe_dev[i, ("ux", "uy", "wx", "wy").index(stem)] += value
         changes = dict(link)
+        if not np.array_equal(joint_map, self.joint_map):
+            changes["joint_map"] = joint_map
         dev = frame_dev["base"]
         if np.any(dev):
             base = self.base.copy()

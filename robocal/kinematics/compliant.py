@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from .chain import gain_index
 from .gravity import MassModel, default_mass_model
 
 PREFIX = "compliance"
@@ -28,16 +29,17 @@ PREFIX = "compliance"
 LOADED_SHARE = 0.01
 # Compliances are shown in micro-radians per N·m (a 150 kg-class joint: about 0.01).
 FILE_UNIT = 1e6
-UNITS_NOTE = "mm for lengths, deg for angles, urad/(N*m) for compliances"
+UNITS_NOTE = "mm for lengths, deg for angles, urad/(N*m) for compliances, ppm for joint gains"
 # Deflections of a few hundredths of a degree are gone after this many fixed-point steps
 # (each shrinks the error by about dtau/dq · c, below 1e-3).
 COMMAND_ITERATIONS = 6
 
 
 def file_units(chain, names):
-    """(P,) factors from internal units (mm, rad, rad/(N·m)) to the ones files and reports
-    show (mm, deg, µrad/(N·m))."""
-    return np.array([FILE_UNIT if compliance_index(n) is not None
+    """(P,) factors from internal units (mm, rad, rad/(N·m), gain) to the ones files and
+    reports show (mm, deg, µrad/(N·m), ppm)."""
+    n_joints = getattr(chain, "rigid", chain).n_joints
+    return np.array([FILE_UNIT if compliance_index(n) is not None or gain_index(n, n_joints) is not None
                      else np.degrees(1.0) if chain.is_angular(n) else 1.0 for n in names])
 
 
