@@ -13,15 +13,15 @@ configurations, since the base frame is unobservable), before (nominal) and afte
 Real data: MUKCa (Franka Panda, 2 sockets 50 mm apart) under three protocols: every placement
 held out in turn (train on the others), training on one placement alone with the others
 held out (the workflow of the MUKCa README), and the split of ``robocal dataset mukca-panda-N
---split 0.5`` (the README's table).  Three models on the same folds: robocal rigid,
-robocal with joint compliance, and the MUKCa authors' objective re-implemented from their
+--split 0.5`` (the README's table).  On the same folds: robocal rigid, with joint gains,
+with joint compliance and with both, and the MUKCa authors' objective re-implemented from their
 paper (bench/mukca_peer.py; needs CasADi, skipped without it).  It prints the socket
 consistency (mean distance of each ball centre from the mean of its socket group, as
 ``robocal evaluate`` reports it) on the training and held-out placements, pooled over the
 folds, the largest on the held-out ones, MUKCa's sigma there, the worst fold and the median fit time, and the
 authors' published panda_1 figures (whose metric and split the data do not state).
 
-    python bench/constraint.py            # about a minute
+    python bench/constraint.py            # about five minutes, most of it the MUKCa objective
     python bench/constraint.py --quick    # the largest layout and MUKCa panda_1 only
 """
 import os
@@ -120,7 +120,9 @@ def _models(chain, fixture, peer):
             return ConstraintCalibration(**options).fit(chain, q, placement, socket, fixture).predict
         return fit
 
-    models = {"robocal": robocal(), "robocal +compliance": robocal(compliance=True)}
+    models = {"robocal": robocal(), "robocal +gains": robocal(gains=True),
+              "robocal +compliance": robocal(compliance=True),
+              "robocal +compl.+gains": robocal(compliance=True, gains=True)}
     if peer is not None:
         def mukca_objective(q, placement, socket):
             groups = [[q[(placement == where) & (socket == k)] for k in ("0", "1")]
@@ -136,14 +138,15 @@ def real(units):
     print("  leave one out: each placement held out in turn, trained on the others; one placement: "
           "trained on each placement alone (the MUKCa README's workflow), the others held out; "
           "split 0.5: as robocal dataset --split 0.5")
-    print("  robocal +compliance: --parameters full+compliance (Franka's link masses, no payload); "
-          "MUKCa objective: the authors' cost re-implemented (bench/mukca_peer.py, CasADi + IPOPT)")
+    print("  robocal +gains / +compliance / +compl.+gains: --parameters full+gains, full+compliance (Franka's "
+          "link masses, no payload), full+compliance+gains; MUKCa objective: the authors' cost "
+          "re-implemented (bench/mukca_peer.py, CasADi + IPOPT)")
     peer = None
     if mukca_peer.available():
         peer = mukca_peer.MukcaObjective(shared_data_dir() / "mukca" / "panda.urdf")
     else:
         print("  (CasADi not installed: the MUKCa objective is left out; pip install casadi)")
-    print(f"{'unit':>8} {'protocol':>14} {'model':>20} {'train after':>12} {'held-out before':>16} "
+    print(f"{'unit':>8} {'protocol':>14} {'model':>21} {'train after':>12} {'held-out before':>16} "
           f"{'held-out after mean / max':>25} {'sigma after':>12} {'worst fold':>11} {'fit s':>7}")
     for unit in units:
         chain, data, fixture = mukca(unit)
@@ -169,12 +172,12 @@ def real(units):
                 f = np.array(folds)
                 # Pooled by configuration: fold means weighted by their sizes.
                 pooled = [np.average(f[:, c], weights=f[:, w]) for c, w in ((0, 1), (2, 6), (3, 6), (5, 6))]
-                print(f"{unit:>8} {protocol:>14} {name:>20} {pooled[0]:>12.3f} {pooled[1]:>16.3f} "
+                print(f"{unit:>8} {protocol:>14} {name:>21} {pooled[0]:>12.3f} {pooled[1]:>16.3f} "
                       f"{pooled[2]:>9.3f} / {f[:, 4].max():<6.3f} {pooled[3]:>12.3f} {f[:, 3].max():>11.3f} "
                       f"{np.median(f[:, 7]):>7.3f}")
         published = PUBLISHED.get(unit)
         if published:
-            print(f"{unit:>8} {'published':>14} {'MUKCa paper':>20} {published['train'][1]:>12.3f} "
+            print(f"{unit:>8} {'published':>14} {'MUKCa paper':>21} {published['train'][1]:>12.3f} "
                   f"{published['held_out'][0]:>16.3f} {published['held_out'][1]:>9.3f}            "
                   "(metric and split not stated with the data)")
 
