@@ -324,7 +324,7 @@ def export(
     """
     result = export_job(model, out_file, fmt=fmt, convention=convention)
     for what in result["left_out"]:
-        err.print(f"[yellow]note:[/] a robot file cannot hold {what}")
+        err.print(f"[yellow]note:[/] left out of the {result['format'].upper()} file: {what}")
     _print_result(result, as_json, f"{result['convention']} robot -> {out_file}")
 
 
