@@ -145,7 +145,7 @@ def real(units):
     if mukca_peer.available():
         peer = mukca_peer.MukcaObjective(shared_data_dir() / "mukca" / "panda.urdf")
     else:
-        print("  (CasADi not installed: the MUKCa objective is left out; pip install casadi)")
+        print("  (CasADi not installed: the MUKCa objective is left out; pip install '.[bench]')")
     print(f"{'unit':>8} {'protocol':>14} {'model':>21} {'train after':>12} {'held-out before':>16} "
           f"{'held-out after mean / max':>25} {'sigma after':>12} {'worst fold':>11} {'fit s':>7}")
     for unit in units:

@@ -5,8 +5,8 @@ the Panda (xyz, rpy of joints 1-7) and the ball's origin are free; the cost is, 
 placements, the scatter of the ball centres about each socket's mean (the two sockets
 weighted by their counts) plus the squared error of the distance between the two means, plus
 1e-4 times the number of placements times the squared change of the joint origins (SI units);
-IPOPT stops after 30 iterations.  Needs CasADi (``pip install casadi``, IPOPT included); the
-bench skips this peer without it.  Not part of robocal.
+IPOPT stops after 30 iterations.  Needs CasADi (``pip install '.[bench]'``, IPOPT included);
+the bench skips this peer without it.  Not part of robocal.
 """
 import xml.etree.ElementTree as ET
 
