@@ -1,10 +1,12 @@
 """Constraint calibration (ball in sockets): recovery against a known truth up to the
 unobservable base frame, the linearised constraints against finite differences, pairing,
 identifiability reporting, refusals, the sockets sampling plan and the MUKCa data."""
+import warnings
+
 import numpy as np
 import pytest
 
-from robocal.errors import InputError
+from robocal.errors import InputError, RobocalWarning
 from robocal.estimation.constraint import (
     ConstraintCalibration,
     constraint_jacobian,
@@ -153,6 +155,17 @@ def test_one_socket_of_one_placement_reports_what_it_cannot_identify():
     everything = set(to_poe(chain).parameter_names(("links", "home", "base"))) | {"tool_x", "tool_y", "tool_z", "scale"}
     assert set(fixed) | set(cal.names_) == everything
     assert r.residual_after["max_mm"] < 1e-6
+
+
+def test_compliance_from_one_placement_is_warned_about():
+    chain = _robot("panda")
+    plan = socket_plan(_geometric_truth(chain, seed=2), PLATE, 1, 12, rng=5)
+    with pytest.warns(RobocalWarning, match="one fixture placement"):
+        ConstraintCalibration(compliance=True).fit(chain, plan.joints, plan.fixture_ids, plan.socket_ids, PLATE)
+    two = socket_plan(_geometric_truth(chain, seed=2), PLATE, 2, 12, rng=5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RobocalWarning)
+        ConstraintCalibration(compliance=True).fit(chain, two.joints, two.fixture_ids, two.socket_ids, PLATE)
 
 
 # ------------------------------------------------------------------- linearisation
