@@ -17,6 +17,7 @@ from robocal.simulation.sampling import socket_plan
 from robocal.spatial import compose_pose
 
 GAINS = {"gain2": 4e-4, "gain3": -3e-4, "gain5": 2e-4}
+GAINS_PPM = {name: value * 1e6 for name, value in GAINS.items()}  # true-robot files' unit
 
 
 @pytest.mark.parametrize("name", ["kr150-2", "panda", "ur5"])
@@ -54,7 +55,7 @@ def test_gain_deviations_are_exact_and_travel_through_robot_files(tmp_path):
 def tracker_truth():
     chain = builtin("kr150-2")
     deviations = make_true_robot(chain, "typical", seed=3).deviations
-    truth = TrueRobot(nominal=chain, deviations={**deviations, **GAINS})
+    truth = TrueRobot(nominal=chain, deviations={**deviations, **GAINS_PPM})
     rng = np.random.default_rng(4)
     return chain, truth, uniform_joints(chain, 300, rng), uniform_joints(chain, 300, rng)
 
@@ -103,7 +104,7 @@ def test_constraint_calibration_with_gains_recovers_a_known_truth():
     chain = builtin("panda").replace(tool=compose_pose([0.0, 0.0, 133.4], np.zeros(3)))
     deviations = make_true_robot(chain, "typical", seed=4).deviations
     truth = TrueRobot(nominal=chain, deviations={**{k: v for k, v in deviations.items() if not k.startswith("base")},
-                                                  **GAINS})
+                                                  **GAINS_PPM})
     plate = Fixture("plate", {"A": [0.0, 0.0, 0.0], "B": [150.0, 0.0, 0.0], "C": [0.0, 120.0, 0.0]})
     train, test = socket_plan(truth, plate, 4, 8, rng=1), socket_plan(truth, plate, 3, 6, rng=2)
     errors = {}
@@ -116,3 +117,30 @@ def test_constraint_calibration_with_gains_recovers_a_known_truth():
     found = dict(zip(cal.result_.names, cal.result_.values))
     for name, value in GAINS.items():
         assert abs(found[name] - value) < 1e-7, name
+
+
+def test_cli_simulates_from_an_edited_truth_file_and_recovers_its_gains(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from robocal.interfaces.cli import app
+
+    runner = CliRunner()
+    truth = tmp_path / "truth.json"
+    assert runner.invoke(app, ["simulate", "kr150-2", "--errors", "none", "--out", str(tmp_path / "x.csv"),
+                               "--truth", str(truth)]).exit_code == 0
+    doc = json.loads(truth.read_text())
+    doc["deviations"].update(GAINS_PPM)
+    truth.write_text(json.dumps(doc))
+    meas, model = tmp_path / "meas.csv", tmp_path / "model.json"
+    result = runner.invoke(app, ["simulate", "kr150-2", "--errors", str(truth), "--out", str(meas), "--n", "200"])
+    assert result.exit_code == 0, result.output
+    result = runner.invoke(app, ["calibrate", "kr150-2", str(meas), "--parameters", "full+gains", "--out", str(model),
+                                 "--json"])
+    assert result.exit_code == 0, result.output
+    found = json.loads(result.stdout)["calibration"]["parameters"]
+    for name, ppm in GAINS_PPM.items():
+        assert abs(found[name]["deviation"] - ppm) < 1e-3, name
+    wrong = runner.invoke(app, ["simulate", "ur5", "--errors", str(truth), "--out", str(tmp_path / "y.csv")])
+    assert wrong.exit_code == 2 and "not 'Universal Robots UR5'" in wrong.output

@@ -157,7 +157,7 @@ def simulate(
     out_file: str = typer.Option(..., "--out", help="Measurement CSV to write."),
     n: int = typer.Option(None, "--n", help="Number of poses (default 200; liu2022: 150)."),
     sampling: str = typer.Option("joint", help="joint (uniform in the limits), lhs (Latin hypercube in --box), grid (n^(1/3) per axis in --box) or sockets (ball in the sockets of --fixture, joint angles only)."),
-    errors: str = typer.Option("typical", help="none, typical or liu2022 (KR150-2 only)."),
+    errors: str = typer.Option("typical", help="none, typical, liu2022 (KR150-2 only), or a truth file (JSON, as --truth writes it) whose deviations you edit, e.g. joint gains in ppm."),
     noise: float = typer.Option(None, help="Measurement noise sigma in mm (overrides the preset); sockets: the ball's seating error."),
     seed: int = typer.Option(0, help="Random seed."),
     truth: str = typer.Option(None, help="Also write the hidden truth (JSON) here."),

@@ -267,6 +267,20 @@ def _simulate_sockets(true_robot, out, fixture_path, placements, per_socket, noi
                                                         plan.socket_ids, fixture)}
 
 
+def _true_robot(chain, errors, seed):
+    """The true robot of --errors: a preset, or a truth file (JSON) of this same robot."""
+    from ..simulation import PRESETS, make_true_robot, read_truth, uniform_joints
+
+    if errors in PRESETS or not errors.endswith(".json"):
+        return make_true_robot(chain, errors, seed=seed)
+    truth = read_truth(errors)
+    q = uniform_joints(chain, 20, np.random.default_rng(0))
+    if truth.nominal.n_joints != chain.n_joints or not np.allclose(truth.nominal.fk(q), chain.fk(q), atol=1e-6):
+        raise InputError(f"{errors} describes the robot {truth.nominal.name!r}, not {chain.name!r}: simulate that "
+                         "robot, or write a truth file of this one with --truth and edit it")
+    return truth
+
+
 def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", noise=None, seed=0,
                  truth=None, orientation=False, box=None, rpy=None, hint=None, root=None, tip=None,
                  fixture=None, placements=4, per_socket=10, joint_noise=0.0):
@@ -277,12 +291,12 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
     joint angles only (``noise`` is then the seating error, ``joint_noise`` in deg)."""
     from dataclasses import replace
 
-    from ..simulation import grid, latin_hypercube_box, liu2022_plan, make_true_robot, uniform_joints, write_truth
+    from ..simulation import grid, latin_hypercube_box, liu2022_plan, uniform_joints, write_truth
     from ..spatial import rpy_to_matrix
 
     chain = load_robot(robot, root=root, tip=tip)
     rng = np.random.default_rng(seed)
-    true_robot = make_true_robot(chain, errors, seed=seed)
+    true_robot = _true_robot(chain, errors, seed)
     if noise is not None:
         if noise < 0:
             raise InputError(f"--noise must be >= 0 mm, got {noise}")

@@ -20,6 +20,7 @@ from ..io.atomic import write_text_atomic
 from ..io.robot_file import chain_from_dict, robot_to_toml, tomllib
 from ..io.tables import Measurements
 from ..kinematics import Chain
+from ..kinematics.compliant import file_units
 from ..spatial import matrix_to_rpy, so3_exp
 from .joint_effects import Compliance, backlash_offsets, to_controller
 
@@ -34,8 +35,8 @@ _UNITS = {
 
 
 def _file_to_internal(chain, name, value):
-    """A deviation in file units (mm or deg) -> the chain's internal units (mm or rad)."""
-    return np.radians(value) if chain.is_angular(name) else float(value)
+    """A deviation in file units (mm, deg, ppm for joint gains) -> the chain's internal units."""
+    return float(value) / file_units(chain, [name])[0]
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,8 +44,8 @@ class TrueRobot:
     """The real robot behind a nominal model.
 
     nominal: the chain the controller uses.
-    deviations: parameter name (``Chain.parameter_names``) -> deviation in mm or deg; the
-        actual chain is ``nominal.perturbed`` by them.
+    deviations: parameter name (``Chain.parameter_names``) -> deviation in mm or deg (ppm
+        for a joint gain); the actual chain is ``nominal.perturbed`` by them.
     compliance: joint stiffness and mass model, or None for rigid joints.
     backlash: (n,) half-width of each model joint's play in deg (mm for prismatic joints),
         or None.
