@@ -36,7 +36,7 @@ _UNITS = {
 
 def _file_to_internal(chain, name, value):
     """A deviation in file units (mm, deg, ppm for joint gains) -> the chain's internal units."""
-    return float(value) / file_units(chain, [name])[0]
+    return np.radians(value) if chain.is_angular(name) else float(value) / file_units(chain, [name])[0]
 
 
 @dataclass(frozen=True, eq=False)
