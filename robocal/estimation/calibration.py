@@ -222,9 +222,8 @@ class KinematicCalibration:
             for _ in range(3):
                 jac = fitted.identification_jacobian(q, names)[:, :rows_per_pose, :]
                 scaled = (jac * weights[:, :, None]).reshape(-1, len(names))
-                rigid = getattr(fitted, "rigid", fitted)
-                # Reasons only after a fit: the first analysis, at the start, is never the last.
-                _, report = analyse(rigid, scaled, names, explain=identified is not None)
+                # The reasons come once, from the last analysis.
+                _, report = analyse(getattr(fitted, "rigid", fitted), scaled, names, explain=False)
                 if report.identified == identified:
                     break
                 identified = report.identified
@@ -233,6 +232,7 @@ class KinematicCalibration:
                     pose_weights=self._robust_weights, max_iterations=self.max_iterations,
                     tolerance=self.tolerance)
                 total_iterations += iterations
+            _, report = analyse(getattr(fitted, "rigid", fitted), scaled, names)
             ident = list(identified)
             residual = residual_of(fitted, q, target, rotations)
             std, pairs = self._covariance(fitted, q, residual, weights * robust[:, None], ident, rows_per_pose)
