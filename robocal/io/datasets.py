@@ -1,12 +1,19 @@
-"""Loaders for the public measured datasets in ``shared/data`` (see its README).
+"""Loaders for three public measured datasets (MIT licence; sources and papers in
+``robocal/io/data/README.md``).
 
 Each loader returns the robot model the data were taken against and a
 :class:`~robocal.io.tables.Measurements` in robocal's units (deg, mm), so every method can be
 run on them exactly as on a user's own CSV.
+
+The data ship inside the package (``robocal/io/data``, CSVs gzip-compressed).  A folder with
+the uncompressed originals in the same layout can be read instead: pass ``root=`` or set
+$ROBOCAL_SHARED_DATA.
 """
 import csv
+import gzip
 import os
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -17,27 +24,51 @@ from .library import builtin
 from .tables import Measurements
 
 _ENV = "ROBOCAL_SHARED_DATA"
+# Beside this module, so an installed wheel finds it from any working directory.
+PACKAGED_DATA = Path(__file__).resolve().with_name("data")
 
 
-def shared_data_dir():
-    """The ``shared/data`` folder: $ROBOCAL_SHARED_DATA, or ``../shared/data`` beside the
-    checkout (or the current directory's parents)."""
+class _Source(NamedTuple):
+    folder: Path
+    origin: str  # where the folder came from, for error messages
+    suffix: str  # ".gz" for the packaged copy, "" for uncompressed originals
+
+
+def _source(root=None):
+    """The folder to read: ``root``, else $ROBOCAL_SHARED_DATA, else the packaged copy."""
+    if root:
+        return _Source(Path(root), "given as root", "")
     if os.environ.get(_ENV):
-        return Path(os.environ[_ENV])
-    starts = [Path(__file__).resolve(), Path.cwd().resolve()]
-    for start in starts:
-        for parent in start.parents:
-            candidate = parent / "shared" / "data"
-            if candidate.is_dir():
-                return candidate
-    raise InputError(f"shared/data not found: set {_ENV} to the folder that holds the datasets")
+        return _Source(Path(os.environ[_ENV]), f"from ${_ENV}", "")
+    return _Source(PACKAGED_DATA, "packaged with robocal: reinstall it", ".gz")
+
+
+def dataset_dir(root=None):
+    """The folder the loaders read: ``root``, else $ROBOCAL_SHARED_DATA, else the packaged
+    copy.  Files other than the CSVs, such as ``mukca/panda.urdf``, are uncompressed in all."""
+    return _source(root).folder
+
+
+def _data_file(source, relative):
+    """Path of ``relative`` (an original file name, e.g. ``ur5_tsinghua/x.csv``) in ``source``."""
+    path = source.folder / (relative + source.suffix)
+    if not path.is_file():
+        raise InputError(f"dataset folder {source.folder} ({source.origin}) has no {relative}")
+    return path
+
+
+def _open_text(path):
+    # newline="" keeps the CRLF line ends of the ipa files for the csv module, as open() did.
+    if path.suffix == ".gz":
+        return gzip.open(path, "rt", newline="", encoding="utf-8")
+    return open(path, newline="", encoding="utf-8")
 
 
 def _read_rows(path, delimiter):
-    if not path.is_file():
-        raise FileFormatError(f"dataset file {path} does not exist")
-    with open(path, newline="", encoding="utf-8") as handle:
+    with _open_text(path) as handle:
         rows = list(csv.reader(handle, delimiter=delimiter))
+    if not rows:
+        raise FileFormatError(f"{path} is empty")
     return rows[0], rows[1:]
 
 
@@ -59,8 +90,7 @@ def ur5_tsinghua(root=None):
     94.65) plus a 31 mm tool along the flange z axis; measured = target + dif.
     Returns (chain, measurements).
     """
-    root = Path(root) if root else shared_data_dir()
-    path = root / "ur5_tsinghua" / "3D_UR5_uncalibrated_grid_cleaned.csv"
+    path = _data_file(_source(root), "ur5_tsinghua/3D_UR5_uncalibrated_grid_cleaned.csv")
     header, rows = _read_rows(path, ",")
     joints = _columns(path, header, rows, [f"joint_{i}" for i in range(1, 7)])
     target = _columns(path, header, rows, ["x_t", "y_t", "z_t"])
@@ -83,12 +113,11 @@ def ipa_ur10(series="B", root=None):
     dataset README quotes, (0, 0.3, 93) mm, for registration to refine.
     Returns (chain, measurements) with orientations as robocal rpy (deg).
     """
-    root = Path(root) if root else shared_data_dir()
     series = str(series).upper()
     files = {"A": "Series_A/measurements_grid.csv", "B": "Series_B/measurements_joint_configurations.csv"}
     if series not in files:
         raise InputError(f"ipa UR10 series must be 'A' or 'B', got {series!r}")
-    path = root / "ipa_ur10" / files[series]
+    path = _data_file(_source(root), "ipa_ur10/" + files[series])
     header, rows = _read_rows(path, ";")
     joint_names = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
                    "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
@@ -127,25 +156,27 @@ def mukca(unit="panda_1", root=None):
     """
     from .fixtures import Fixture
 
-    folder = (Path(root) if root else shared_data_dir()) / "mukca" / str(unit)
+    source = _source(root)
+    folder = source.folder / "mukca" / str(unit)
     if not folder.is_dir():
         units = sorted(p.name for p in folder.parent.glob("panda_*")) if folder.parent.is_dir() else []
         known = f"; units: {', '.join(units)}" if units else ""
-        raise InputError(f"no MUKCa unit {unit!r} in {folder.parent}{known}")
+        raise InputError(f"no MUKCa unit {unit!r} in {folder.parent} ({source.origin}){known}")
     joints, placements, sockets = [], [], []
     for placement in sorted(p for p in folder.iterdir() if p.is_dir()):
-        for path in sorted(placement.glob("hole_[0-9].csv")):
+        for path in sorted(placement.glob("hole_[0-9].csv" + source.suffix)):
             try:
-                q = np.loadtxt(path, delimiter=",", ndmin=2)
+                with _open_text(path) as handle:
+                    q = np.loadtxt(handle, delimiter=",", ndmin=2)
             except ValueError as why:
                 raise FileFormatError(f"{path}: {why}") from None
             if q.shape[1] != 7:
                 raise FileFormatError(f"{path}: expected 7 joint columns, got {q.shape[1]}")
             joints.append(np.degrees(q))
             placements += [placement.name] * len(q)
-            sockets += [path.stem.split("_")[1]] * len(q)
+            sockets += [path.name.split(".")[0].split("_")[1]] * len(q)  # hole_<k>.csv[.gz]
     if not joints:
-        raise FileFormatError(f"{folder} holds no <placement>/hole_k.csv files")
+        raise FileFormatError(f"{folder} ({source.origin}) holds no <placement>/hole_k.csv files")
     fixture = Fixture(name="MUKCa two-socket fixture",
                       sockets={"0": [0.0, 0.0, 0.0], "1": [MUKCA_SOCKET_DISTANCE_MM, 0.0, 0.0]})
     chain = builtin("panda").replace(name=f"Franka Panda (MUKCa {unit}, ball tool)",
