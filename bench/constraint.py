@@ -39,7 +39,7 @@ import mukca_peer  # noqa: E402
 from robocal.errors import RobocalWarning  # noqa: E402
 from robocal.estimation.constraint import ConstraintCalibration  # noqa: E402
 from robocal.estimation.registration import kabsch  # noqa: E402
-from robocal.io.datasets import mukca, shared_data_dir, split_indices  # noqa: E402
+from robocal.io.datasets import dataset_dir, mukca, split_indices  # noqa: E402
 from robocal.io.fixtures import Fixture  # noqa: E402
 from robocal.io.library import builtin  # noqa: E402
 from robocal.simulation import TrueRobot, make_true_robot  # noqa: E402
@@ -153,7 +153,7 @@ def real(units):
     warnings.filterwarnings("ignore", message="joint compliance from one fixture placement", category=RobocalWarning)
     peer = None
     if mukca_peer.available():
-        peer = mukca_peer.MukcaObjective(shared_data_dir() / "mukca" / "panda.urdf")
+        peer = mukca_peer.MukcaObjective(dataset_dir() / "mukca" / "panda.urdf")
     else:
         print("  (CasADi not installed: the MUKCa objective is left out; pip install '.[bench]')")
     print(f"{'unit':>8} {'protocol':>14} {'model':>21} {'train after':>12} {'held-out before':>16} "
