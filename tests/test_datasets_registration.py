@@ -1,4 +1,5 @@
-"""Real-data loaders and base/tool registration against the figures in shared/data/README.md."""
+"""Real-data loaders (packaged copy) and base/tool registration against the nominal residuals
+recorded in shared/data/README.md."""
 import numpy as np
 import pytest
 
@@ -14,7 +15,6 @@ def _stats(chain, data):
     return e.mean(), np.sqrt(np.mean(e**2)), e.max()
 
 
-@pytest.mark.shared_data
 def test_ur5_loader_reproduces_the_authors_targets():
     chain, data = ur5_tsinghua()
     assert data.n_poses == 1000
@@ -28,7 +28,6 @@ def test_ur5_loader_reproduces_the_authors_targets():
     [(lambda: ur5_tsinghua(), (0.63, 0.70, 2.28)), (lambda: ipa_ur10("B"), (1.03, 1.09, 2.14))],
     ids=["ur5", "ur10-B"],
 )
-@pytest.mark.shared_data
 def test_registration_reaches_the_documented_nominal_residual(loader, expected):
     chain, data = loader()
     q = chain.joints_from_file(data.joints)
@@ -38,7 +37,6 @@ def test_registration_reaches_the_documented_nominal_residual(loader, expected):
     np.testing.assert_allclose([mean, rms, worst], expected, atol=0.015)
 
 
-@pytest.mark.shared_data
 def test_registration_recovers_a_known_frame_from_any_placement():
     chain, data = ur5_tsinghua()
     q = chain.joints_from_file(data.joints)[:200]

@@ -1,12 +1,10 @@
-"""Methods on the real measured datasets in shared/data, scored on held-out poses only."""
-import pytest
+"""Methods on the real measured datasets (packaged in robocal/io/data), scored on held-out poses only."""
 import numpy as np
 
 from robocal.compensation.methods import evaluate, fit_kriging
 from robocal.io.datasets import ur5_tsinghua
 
 
-@pytest.mark.shared_data
 def test_kriging_on_ur5_predicts_the_other_half():
     chain, data = ur5_tsinghua()
     q = chain.joints_from_file(data.joints)
@@ -28,7 +26,6 @@ def _split(n, fraction, seed=0):
     return order[:cut], order[cut:]
 
 
-@pytest.mark.shared_data
 def test_kinematic_and_hybrid_on_ur5_beat_the_published_result():
     from robocal.compensation.methods import fit_hybrid, fit_kinematic
 
@@ -46,7 +43,6 @@ def test_kinematic_and_hybrid_on_ur5_beat_the_published_result():
     assert hyb["mean_mm"] < kin["mean_mm"]
 
 
-@pytest.mark.shared_data
 def test_kinematic_on_ur10_with_unknown_base_and_probe():
     from robocal.compensation.methods import fit_kinematic
     from robocal.io.datasets import ipa_ur10
