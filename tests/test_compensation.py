@@ -6,11 +6,12 @@ import pytest
 from typer.testing import CliRunner
 
 from robocal.compensation import Compensator
-from robocal.compensation.methods import error_model_to_dict, fit_kriging
 from robocal.errors import FileFormatError, InputError, RobocalWarning
 from robocal.interfaces.cli import app
-from robocal.interfaces.jobs import load_compensator
-from robocal.interfaces.model_file import ModelFile, load_model, save_model
+from robocal.interfaces.jobs import load_fitted
+from robocal.io.observations import Observations
+from robocal.methods import KrigingMethod
+from robocal.io.model_file import load_model, save_model
 from robocal.io.library import builtin
 from robocal.io.tables import read_measurements, write_measurements
 from robocal.simulation import liu2022_plan, make_true_robot, read_truth
@@ -29,8 +30,8 @@ def liu():
 @pytest.fixture(scope="module")
 def fitted(liu):
     chain, truth, q, targets, train, test = liu
-    compensator, _, record = fit_kriging(chain, q[train], truth.positions(q[train]), register="no")
-    return compensator, record
+    method = KrigingMethod(register="no").fit(chain, Observations.of(q[train], truth.positions(q[train])))
+    return method.compensator_, method
 
 
 def test_compensation_brings_the_simulated_robot_onto_held_out_targets(liu, fitted):
@@ -63,16 +64,14 @@ def test_no_error_model_means_plain_ik(liu):
 
 def _save(tmp_path, liu, fitted, name="model.json"):
     chain = liu[0]
-    compensator, record = fitted
     path = tmp_path / name
-    save_model(ModelFile(method="kriging", nominal=chain, kinematics=compensator.chain,
-                         error_model=error_model_to_dict(compensator.error_model), training=record), path)
+    save_model(fitted[1].to_model_file(chain), path)
     return path
 
 
 def test_model_file_round_trip_predicts_identically(tmp_path, liu, fitted):
     path = _save(tmp_path, liu, fitted)
-    _, loaded = load_compensator(path)
+    loaded = load_fitted(path)[1].compensator_
     x = liu[3][:, :3, 3]
     np.testing.assert_array_equal(loaded.error_model.predict(x), fitted[0].error_model.predict(x))
     np.testing.assert_array_equal(loaded.chain.fk(liu[2]), fitted[0].chain.fk(liu[2]))
@@ -122,7 +121,7 @@ def test_model_file_refusals(tmp_path, liu, fitted):
     shaped.write_text(path.read_text())
     _rewrite(shaped, reshape)
     with pytest.raises(FileFormatError, match="damaged"):
-        load_compensator(shaped)
+        load_fitted(shaped)
 
     with pytest.raises(FileFormatError, match="not JSON"):
         (tmp_path / "junk.json").write_text("{not json")

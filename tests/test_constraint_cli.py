@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from robocal.interfaces.cli import app
-from robocal.interfaces.model_file import load_model
+from robocal.io.model_file import load_model
 from robocal.io.library import load_robot
 
 runner = CliRunner()

@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from robocal.compensation import Compensator
 from robocal.interfaces.cli import app
-from robocal.interfaces.model_file import load_model
+from robocal.io.model_file import load_model
 from robocal.io.tables import read_targets
 from robocal.simulation import read_truth
 from robocal.spatial import compose_pose

@@ -4,7 +4,10 @@ import numpy as np
 import pytest
 
 from robocal.errors import InputError
-from robocal.estimation.validation import k_fold, kinematic_fitter, learning_curve
+from robocal.estimation.validation import k_fold, learning_curve
+from robocal.io.observations import Observations
+from robocal.methods import KinematicMethod
+from robocal.methods.validation import method_fitter
 from robocal.io.library import builtin
 from robocal.simulation import TrueRobot, make_true_robot, uniform_joints
 
@@ -76,11 +79,15 @@ def test_learning_curve_improves_with_more_training_poses(kr150):
     assert rms[2] < 1.3 * NOISE_RMS_MM
 
 
-def test_kinematic_fitter_exposes_the_calibration_and_takes_options(kr150):
+def kinematic_fitter(chain, joints, measured, **settings):
+    return method_fitter(KinematicMethod(**settings), chain, Observations.of(joints, measured))
+
+
+def test_method_fitter_exposes_the_fitted_method_and_takes_settings(kr150):
     chain, joints, measured = kr150
     fit = kinematic_fitter(chain, joints, measured, parameters="offsets")
     predict = fit(np.arange(100))
-    assert set(predict.calibration.names_) <= set(chain.parameter_names(("offsets", "base", "tool")))
+    assert set(predict.fitted.calibration_.names_) <= set(chain.parameter_names(("offsets", "base", "tool")))
     assert predict(np.arange(100, 110)).shape == (10, 3)
 
 
@@ -104,7 +111,7 @@ def test_bad_inputs_are_refused(kr150):
         learning_curve(n, fit, measured, sizes=[])
     with pytest.raises(InputError, match="test_fraction"):
         learning_curve(n, fit, measured, sizes=[20], test_fraction=1.0)
-    with pytest.raises(InputError, match="rows"):
+    with pytest.raises(InputError, match=r"positions must have shape \(200, 3\)"):
         kinematic_fitter(chain, joints, measured[:10])
     with pytest.raises(InputError, match=r"returned shape \(3,\)"):
         k_fold(n, lambda train: lambda test: np.zeros(3), measured)

@@ -6,7 +6,8 @@ functions here score a model on poses withheld from its fit, and they are generi
 *fitter*: a callable ``fit(train_index) -> predict`` where ``predict(test_index)`` returns
 the (len(test_index), 3) TCP positions (mm) the model fitted on ``train_index`` expects at
 the poses ``test_index``.  Any method fits this shape (kinematic calibration, Kriging,
-hybrid); :func:`kinematic_fitter` builds one for :class:`KinematicCalibration`.
+hybrid); :func:`robocal.methods.validation.method_fitter` builds one for any registered
+method.
 
 Errors are measured − predicted, summarised by :func:`~robocal.estimation.metrics.error_stats`.
 Everything stays in memory: the fitter closes over its data and receives only indices.
@@ -16,7 +17,6 @@ import numbers
 import numpy as np
 
 from ..errors import InputError
-from .calibration import KinematicCalibration
 from .metrics import error_stats
 
 
@@ -104,39 +104,6 @@ def learning_curve(n_poses, fit, measured, sizes, test_fraction=0.3, repeats=3, 
         curve.append({"n_train": m, "n_test": n_test, "repeats": runs,
                       "held_out": error_stats(np.concatenate(errors)), "per_repeat": per_repeat})
     return curve
-
-
-def kinematic_fitter(chain, joints, positions, *, orientations=None, sigmas=None, **calibration_options):
-    """A fitter for :func:`k_fold` and :func:`learning_curve` that calibrates ``chain`` with
-    :class:`KinematicCalibration` on the training poses and predicts the others with it.
-
-    joints: (N, n) controller joints (rad); positions: (N, 3) measured (mm); orientations
-    (N, 3, 3) and sigmas (N, 3) are optional and passed row for row to
-    :meth:`KinematicCalibration.fit`; calibration_options go to the
-    :class:`KinematicCalibration` constructor (parameters, loss, register, ...).  The
-    returned predictor carries the fitted calibration as ``predict.calibration``.
-    """
-    joints = np.asarray(joints, dtype=float)
-    rows = {name: None if value is None else np.asarray(value, dtype=float)
-            for name, value in (("positions", positions), ("orientations", orientations), ("sigmas", sigmas))}
-    for name, value in rows.items():
-        if value is not None and len(value) != len(joints):
-            raise InputError(f"{name} has {len(value)} rows but there are {len(joints)} joint vectors")
-    # Fail now on options KinematicCalibration does not know, not inside the first fold.
-    KinematicCalibration(**calibration_options)
-
-    def fit(train_index):
-        train = np.asarray(train_index)
-        subset = {name: None if value is None else value[train] for name, value in rows.items()}
-        calibration = KinematicCalibration(**calibration_options).fit(chain, joints[train], **subset)
-
-        def predict(test_index):
-            return calibration.predict(joints[np.asarray(test_index)])
-
-        predict.calibration = calibration
-        return predict
-
-    return fit
 
 
 # ----------------------------------------------------------------------------- checks

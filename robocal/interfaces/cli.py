@@ -14,6 +14,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..errors import InputError, RobocalError, RobocalWarning
+from ..methods import get_method, make_method, method_names
 from .jobs import calibrate_job, compensate_job, dataset_job, evaluate_job, export_job, simulate_job, validate_job
 
 app = typer.Typer(
@@ -186,55 +187,83 @@ def simulate(
     _print_result(result, as_json, f"simulated {result['poses']} poses -> {out_file}")
 
 
+def _method_settings(method, *, seed=None, nugget=None, hidden=None, shared_theta=False, **given):
+    """The settings a user gave on the command line, as the method's keywords (an option left
+    at None was not given; the method refuses those it does not take)."""
+    settings = {name: value for name, value in given.items() if value is not None}
+    if nugget is not None:
+        settings["nugget"] = nugget if nugget == "estimate" else _floats(nugget, 1, "--nugget")[0]
+    if hidden is not None:
+        settings["hidden"] = tuple(int(w) for w in _floats(hidden, 0, "--hidden"))
+    if shared_theta:
+        settings["shared_theta"] = True
+    if seed is not None:
+        settings["random_state"] = seed
+    return settings
+
+
+METHOD_HELP = f"One of {', '.join(method_names())}; 'robocal methods' describes them and lists their options."
+SEED_HELP = "Seed of the Kriging multi-start search and of the network's training (kriging, hybrid, ann)."
+
+
+@app.command()
+@user_errors
+def methods():
+    """List the calibration and compensation methods and the options each takes.
+
+    Example: robocal methods
+    """
+    table = Table("method", "description", "options")
+    for name in method_names():
+        method = get_method(name)
+        table.add_row(name, method.description, ", ".join(s.option for s in method.settings) or "-")
+    out.print(table)
+
+
 @app.command()
 @user_errors
 def calibrate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
     out_file: str = typer.Option(..., "--out", help="Model file (JSON) to write."),
-    method: str = typer.Option("kinematic", help="kinematic, kriging, hybrid, ann (GA-trained network, joint-space compensation) or constraint (ball in sockets, with --fixture)."),
-    register: str = typer.Option("auto", help="Register base and tool first: auto, yes or no."),
-    trend: str = typer.Option("constant", help="Kriging trend: constant, linear or quadratic."),
-    correlation: str = typer.Option("gaussian", help="Kriging correlation: gaussian or matern52."),
-    nugget: str = typer.Option("estimate", help="Kriging nugget: 'estimate' or a number."),
-    shared_theta: bool = typer.Option(False, "--shared-theta", help="One theta for the three outputs."),
-    parameters: str = typer.Option("full", help="kinematic/hybrid/constraint: parameter set, offsets, full, full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains."),
-    loss: str = typer.Option("linear", help="kinematic/hybrid: linear, huber or soft_l1 (robust)."),
+    method: str = typer.Option("kinematic", help=METHOD_HELP),
+    register: str = typer.Option(None, help="Register base and tool first: auto (default), yes or no."),
+    trend: str = typer.Option(None, help="kriging/hybrid: trend, constant (default), linear or quadratic."),
+    correlation: str = typer.Option(None, help="kriging/hybrid: correlation, gaussian (default) or matern52."),
+    nugget: str = typer.Option(None, help="kriging/hybrid: nugget, 'estimate' (default) or a number."),
+    shared_theta: bool = typer.Option(False, "--shared-theta", help="kriging/hybrid: one theta for the three outputs."),
+    parameters: str = typer.Option(None, help="kinematic/hybrid/constraint (ann with --base-model kinematic): parameter set, offsets, full (default), full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains."),
+    loss: str = typer.Option(None, help="kinematic/hybrid: linear (default), huber or soft_l1 (robust)."),
     payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (default: 0 if the robot file gives link masses, else the rated payload of a robot of that size)."),
-    seed: int = typer.Option(0, help="Seed of the Kriging multi-start search and of the network's training."),
-    hidden: str = typer.Option("16,16", help="ann: hidden layer widths, at least two."),
-    generations: int = typer.Option(300, help="ann: generation limit of the genetic algorithm."),
-    trainer: str = typer.Option("ga", help="ann: ga (genetic algorithm) or lbfgs (gradient from random starts)."),
-    refine: str = typer.Option("lbfgs", help="ann: refine the GA's best network by lbfgs, or none."),
-    base_model: str = typer.Option("nominal", "--base-model", help="ann: the network learns the error of the nominal robot or of the kinematic calibration."),
+    seed: int = typer.Option(None, help=SEED_HELP + " Default 0."),
+    hidden: str = typer.Option(None, help="ann: hidden layer widths, at least two (default 16,16)."),
+    generations: int = typer.Option(None, help="ann: generation limit of the genetic algorithm (default 300)."),
+    trainer: str = typer.Option(None, help="ann: ga (genetic algorithm, default) or lbfgs (gradient from random starts)."),
+    refine: str = typer.Option(None, help="ann: refine the GA's best network by lbfgs (default), or none."),
+    base_model: str = typer.Option(None, "--base-model", help="ann: the network learns the error of the nominal robot (default) or of the kinematic calibration."),
     fixture: str = typer.Option(None, help="Fixture TOML (constraint method)."),
-    pairs: str = typer.Option("all", help="constraint: all pairs of configurations, or spanning (fewer, faster)."),
+    pairs: str = typer.Option(None, help="constraint: all pairs of configurations (default), or spanning (fewer, faster)."),
     tip: str = typer.Option(None, help="URDF only: the tip link."),
     root: str = typer.Option(None, help="URDF only: the root link."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Fit a calibration / error model to measurements and save it as a model file.
 
+    Options that do not apply to the chosen method are refused ('robocal methods' lists
+    which method takes which).
+
     Example: robocal calibrate ur5 meas.csv --method kinematic --out model.json
     """
-    from ..estimation.kriging import Kriging
-    from ..estimation.network import NetworkErrorModel
     from .progress import progress
 
-    nugget_value = nugget if nugget == "estimate" else _floats(nugget, 1, "--nugget")[0]
-    kriging = Kriging(regression=trend, correlation=correlation, nugget=nugget_value, shared_theta=shared_theta,
-                      random_state=seed)
-    if refine not in ("lbfgs", "none"):
-        raise InputError(f"--refine must be lbfgs or none, got {refine!r}")
-    network = NetworkErrorModel(hidden=tuple(int(w) for w in _floats(hidden, 0, "--hidden")), trainer=trainer,
-                                refine=None if refine == "none" else refine, generations=generations, seed=seed)
-    genetic = method == "ann" and trainer == "ga"
-    with progress("genetic algorithm, generation" if genetic else f"fitting the {method} model",
-                  generations if genetic else None, enabled=not as_json) as advance:
-        result = calibrate_job(robot, measurements, out_file, method=method, register=register,
-                               kriging=kriging, parameters=parameters, loss=loss, fixture=fixture, pairs=pairs,
-                               network=network, base_model=base_model, payload=payload,
-                               progress=lambda generation, fitness: advance(best=fitness), root=root, tip=tip)
+    fitter = make_method(method, **_method_settings(
+        method, seed=seed, nugget=nugget, hidden=hidden, shared_theta=shared_theta, register=register, trend=trend,
+        correlation=correlation, parameters=parameters, loss=loss, payload=payload, generations=generations,
+        trainer=trainer, refine=refine, base_model=base_model, pairs=pairs))
+    label = fitter.progress_label if fitter.progress_total() else f"fitting the {method} model"
+    with progress(label, fitter.progress_total(), enabled=not as_json) as advance:
+        result = calibrate_job(robot, measurements, out_file, method=fitter, fixture=fixture, progress=advance,
+                               root=root, tip=tip)
     if not as_json and "calibration" in result:
         _print_calibration(result["calibration"])
     _print_result(result, as_json, f"{method} model -> {out_file}")
@@ -333,15 +362,15 @@ def export(
 def validate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
-    method: str = typer.Option("kinematic", help="kinematic, kriging, hybrid, ann, or constraint (leave one placement out, with --fixture)."),
+    method: str = typer.Option("kinematic", help=METHOD_HELP + " Ball-in-socket data (constraint) are validated one fixture placement left out at a time."),
     folds: int = typer.Option(5, help="Number of cross-validation folds."),
     sizes: str = typer.Option(None, help="Learning curve: training sizes, e.g. 20,50,100,200."),
-    seed: int = typer.Option(0, help="Seed of the fold assignment and the Kriging search."),
-    register: str = typer.Option("auto", help="Register base and tool first: auto, yes or no."),
-    parameters: str = typer.Option("full", help="kinematic/hybrid/constraint: parameter set, offsets, full, full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains."),
-    loss: str = typer.Option("linear", help="kinematic/hybrid: linear, huber or soft_l1."),
+    seed: int = typer.Option(0, help="Seed of the fold assignment, and of the method's random search where it has one."),
+    register: str = typer.Option(None, help="Register base and tool first: auto (default), yes or no."),
+    parameters: str = typer.Option(None, help="kinematic/hybrid/constraint: parameter set, offsets, full (default), full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains."),
+    loss: str = typer.Option(None, help="kinematic/hybrid: linear (default), huber or soft_l1."),
     fixture: str = typer.Option(None, help="constraint: the fixture TOML."),
-    pairs: str = typer.Option("all", help="constraint: all pairs or spanning."),
+    pairs: str = typer.Option(None, help="constraint: all pairs (default) or spanning."),
     payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
@@ -354,22 +383,25 @@ def validate(
     """
     from .progress import progress
 
+    takes_seed = any(s.name == "random_state" for s in get_method(method).settings)
+    settings = _method_settings(method, seed=seed if takes_seed else None, register=register,
+                                parameters=parameters, loss=loss, payload=payload, pairs=pairs)
     size_list = None if sizes is None else [int(v) for v in _floats(sizes, 0, "--sizes")]
+    by_placement = get_method(method).data_kind == "sockets"
     # Each fold fits the method and the registered nominal; each size of the curve 3 times.
-    fits = None if method == "constraint" else 2 * folds + 3 * len(size_list or [])
+    fits = None if by_placement else 2 * folds + 3 * len(size_list or [])
     with progress("fitting", fits, enabled=not as_json) as advance:
-        result = validate_job(robot, measurements, method=method, folds=folds, sizes=size_list, seed=seed,
-                              register=register, parameters=parameters, loss=loss, fixture=fixture,
-                              pairs=pairs, payload=payload, on_fit=advance)
+        result = validate_job(robot, measurements, method=method, settings=settings, folds=folds, sizes=size_list,
+                              seed=seed, fixture=fixture, on_fit=advance)
     if as_json:
         print(json.dumps(result, indent=2))
         return
-    kind = ("leave-one-placement-out socket consistency" if method == "constraint"
+    kind = ("leave-one-placement-out socket consistency" if by_placement
             else f"{result['folds']}-fold cross-validation")
     table = Table(title=f"{method}, {kind} on {result['poses']} poses (mm)")
     for col in ("model", "mean", "RMS", "max"):
         table.add_column(col, justify="right")
-    nominal = "nominal" if method == "constraint" else "nominal, registered"
+    nominal = "nominal" if by_placement else "nominal, registered"
     for label, key in ((method, "cross_validation"), (nominal, "nominal_cross_validation")):
         stats = result[key].get("pooled", result[key])
         table.add_row(label, f"{stats['mean_mm']:.4f}", f"{stats['rms_mm']:.4f}", f"{stats['max_mm']:.4f}")

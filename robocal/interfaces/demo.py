@@ -11,9 +11,10 @@ import time
 import numpy as np
 from rich.table import Table
 
-from ..compensation.methods import fit_kriging
 from ..estimation.metrics import error_stats
 from ..io.library import builtin
+from ..io.observations import Observations
+from ..methods import KrigingMethod
 from ..simulation import liu2022_plan, make_true_robot
 
 PUBLISHED = {
@@ -38,7 +39,8 @@ def run_demo():
     errors = truth.positions(q) - nominal
 
     t0 = time.perf_counter()
-    compensator, _, _ = fit_kriging(chain, q[train], truth.positions(q[train]), register="no")
+    fitted = KrigingMethod(register="no").fit(chain, Observations.of(q[train], truth.positions(q[train])))
+    compensator = fitted.compensator_
     fit_seconds = time.perf_counter() - t0
     model = compensator.error_model
     predicted = model.predict(nominal[test])

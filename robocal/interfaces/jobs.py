@@ -1,210 +1,61 @@
 """What each command does, as plain functions of parsed arguments that return JSON-ready
-results; ``cli.py`` only parses, prints and maps errors to exit codes."""
-from functools import partial
-
+results: read the files, call the method registry, write the files.  ``cli.py`` only parses,
+prints and maps errors to exit codes."""
 import numpy as np
 
-from ..compensation import Compensator
-from ..compensation.methods import (
-    error_model_from_dict,
-    error_model_to_dict,
-    fit_hybrid,
-    fit_kinematic,
-    fit_kriging,
-    fit_network,
-    residuals,
-)
-from ..errors import FileFormatError, InputError, RobocalWarning
-from ..estimation.calibration import PARAMETER_SETS, parameter_terms
+from ..errors import InputError
 from ..estimation.metrics import error_stats
 from ..io.library import load_robot
-from ..io.tables import read_measurements, read_targets, write_commands, write_measurements
-from ..spatial import compose_pose, pose_to_xyz_rpy, rpy_to_matrix
-from .model_file import ModelFile, load_model, save_model
-
-IMPLEMENTED_METHODS = ("kinematic", "kriging", "hybrid", "constraint", "ann")
-# A calibrated model that still misses by this much is almost certainly the wrong robot,
-# wrong units or a different measurement frame.
-SUSPICIOUS_RESIDUAL_MM = 20.0
+from ..io.model_file import load_model, save_model
+from ..io.observations import read_observations, read_target_poses, write_joint_commands
+from ..io.tables import write_measurements
+from ..methods import fitted_from_model_file, make_method
+from ..methods.evaluation import position_scores, socket_scores, with_fixture
+from ..methods.validation import cross_validate
 
 
-def _positions_required(data, method):
-    if data.positions is None:
-        raise InputError(f"{data.path} has no x, y, z columns: the {method} method needs measured positions")
-
-
-def _constraints_required(data, fixture_path=None):
-    if data.fixture is None:
-        raise InputError(f"{data.path} has no fixture and socket columns: the constraint method needs ball-in-socket "
-                         "data (q1..qN, fixture, socket)")
-    if data.positions is not None:
-        raise InputError(f"{data.path} has x, y, z columns: that is instrument data; use --method kinematic, or "
-                         "give only fixture and socket columns for the constraint method")
-
-
-def fixture_document(fixture):
-    return {"name": fixture.name, "sockets": {k: v.tolist() for k, v in fixture.sockets.items()}}
-
-
-def fixture_from_document(doc, path):
-    from ..io.fixtures import Fixture
-
-    try:
-        return Fixture(name=doc["name"], sockets=doc["sockets"])
-    except (KeyError, TypeError, InputError) as exc:
-        raise FileFormatError(f"{path}: the fixture stored in the model is damaged ({exc}); regenerate the file") from None
-
-
-def constraint_calibration(pairs, parameters, payload):
-    """The ConstraintCalibration that a --parameters set asks for (the full POE model, with
-    compliance and gains as named)."""
-    from ..estimation.constraint import ConstraintCalibration
-
-    terms = parameter_terms(parameters)
-    if not parameters.startswith("full"):
-        raise InputError(f"the constraint method identifies the full POE model: --parameters "
-                         f"{', '.join(p for p in PARAMETER_SETS if p.startswith('full'))}, got {parameters!r}")
-    return ConstraintCalibration(pairs=pairs, compliance="compliance" in terms, gains="gains" in terms,
-                                 payload=payload)
-
-
-def _fit_constraint(chain, data, fixture_path, pairs, parameters, payload):
-    from ..io.fixtures import read_fixture
-
-    if fixture_path is None:
-        raise InputError("the constraint method needs the fixture: --fixture FIX.toml (socket centres in mm)")
-    _constraints_required(data)
-    fixture = read_fixture(fixture_path)
-    q = chain.joints_from_file(data.joints)
-    calibration = constraint_calibration(pairs, parameters, payload).fit(
-        chain, q, data.fixture, data.socket, fixture)
-    result = calibration.result_
-    record = {"calibration": result.to_dict(calibration.chain_), "fixture": fixture_document(fixture),
-              "fixture_file": str(fixture_path), "residual_before": result.residual_before,
-              "residual_after_training": result.residual_after}
-    return Compensator(calibration.chain_, None, nominal=chain), chain, record
-
-
-def calibrate_job(robot, measurements, out, *, method="kinematic", register="auto", kriging=None,
-                  parameters="full", loss="linear", fixture=None, pairs="all", network=None, base_model="nominal",
-                  payload=None, progress=None, root=None, tip=None):
-    """Fit a method to a measurement file and save the model file."""
-    if method not in IMPLEMENTED_METHODS:
-        raise InputError(
-            f"method {method!r} is not available in this version of robocal; available: "
-            f"{', '.join(IMPLEMENTED_METHODS)}"
-        )
+def calibrate_job(robot, measurements, out, *, method="kinematic", settings=None, fixture=None, progress=None,
+                  root=None, tip=None):
+    """Fit a method (an unfitted :class:`~robocal.methods.Method`, or a registered name with
+    its ``settings``) to a measurement file and save the model file.  ``progress(**info)`` is
+    called as the method reports its steps."""
+    fitter = make_method(method, **(settings or {})) if isinstance(method, str) else method
     chain = load_robot(robot, root=root, tip=tip)
-    data = read_measurements(measurements, n_joints=chain.n_joints)
-    if method == "constraint":
-        compensator, reference, record = _fit_constraint(chain, data, fixture, pairs, parameters, payload)
-    else:
-        _positions_required(data, method)
-        q = chain.joints_from_file(data.joints)
-        if method == "kriging":
-            compensator, reference, record = fit_kriging(chain, q, data.positions, register=register, kriging=kriging)
-        else:
-            rotations = None if data.orientations is None else rpy_to_matrix(np.radians(data.orientations))
-            fit = {"kinematic": fit_kinematic, "hybrid": partial(fit_hybrid, kriging=kriging),
-                   "ann": partial(fit_network, network=network, base=base_model, progress=progress)}[method]
-            compensator, reference, record = fit(chain, q, data.positions, orientations=rotations,
-                                                 sigmas=data.sigmas, parameters=parameters, loss=loss,
-                                                 register=register, payload=payload)
-            outliers = record["calibration"]["outliers"] if "calibration" in record else []
-            if outliers:
-                record["calibration"]["outlier_rows"] = [int(data.rows[i]) for i in outliers]
-    training = {"file": str(measurements), "n_poses": data.n_poses, "kind": data.kind, **record}
-    options = ({"pairs": pairs, "parameters": parameters} if method == "constraint"
-               else {"register": register, "parameters": parameters, "loss": loss})
-    if "compliance" in parameter_terms(parameters):
-        options["payload_kg"] = payload
-    if method == "ann":
-        options["base_model"] = base_model
-    model = ModelFile(method=method, nominal=chain, kinematics=compensator.chain, reference=reference,
-                      error_model=error_model_to_dict(compensator.error_model), training=training,
-                      options=options)
+    observations = read_observations(measurements, chain, fixture)
+    fitter.fit(chain, observations, progress=progress)
+    training = {"file": str(measurements), "n_poses": observations.n_poses, "kind": observations.kind}
+    if fixture is not None:
+        training["fixture_file"] = str(fixture)
+    model = fitter.to_model_file(chain, training)
     save_model(model, out)
-    return {"method": method, "robot": chain.name, "out": str(out), **training}
+    return {"method": fitter.name, "robot": chain.name, "out": str(out), **model.training}
 
 
-def load_compensator(model_path, robot=None):
-    """A model file -> (ModelFile, Compensator)."""
+def load_fitted(model_path, robot=None):
+    """A model file -> (ModelFile, the fitted method it holds)."""
     model = load_model(model_path, robot=robot)
-    try:
-        error_model, error_input = error_model_from_dict(model.error_model)
-    except (InputError, FileFormatError, KeyError, TypeError, ValueError) as exc:
-        raise FileFormatError(f"{model_path}: the error model is damaged ({exc}); "
-                              "regenerate the file with 'robocal calibrate'") from None
-    rigid = getattr(model.kinematics, "rigid", model.kinematics)
-    return model, Compensator(model.kinematics, error_model, nominal=rigid, error_input=error_input)
-
-
-def load_model_and_data(model_path, measurements):
-    """(model, compensator, measurements, joints in rad) for a model file and a CSV."""
-    model, compensator = load_compensator(model_path)
-    data = read_measurements(measurements, n_joints=model.kinematics.n_joints)
-    return model, compensator, data, model.kinematics.joints_from_file(data.joints)
-
-
-def position_evaluation(model, compensator, data, q, model_path):
-    """(before (N, 3), after (N, 3), statistics as ``evaluate --json`` prints them) on measured positions."""
-    import warnings
-
-    _positions_required(data, model.method)
-    before, after = residuals(compensator, model.reference, q, data.positions)
-    result = {**error_stats(after), "nominal": error_stats(before)}
-    if result["mean_mm"] > SUSPICIOUS_RESIDUAL_MM:
-        warnings.warn(RobocalWarning(
-            f"the residual is {result['mean_mm']:.1f} mm mean after calibration: is {data.path} "
-            f"from robot '{model.nominal.name}', in mm and degrees, in the frame the model was fitted in?"))
-    return before, after, {"model": str(model_path), "method": model.method, "file": str(data.path), **result}
-
-
-def socket_evaluation(model, data, q, model_path, fixture_path):
-    """(fixture, statistics) on ball-in-socket data: the socket consistency (distance of each
-    ball centre from the mean of its socket group) at the top level, the socket-distance
-    error under ``socket_distance``, and the same for the nominal robot under ``nominal``."""
-    from ..estimation.constraint import socket_errors
-    from ..io.fixtures import read_fixture
-
-    _constraints_required(data)
-    if fixture_path is not None:
-        fixture = read_fixture(fixture_path)
-    elif "fixture" in model.training:
-        fixture = fixture_from_document(model.training["fixture"], model_path)
-    else:
-        raise InputError(f"{data.path} is ball-in-socket data and {model_path} stores no fixture: "
-                         "give --fixture FIX.toml")
-    result = socket_errors(model.kinematics, q, data.fixture, data.socket, fixture)
-    result["nominal"] = socket_errors(model.reference, q, data.fixture, data.socket, fixture)
-    return fixture, {"model": str(model_path), "method": model.method, "file": str(data.path),
-                     "metric": "socket consistency: distance of each ball centre from the mean of its socket group",
-                     **result}
+    return model, fitted_from_model_file(model, model_path)
 
 
 def evaluate_job(model_path, measurements, fixture=None):
     """Residual of a model on measured positions, and of the nominal robot; on ball-in-socket
     data the socket consistency and socket-distance errors."""
-    model, compensator, data, q = load_model_and_data(model_path, measurements)
-    if data.positions is None:
-        return socket_evaluation(model, data, q, model_path, fixture)[-1]
-    return position_evaluation(model, compensator, data, q, model_path)[-1]
+    model, fitted = load_fitted(model_path)
+    observations = read_observations(measurements, model.kinematics, fixture)
+    head = {"model": str(model_path), "method": model.method, "file": str(measurements)}
+    if observations.positions is None:
+        return {**head, **socket_scores(fitted, with_fixture(fitted, observations, model_path))}
+    return {**head, **position_scores(fitted, observations, model.nominal.name)[-1]}
 
 
 def compensate_job(model_path, targets_path, out, *, iterate=False):
     """Joint commands and corrected Cartesian targets for a targets file."""
-    model, compensator = load_compensator(model_path)
-    chain = model.kinematics
-    targets = read_targets(targets_path, n_joints=chain.n_joints)
-    poses = compose_pose(targets.positions, np.radians(targets.orientations))
-    hint = None if targets.hints is None else chain.joints_from_file(targets.hints)
-    result = compensator.commands(poses, hint=hint, iterate=iterate)
-    xyz, rpy = pose_to_xyz_rpy(result.corrected)
-    joints = chain.joints_to_file(np.where(result.success[:, None], result.q, 0.0))
-    write_commands(out, joints, xyz, np.degrees(rpy), joint_ok=result.success)
-    unreachable = [int(r) for r in np.asarray(targets.rows)[~result.success]]
-    return {"targets": int(len(poses)), "reachable": int(result.success.sum()),
-            "unreachable_rows": unreachable, "out": str(out),
+    model, fitted = load_fitted(model_path)
+    targets = read_target_poses(targets_path, model.kinematics)
+    result = fitted.compensator_.commands(targets.poses, hint=targets.hints, iterate=iterate)
+    write_joint_commands(out, model.kinematics, result.q, result.corrected, result.success)
+    return {"targets": int(len(targets.poses)), "reachable": int(result.success.sum()),
+            "unreachable_rows": [int(r) for r in targets.rows[~result.success]], "out": str(out),
             "predicted_error": error_stats(result.predicted_error)}
 
 
@@ -379,107 +230,12 @@ def dataset_job(name, prefix, *, split=None, seed=0):
     return {"dataset": name, "poses": data.n_poses, "source": data.path, **written}
 
 
-def _fitter(method, chain, q, data, register, parameters, loss, kriging_seed):
-    """fit(train_index) -> predict(test_index) for a method, on data already in memory."""
-    from ..estimation.kriging import Kriging
-
-    rotations = None if data.orientations is None else rpy_to_matrix(np.radians(data.orientations))
-
-    def take(array, index):
-        return None if array is None else array[index]
-
-    def fit(train):
-        if method == "nominal":
-            from ..estimation.registration import register_base_and_tool
-
-            registered, _ = register_base_and_tool(chain, q[train], data.positions[train])
-            return lambda test: registered.fk_positions(q[test])
-        kriging = Kriging(nugget="estimate", random_state=kriging_seed)
-        if method == "kriging":
-            compensator = fit_kriging(chain, q[train], data.positions[train], register=register, kriging=kriging)[0]
-        else:
-            from ..estimation.network import NetworkErrorModel
-
-            fit_method = {"kinematic": fit_kinematic, "hybrid": partial(fit_hybrid, kriging=kriging),
-                          "ann": partial(fit_network, network=NetworkErrorModel(seed=kriging_seed))}[method]
-            compensator = fit_method(chain, q[train], data.positions[train], orientations=take(rotations, train),
-                                     sigmas=take(data.sigmas, train), parameters=parameters, loss=loss,
-                                     register=register)[0]
-        return lambda test: compensator.predict_positions(q[test])
-
-    return fit
-
-
-def _placement_validation(chain, data, fixture_path, pairs, parameters, payload, on_fit):
-    """Leave one fixture placement out at a time: the constraint model fitted on the others,
-    its socket consistency on the one left out, beside the nominal model's."""
-    from ..estimation.constraint import socket_deviations
-    from ..io.fixtures import read_fixture
-
-    if fixture_path is None:
-        raise InputError("the constraint method needs the fixture: --fixture FIX.toml (socket centres in mm)")
-    _constraints_required(data)
-    fixture = read_fixture(fixture_path)
-    placements = sorted(set(data.fixture.tolist()))
-    if len(placements) < 2:
-        raise InputError(f"{data.path} has one fixture placement: leave-one-placement-out needs two or more")
-    q = chain.joints_from_file(data.joints)
-    folds, nominal_folds, deviations, nominal_deviations = [], [], [], []
-    for placement in placements:
-        test = data.fixture == placement
-        calibration = constraint_calibration(pairs, parameters, payload).fit(
-            chain, q[~test], data.fixture[~test], data.socket[~test], fixture)
-        if on_fit is not None:
-            on_fit()
-        for model, fold_list, pooled in ((calibration.chain_, folds, deviations),
-                                         (chain, nominal_folds, nominal_deviations)):
-            held_out, _ = socket_deviations(model, q[test], data.fixture[test], data.socket[test], fixture)
-            pooled.append(held_out)
-            fold_list.append({"fold": placement, "n_train": int((~test).sum()), "held_out": error_stats(held_out)})
-    return {"method": "constraint", "file": str(data.path), "poses": data.n_poses, "folds": len(placements),
-            "metric": "socket consistency on the placement left out",
-            "cross_validation": {"k": len(placements), "folds": folds,
-                                 "pooled": error_stats(np.concatenate(deviations))},
-            "nominal_cross_validation": {"k": len(placements), "folds": nominal_folds,
-                                         "pooled": error_stats(np.concatenate(nominal_deviations))}}
-
-
-def validate_job(robot, measurements, *, method="kinematic", folds=5, sizes=None, seed=0, register="auto",
-                 parameters="full", loss="linear", fixture=None, pairs="all", payload=None, root=None, tip=None,
-                 on_fit=None):
-    """k-fold cross-validation (and a learning curve) of a method, beside the nominal robot
-    registered on the same training folds; for the constraint method, leave one fixture
-    placement out at a time.  ``on_fit()`` is called after every fit."""
-    from ..estimation.validation import k_fold, learning_curve
-
-    if method not in IMPLEMENTED_METHODS:
-        raise InputError(f"method {method!r} is not available; available: {', '.join(IMPLEMENTED_METHODS)}")
+def validate_job(robot, measurements, *, method="kinematic", settings=None, folds=5, sizes=None, seed=0,
+                 fixture=None, root=None, tip=None, on_fit=None):
+    """Held-out accuracy of a method beside the registered nominal robot: k-fold
+    cross-validation (and a learning curve) on position data, one fixture placement left out
+    at a time on ball-in-socket data.  ``on_fit()`` is called after every fit."""
+    unfitted = make_method(method, **(settings or {}))
     chain = load_robot(robot, root=root, tip=tip)
-    data = read_measurements(measurements, n_joints=chain.n_joints)
-    if method == "constraint":
-        if sizes:
-            raise InputError("--sizes (a learning curve) is for position data; the constraint method is "
-                             "validated placement by placement")
-        return _placement_validation(chain, data, fixture, pairs, parameters, payload, on_fit)
-    _positions_required(data, method)
-    q = chain.joints_from_file(data.joints)
-    def counted(fit):
-        def wrapped(train):
-            predict = fit(train)
-            if on_fit is not None:
-                on_fit()
-            return predict
-        return wrapped
-
-    fitter = counted(_fitter(method, chain, q, data, register, parameters, loss, seed))
-    def summary(cv):  # the per-pose arrays stay out of the JSON
-        return {key: cv[key] for key in ("k", "folds", "pooled")}
-
-    result = {"method": method, "file": str(measurements), "poses": data.n_poses, "folds": folds,
-              "cross_validation": summary(k_fold(data.n_poses, fitter, data.positions, k=folds, seed=seed)),
-              "nominal_cross_validation": summary(k_fold(
-                  data.n_poses, counted(_fitter("nominal", chain, q, data, register, parameters, loss, seed)),
-                  data.positions, k=folds, seed=seed))}
-    if sizes:
-        result["learning_curve"] = learning_curve(data.n_poses, fitter, data.positions, sizes, seed=seed)
-    return result
+    observations = read_observations(measurements, chain, fixture)
+    return cross_validate(unfitted, chain, observations, folds=folds, sizes=sizes, seed=seed, on_fit=on_fit)

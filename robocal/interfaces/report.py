@@ -16,7 +16,15 @@ from ..errors import FileFormatError, InputError
 from ..estimation.metrics import iso9283_position
 from ..io.atomic import write_bytes_atomic, write_text_atomic
 from . import plots
-from .jobs import load_model_and_data, position_evaluation, socket_evaluation
+from ..io.observations import read_observations
+from ..methods.evaluation import position_scores, socket_residuals, socket_scores, with_fixture
+from .jobs import load_fitted
+
+# How each kind of method diagnostic (robocal.methods.ReportFigure) is drawn.
+DIAGNOSTIC_PLOTS = {
+    "kriging_uncertainty": lambda data: plots.kriging_uncertainty(data["model"], data["points"]),
+    "fitness_history": lambda data: plots.fitness_history(data["history"]),
+}
 
 STATS = (("n", "poses", "{:d}"), ("mean_mm", "mean", "{:.4f}"), ("rms_mm", "RMS", "{:.4f}"),
          ("max_mm", "max", "{:.4f}"), ("p95_mm", "95 %", "{:.4f}"), ("x_mean_mm", "|x| mean", "{:.4f}"),
@@ -62,10 +70,10 @@ def _read_validation(path):
     return doc
 
 
-def _figures(model, compensator, data, q, positions, before, after, validation):
+def _figures(fitted, observations, positions, before, after, validation):
     """(title, caption, Figure) for every plot that applies to this model."""
-    joints_deg = np.asarray(data.joints, dtype=float)
-    what = "error" if data.positions is not None else "deviation of the ball centre from its socket group's mean"
+    joints_deg = fitted.compensator_.chain.joints_to_file(observations.joints)
+    what = "error" if observations.positions is not None else "deviation of the ball centre from its socket group's mean"
     figures = [
         ("Error distribution", f"Single-point {what}, every pose in the file.",
          plots.error_distribution(before, after)),
@@ -74,15 +82,8 @@ def _figures(model, compensator, data, q, positions, before, after, validation):
         ("Error against the joint angles", "Where in the joint space the error comes from "
          "(joint values as in the file).", plots.error_against_joints(joints_deg, before, after)),
     ]
-    error_model = compensator.error_model
-    if error_model is not None and hasattr(error_model, "predict") and model.error_model.get("type") == "kriging":
-        points = model.kinematics.fk_positions(q)
-        figures.append(("Kriging uncertainty", "Predicted standard deviation of the error model: "
-                        "small where training poses are, growing away from them.",
-                        plots.kriging_uncertainty(error_model, points)))
-    history = getattr(error_model, "history_", None)
-    if history is not None and len(history):
-        figures.append(("Genetic algorithm", "Best fitness per generation.", plots.fitness_history(history)))
+    figures += [(item.title, item.caption, DIAGNOSTIC_PLOTS[item.kind](item.data))
+                for item in fitted.report_figures(observations.joints)]
     if validation is not None and validation.get("learning_curve"):
         figures.append(("Learning curve", "Held-out error against the number of training poses "
                         f"({validation['method']}, from {validation['file']}).",
@@ -143,28 +144,30 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None):
         raise InputError(f"the report is HTML: give --out a .html file name, got {out}")
     if pdf is not None and not str(pdf).lower().endswith(".pdf"):
         raise InputError(f"--pdf needs a .pdf file name, got {pdf}")
-    model, compensator, data, q = load_model_and_data(model_path, measurements)
+    model, fitted = load_fitted(model_path)
+    data = read_observations(measurements, model.kinematics)
+    head = {"model": str(model_path), "method": model.method, "file": str(measurements)}
     if data.positions is None:
-        from ..estimation.constraint import socket_deviations
-
-        fixture, stats = socket_evaluation(model, data, q, model_path, None)
-        before, _ = socket_deviations(model.reference, q, data.fixture, data.socket, fixture)
-        after, centres = socket_deviations(model.kinematics, q, data.fixture, data.socket, fixture)
-        positions, iso_before, iso_after = centres, None, None
+        data = with_fixture(fitted, data, model_path)
+        stats = {**head, **socket_scores(fitted, data)}
+        before, after, positions = socket_residuals(fitted, data)
+        iso_before, iso_after = None, None
         metric = ("Socket consistency: distance of each computed ball centre from the mean of its socket "
                   "group, in mm (no instrument: the data are joint angles only)")
     else:
-        before, after, stats = position_evaluation(model, compensator, data, q, model_path)
+        before, after, scores = position_scores(fitted, data, model.nominal.name)
+        stats = {**head, **scores}
         positions = data.positions
-        iso_before = iso9283_position(data.joints, data.positions, model.reference.fk_positions(q))
-        iso_after = iso9283_position(data.joints, data.positions, compensator.predict_positions(q))
+        file_joints = model.kinematics.joints_to_file(data.joints)
+        iso_before = iso9283_position(file_joints, data.positions, fitted.reference_.fk_positions(data.joints))
+        iso_after = iso9283_position(file_joints, data.positions, fitted.predict(data.joints))
         metric = ("Single-point error |e| = |measured − model| in mm; 'nominal' is the uncalibrated robot "
                   "(registered in the measurement frame when the model was).")
     cv = _read_validation(validation) if validation else None
     training = model.training
     held_out = Path(str(training.get("file", ""))).resolve() != Path(str(measurements)).resolve()
     label = "held-out poses" if held_out else "training poses (not held out: scores what the model has seen)"
-    figures = _figures(model, compensator, data, q, positions, before, after, cv)
+    figures = _figures(fitted, data, positions, before, after, cv)
 
     accuracy_rows = []
     if training.get("residual_before"):

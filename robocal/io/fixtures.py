@@ -147,3 +147,16 @@ def _toml_string(text: str) -> str:
         else:
             escaped.append(character)
     return '"' + "".join(escaped) + '"'
+
+
+def fixture_to_dict(fixture: Fixture) -> dict:
+    """The fixture as JSON-ready data (a model file keeps the fixture it was calibrated with)."""
+    return {"name": fixture.name, "sockets": {k: v.tolist() for k, v in fixture.sockets.items()}}
+
+
+def fixture_from_dict(document, path) -> Fixture:
+    """Rebuild a fixture saved by :func:`fixture_to_dict`; ``path`` names the file in messages."""
+    try:
+        return Fixture(name=document["name"], sockets=document["sockets"])
+    except (KeyError, TypeError, InputError) as exc:
+        raise FileFormatError(f"{path}: the fixture stored in the model is damaged ({exc}); regenerate the file") from None

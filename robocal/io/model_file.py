@@ -25,8 +25,8 @@ from pathlib import Path
 
 from .. import __version__
 from ..errors import FileFormatError, InputError
-from ..io.atomic import write_text_atomic
-from ..io.robot_file import chain_from_dict, robot_to_toml
+from .atomic import write_text_atomic
+from .robot_file import chain_from_dict, robot_to_toml
 from ..kinematics.compliant import FILE_UNIT, CompliantChain
 from ..kinematics.gravity import MassModel
 
@@ -37,7 +37,6 @@ else:  # pragma: no cover
 
 SCHEMA = "robocal.model"
 SCHEMA_VERSION = 1
-METHODS = ("kinematic", "kriging", "ann", "hybrid", "constraint")
 
 
 def chain_document(chain):
@@ -145,9 +144,8 @@ def load_model(path, robot=None) -> ModelFile:
     if hashlib.sha256(_canonical(body).encode()).hexdigest() != checksum:
         raise FileFormatError(f"{path}: the checksum does not match: the file was modified after robocal "
                               "wrote it; regenerate it with 'robocal calibrate'")
+    # Which methods exist is the methods registry's to say (robocal.methods.load_fitted).
     method = _require(doc, "method", str, path)
-    if method not in METHODS:
-        raise FileFormatError(f"{path}: unknown method {method!r}")
     robot_doc = _require(doc, "robot", dict, path)
     nominal = chain_from_dict(_require(robot_doc, "model", dict, path, "'robot'"), f"{path} (robot)")
     kinematics = chain_from_dict(_require(doc, "kinematics", dict, path), f"{path} (kinematics)")

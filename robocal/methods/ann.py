@@ -1,0 +1,91 @@
+"""A neural network of the position error over the joint vector, trained by a genetic
+algorithm (then L-BFGS unless told otherwise), compensated in joint space."""
+from ..compensation import Compensator
+from ..estimation.metrics import error_stats
+from ..estimation.network import NetworkErrorModel
+from ..errors import InputError
+from .base import LOSS, PARAMETERS, PAYLOAD, RANDOM_STATE, FitRecord, Method, ReportFigure, Setting, one_of, require_positions
+from .frames import measurement_frame
+from .kinematic import KinematicMethod
+
+BASE_MODELS = ("nominal", "kinematic")
+TRAINERS = ("ga", "lbfgs")
+REFINERS = ("lbfgs", "none")
+DOCUMENT_TYPE = "network"
+
+HIDDEN = Setting("hidden", (16, 16), "--hidden", "hidden layer widths, at least two")
+GENERATIONS = Setting("generations", 300, "--generations", "generation limit of the genetic algorithm")
+TRAINER = Setting("trainer", "ga", "--trainer", "ga (genetic algorithm) or lbfgs (gradient from random starts)")
+REFINE = Setting("refine", "lbfgs", "--refine", "refine the GA's best network by lbfgs, or none")
+BASE_MODEL = Setting("base_model", "nominal", "--base-model",
+                     "the network learns the error of the nominal robot or of the kinematic calibration")
+
+
+class NetworkMethod(Method):
+    """The GA-trained network of :class:`~robocal.estimation.network.NetworkErrorModel`.
+
+    base_model: 'nominal' (registered in the measurement frame when needed: the method as
+    specified) or 'kinematic' (the parametric calibration first, with its settings; the
+    network learns what it leaves).  ``fit``'s ``progress(best=fitness)`` is called once per
+    generation.
+    """
+
+    name = "ann"
+    description = "network of the error over the joints, trained by a genetic algorithm, joint-space compensation"
+    settings = KinematicMethod.settings + (BASE_MODEL, HIDDEN, GENERATIONS, TRAINER, REFINE, RANDOM_STATE)
+
+    @property
+    def progress_label(self):
+        return "genetic algorithm, generation" if self.trainer == "ga" else "fitting the network"
+
+    def progress_total(self):
+        return self.generations if self.trainer == "ga" else None
+
+    def network(self):
+        """The unfitted :class:`NetworkErrorModel` these settings ask for."""
+        one_of(self.refine, REFINERS, "refine")
+        one_of(self.trainer, TRAINERS, "trainer")
+        return NetworkErrorModel(hidden=tuple(int(w) for w in self.hidden), trainer=self.trainer,
+                                 refine=None if self.refine == "none" else self.refine,
+                                 generations=self.generations, random_state=self.random_state)
+
+    def fit(self, chain, observations, progress=None):
+        obs = require_positions(observations, self.name)
+        one_of(self.base_model, BASE_MODELS, "base_model")
+        unused = [s.option for s in (PARAMETERS, LOSS, PAYLOAD) if getattr(self, s.name) != s.default]
+        if self.base_model == "nominal" and unused:
+            raise InputError(f"{', '.join(unused)} set the network's kinematic base model: add --base-model kinematic")
+        network = self.network()
+        if self.base_model == "kinematic":
+            base = KinematicMethod(**{s.name: getattr(self, s.name) for s in KinematicMethod.settings})
+            base.fit(chain, obs)
+            model_chain, reference, record = base.compensator_.chain, base.reference_, base.record_.to_dict()
+        else:
+            model_chain, record = measurement_frame(chain, obs.joints, obs.positions, self.register)
+            reference = model_chain
+        errors = obs.positions - model_chain.fk_positions(obs.joints)
+        callback = None if progress is None else (lambda generation, fitness: progress(best=fitness))
+        network.fit(obs.joints, errors, progress=callback)
+        record.update(base_model=self.base_model, network=network.training_,
+                      residual_after_training=error_stats(errors - network.predict(obs.joints)))
+        record.setdefault("residual_before", error_stats(errors))
+        self.compensator_ = Compensator(model_chain, network, nominal=chain, error_input="joints")
+        self.reference_ = reference
+        self.record_ = FitRecord(**record)
+        return self
+
+    def error_model_document(self):
+        return {"type": DOCUMENT_TYPE, "input": "joints", "parameters": self.compensator_.error_model.to_dict()}
+
+    @classmethod
+    def error_model_from_document(cls, document, path):
+        if not isinstance(document, dict) or document.get("type") != DOCUMENT_TYPE:
+            raise ValueError(f"expected a {DOCUMENT_TYPE} error model")
+        return NetworkErrorModel.from_dict(document["parameters"]), "joints"
+
+    def report_figures(self, joints):
+        history = getattr(self.compensator_.error_model, "history_", None)
+        if not history:
+            return []
+        return [ReportFigure("fitness_history", "Genetic algorithm", "Best fitness per generation.",
+                             {"history": history})]

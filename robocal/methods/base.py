@@ -1,0 +1,226 @@
+"""The method protocol: every calibration / error-compensation method is one class.
+
+A method is an estimator over a robot and its observations, in scikit-learn's manner:
+
+* its settings are the constructor's keyword arguments, stored unchanged; a keyword the
+  method does not take is refused at once (``--payload`` means nothing to Kriging), and the
+  values are validated in :meth:`Method.fit`;
+* ``fit(chain, observations)`` returns the method fitted, with the attributes
+  ``compensator_`` (the :class:`~robocal.compensation.Compensator` that turns targets into
+  commands), ``reference_`` (the nominal geometry in the measurement frame: the honest
+  "before") and ``record_`` (a :class:`FitRecord`: what was done);
+* ``predict(joints)`` is where the real robot's TCP goes, (N, 3) mm in the measurement frame;
+* ``to_model_file`` / ``from_model_file`` write it to a model file and read it back, and
+  ``report_figures`` names the diagnostics its report section shows.
+
+The registry (:mod:`robocal.methods`) maps names to these classes; nothing else in robocal
+asks which method it holds.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from typing import ClassVar
+
+import numpy as np
+
+from ..compensation import Compensator
+from ..errors import FileFormatError, InputError
+from ..estimation.calibration import PARAMETER_SETS, check_payload, parameter_terms
+from ..io.model_file import ModelFile
+
+REGISTER_CHOICES = ("auto", "yes", "no")
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One setting of a method: its keyword, default, command-line option and help."""
+
+    name: str
+    default: object
+    option: str
+    help: str
+
+
+# Settings several methods share, each defined once.
+REGISTER = Setting("register", "auto", "--register",
+                   "register base and tool first: auto (when the data are not in the robot base frame), yes or no")
+PARAMETERS = Setting("parameters", "full", "--parameters",
+                     f"parameter set: {', '.join(PARAMETER_SETS)}")
+LOSS = Setting("loss", "linear", "--loss", "linear, huber or soft_l1 (robust)")
+PAYLOAD = Setting("payload", None, "--payload", "full+compliance: mass at the TCP in kg")
+RANDOM_STATE = Setting("random_state", 0, "--seed", "seed of the random search")
+
+
+@dataclass(frozen=True)
+class FitRecord:
+    """What a fit did, as the model file's ``training`` entry keeps it (mm statistics as
+    :func:`~robocal.estimation.metrics.error_stats` gives them).
+
+    residual_before: the reference (registered nominal) on the training data;
+    residual_after_training: the fitted model on the training data; registered: whether
+    base and tool were registered; nominal_in_given_frame: the nominal robot in the data's
+    frame, before registration; iterations: of the registration; calibration: the
+    parametric calibration's result (``CalibrationResult.to_dict``, with ``outlier_rows``);
+    diagnostics: the error model's warnings; base_model and network: the network's base
+    model and training record; fixture: the fixture of ball-in-socket data.
+    """
+
+    residual_before: dict
+    residual_after_training: dict
+    registered: bool | None = None
+    nominal_in_given_frame: dict | None = None
+    iterations: int | None = None
+    calibration: dict | None = None
+    diagnostics: list | None = None
+    base_model: str | None = None
+    network: dict | None = None
+    fixture: dict | None = None
+
+    def to_dict(self):
+        """JSON-ready, without the entries this method does not have."""
+        return {key: value for key, value in asdict(self).items() if value is not None}
+
+    @classmethod
+    def from_dict(cls, document):
+        """The record of a model file's ``training`` entry (other keys are the job's)."""
+        return cls(**{f.name: document.get(f.name) for f in fields(cls)})
+
+    def replace(self, **changes):
+        return type(self)(**{**asdict(self), **changes})
+
+
+@dataclass(frozen=True)
+class ReportFigure:
+    """A diagnostic a method adds to its report: ``kind`` names the plot
+    (``kriging_uncertainty``: ``data`` has ``model`` and ``points`` (N, 3) mm;
+    ``fitness_history``: ``data`` has ``history``)."""
+
+    kind: str
+    title: str
+    caption: str
+    data: dict
+
+
+class Method:
+    """Base of every method; see the module docstring for the protocol.
+
+    Subclasses set ``name``, ``description``, ``settings`` and ``data_kind`` (``"position"``:
+    measured TCP positions; ``"sockets"``: ball-in-socket joint readings) and implement
+    ``fit``; those with an error model also ``error_model_document`` and
+    ``error_model_from_document``.
+    """
+
+    name: ClassVar[str]
+    description: ClassVar[str]
+    data_kind: ClassVar[str] = "position"
+    settings: ClassVar[tuple[Setting, ...]] = ()
+    # What the command line's progress bar counts while this method fits.
+    progress_label: ClassVar[str] = "fitting"
+
+    def __init__(self, **settings):
+        known = {s.name for s in self.settings}
+        for key in settings:
+            if key not in known:
+                raise InputError(f"{option_of(key)} does not apply to the {self.name} method; it takes "
+                                 f"{', '.join(s.option for s in self.settings) or 'no settings'}")
+        for setting in self.settings:
+            setattr(self, setting.name, settings.get(setting.name, setting.default))
+
+    def get_settings(self):
+        """The settings as given (JSON-ready: tuples as lists)."""
+        return {s.name: list(v) if isinstance(v := getattr(self, s.name), tuple) else v for s in self.settings}
+
+    def progress_total(self):
+        """How many steps ``fit`` reports through its ``progress`` callback (None: unknown)."""
+        return None
+
+    # ------------------------------------------------------------------ fitting
+    def fit(self, chain, observations, progress=None):
+        """Fit to ``observations`` (:class:`~robocal.io.observations.Observations`) of ``chain``;
+        returns self with ``compensator_``, ``reference_`` and ``record_``."""
+        raise NotImplementedError
+
+    def predict(self, joints):
+        """Where the real robot's TCP goes at ``joints`` (N, n) rad: (N, 3) mm in the
+        measurement frame (for ball-in-socket data, the ball centre in the robot's frame)."""
+        self._check_fitted()
+        return self.compensator_.predict_positions(np.asarray(joints, dtype=float))
+
+    def _check_fitted(self):
+        if not hasattr(self, "compensator_"):
+            raise InputError(f"this {self.name} method is not fitted: call fit(chain, observations) first")
+
+    # ------------------------------------------------------------- model files
+    def error_model_document(self):
+        """The error model as the model file's ``error_model`` entry (None: none)."""
+        return None
+
+    @classmethod
+    def error_model_from_document(cls, document, path):
+        """(error model, its input: 'position' or 'joints') from a model file's entry."""
+        if document is not None:
+            raise FileFormatError(f"{path}: a {cls.name} model has no error model, but the file has one; "
+                                  "regenerate it with 'robocal calibrate'")
+        return None, "position"
+
+    def to_model_file(self, nominal, training=None):
+        """The fitted method as a :class:`ModelFile` of robot ``nominal``; ``training`` adds
+        entries about the data (file, number of poses) to the record."""
+        self._check_fitted()
+        return ModelFile(method=self.name, nominal=nominal, kinematics=self.compensator_.chain,
+                         reference=self.reference_, error_model=self.error_model_document(),
+                         training={**(training or {}), **self.record_.to_dict()}, options=self.get_settings())
+
+    @classmethod
+    def from_model_file(cls, model, path):
+        """The fitted method a :class:`ModelFile` holds (``path`` names it in messages)."""
+        names = {s.name for s in cls.settings}
+        method = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in model.options.items() if k in names})
+        try:
+            error_model, error_input = cls.error_model_from_document(model.error_model, path)
+        except FileFormatError:
+            raise
+        except (InputError, KeyError, TypeError, ValueError) as exc:
+            raise FileFormatError(f"{path}: the error model is damaged ({exc}); "
+                                  "regenerate the file with 'robocal calibrate'") from None
+        method.compensator_ = Compensator(model.kinematics, error_model, nominal=getattr(model.kinematics, "rigid", model.kinematics),
+                                          error_input=error_input)
+        method.reference_ = model.reference
+        method.record_ = FitRecord.from_dict(model.training)
+        return method
+
+    # ------------------------------------------------------------------ report
+    def report_figures(self, joints):
+        """The diagnostics of this method for the report, at ``joints`` (N, n) rad."""
+        return []
+
+
+def option_of(name):
+    """The command-line option of a setting keyword."""
+    return RANDOM_STATE.option if name == RANDOM_STATE.name else "--" + name.replace("_", "-")
+
+
+def one_of(value, choices, setting):
+    """``value`` if it is one of ``choices``; otherwise an InputError naming the setting."""
+    if value not in choices:
+        raise InputError(f"{option_of(setting)} must be one of {', '.join(map(str, choices))}, got {value!r}")
+    return value
+
+
+def check_parameters(parameters, payload):
+    """The parameter set's extras ({'compliance', 'gains'} or fewer); a payload without
+    compliance is refused, since nothing would use it."""
+    terms = parameter_terms(parameters)
+    check_payload(payload)
+    if payload is not None and "compliance" not in terms:
+        raise InputError(f"--payload applies to the compliance parameter sets "
+                         f"(full+compliance, full+compliance+gains), not to {parameters!r}")
+    return terms
+
+
+def require_positions(observations, name):
+    """``observations`` if they carry measured positions; otherwise a clear refusal."""
+    if observations.positions is None:
+        raise InputError(f"{observations.path or 'the data'} has no x, y, z columns: the {name} method needs "
+                         "measured positions")
+    return observations

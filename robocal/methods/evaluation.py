@@ -1,0 +1,68 @@
+"""Scoring a fitted method on observations: the position error beside the registered
+nominal's, or on ball-in-socket data the socket consistency beside the nominal robot's.
+``evaluate`` and the report both use these, so their figures agree."""
+import warnings
+from dataclasses import replace
+
+from ..errors import InputError, RobocalWarning
+from ..estimation.constraint import socket_deviations, socket_errors
+from ..estimation.metrics import error_stats
+from ..io.fixtures import fixture_from_dict
+
+# A calibrated model that still misses by this much is almost certainly the wrong robot,
+# wrong units or a different measurement frame.
+SUSPICIOUS_RESIDUAL_MM = 20.0
+SOCKET_METRIC = "socket consistency: distance of each ball centre from the mean of its socket group"
+
+
+def position_residuals(fitted, observations):
+    """(before, after), each (N, 3) mm: measured minus the registered nominal robot, and
+    measured minus the fitted method's prediction."""
+    if observations.positions is None:
+        raise InputError(f"{observations.path or 'the data'} has no x, y, z columns: measured positions are "
+                         "needed to score the position error")
+    q = observations.joints
+    return observations.positions - fitted.reference_.fk_positions(q), observations.positions - fitted.predict(q)
+
+
+def position_scores(fitted, observations, robot_name):
+    """(before, after, statistics): :func:`error_stats` of the method's error with the
+    nominal's under ``nominal``; warns when the error is too large to be this robot's data."""
+    before, after = position_residuals(fitted, observations)
+    stats = {**error_stats(after), "nominal": error_stats(before)}
+    if stats["mean_mm"] > SUSPICIOUS_RESIDUAL_MM:
+        warnings.warn(RobocalWarning(
+            f"the residual is {stats['mean_mm']:.1f} mm mean after calibration: is {observations.path} "
+            f"from robot '{robot_name}', in mm and degrees, in the frame the model was fitted in?"))
+    return before, after, stats
+
+
+def with_fixture(fitted, observations, model_path):
+    """Ball-in-socket ``observations`` with a fixture: their own, or the one the model keeps."""
+    if observations.placement is None:
+        raise InputError(f"{observations.path} has no fixture and socket columns")
+    if observations.fixture is not None:
+        return observations
+    if fitted.record_.fixture is None:
+        raise InputError(f"{observations.path} is ball-in-socket data and {model_path} stores no fixture: "
+                         "give --fixture FIX.toml")
+    return replace(observations, fixture=fixture_from_dict(fitted.record_.fixture, model_path))
+
+
+def socket_scores(fitted, observations):
+    """Socket consistency and socket-distance errors (:func:`socket_errors`) of the fitted
+    model's kinematics, with the nominal robot's under ``nominal``."""
+    obs = observations
+    args = (obs.joints, obs.placement, obs.socket, obs.fixture)
+    return {"metric": SOCKET_METRIC, **socket_errors(fitted.compensator_.chain, *args),
+            "nominal": socket_errors(fitted.reference_, *args)}
+
+
+def socket_residuals(fitted, observations):
+    """(before, after, ball centres), each (N, 3) mm: each ball centre's deviation from its
+    socket group's mean for the nominal and the fitted model, and the fitted ball centres."""
+    obs = observations
+    args = (obs.joints, obs.placement, obs.socket, obs.fixture)
+    before, _ = socket_deviations(fitted.reference_, *args)
+    after, centres = socket_deviations(fitted.compensator_.chain, *args)
+    return before, after, centres

@@ -1,0 +1,47 @@
+"""The parametric calibration: link parameters, base and tool (with joint compliance and
+joint gains on request) identified by Levenberg–Marquardt; compensated through the
+calibrated model's IK, or directly by exporting the calibrated parameters."""
+from ..compensation import Compensator
+from ..estimation.calibration import LOSSES, KinematicCalibration
+from ..estimation.metrics import error_stats
+from .base import LOSS, PARAMETERS, PAYLOAD, REGISTER, REGISTER_CHOICES, FitRecord, Method, check_parameters, \
+    one_of, require_positions
+from .frames import registered_nominal
+
+
+class KinematicMethod(Method):
+    """Parametric calibration (see :class:`~robocal.estimation.calibration.KinematicCalibration`).
+
+    Settings: register ('auto', 'yes', 'no'), parameters (a parameter set), loss ('linear',
+    'huber', 'soft_l1') and payload (kg at the TCP, compliance sets only).
+    """
+
+    name = "kinematic"
+    description = "parametric calibration of links, base and tool (optionally joint compliance and gains)"
+    settings = (REGISTER, PARAMETERS, LOSS, PAYLOAD)
+
+    def calibration(self):
+        """The unfitted :class:`KinematicCalibration` these settings ask for."""
+        one_of(self.register, REGISTER_CHOICES, "register")
+        one_of(self.loss, LOSSES, "loss")
+        check_parameters(self.parameters, self.payload)
+        return KinematicCalibration(parameters=self.parameters, loss=self.loss, register=self.register != "no",
+                                    payload=self.payload)
+
+    def fit(self, chain, observations, progress=None):
+        obs = require_positions(observations, self.name)
+        calibration = self.calibration().fit(chain, obs.joints, obs.positions, orientations=obs.rotations,
+                                             sigmas=obs.sigmas)
+        reference = registered_nominal(chain, obs.joints, obs.positions)
+        result = calibration.result_
+        record = result.to_dict(calibration.chain_)
+        if result.outliers:
+            record["outlier_rows"] = [int(obs.rows[i]) for i in result.outliers]
+        self.calibration_ = calibration
+        self.compensator_ = Compensator(calibration.chain_, None, nominal=chain)
+        self.reference_ = reference
+        self.record_ = FitRecord(
+            registered=self.register != "no", calibration=record,
+            residual_before=error_stats(obs.positions - reference.fk_positions(obs.joints)),
+            residual_after_training=error_stats(obs.positions - calibration.chain_.fk_positions(obs.joints)))
+        return self
