@@ -13,6 +13,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from .. import __version__
 from ..errors import InputError, RobocalError, RobocalWarning
 from ..methods import get_method, make_method, method_names
 from .jobs import calibrate_job, compensate_job, dataset_job, evaluate_job, export_job, simulate_job, validate_job
@@ -61,8 +62,16 @@ def user_errors(func):
     return wrapper
 
 
+def _print_version(value: bool):
+    if value:
+        out.print(f"robocal {__version__}")
+        raise typer.Exit()
+
+
 @app.callback()
-def _main(debug: bool = typer.Option(False, "--debug", help="Show tracebacks of errors.")):
+def _main(debug: bool = typer.Option(False, "--debug", help="Show tracebacks of errors."),
+          version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
+                                       help="Print the version and exit.")):
     _state["debug"] = debug
 
 
