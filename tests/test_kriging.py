@@ -5,7 +5,7 @@ import warnings
 import numpy as np
 import pytest
 
-from robocal.errors import InputError, RobocalWarning
+from robocal.errors import FileFormatError, InputError, RobocalWarning
 from robocal.estimation import Kriging
 from robocal.estimation.kriging import _Problem, trend_basis
 
@@ -264,11 +264,11 @@ def test_failed_refit_leaves_the_fitted_model_as_it_was(rng):
 
 
 def test_from_dict_rejects_other_documents():
-    with pytest.raises(InputError, match="not a Kriging model"):
+    with pytest.raises(FileFormatError, match="not a Kriging model"):
         Kriging.from_dict({"format": "something else"})
-    with pytest.raises(InputError, match="refit"):
+    with pytest.raises(FileFormatError, match="refit"):
         Kriging.from_dict({"format": "robocal.kriging", "version": 1, "settings": {}})
-    with pytest.raises(InputError, match="version 7 is not supported"):
+    with pytest.raises(FileFormatError, match="version 7 is not supported"):
         Kriging.from_dict({"format": "robocal.kriging", "version": 7})
 
 
@@ -276,8 +276,39 @@ def test_from_dict_checks_array_sizes(rng):
     X = latin_hypercube(20, 3, rng)
     document = Kriging(random_state=0).fit(X, wavy(X)).to_dict()
     document["jitter"] = [0.0, 0.0]
-    with pytest.raises(InputError, match="inconsistent array sizes"):
+    with pytest.raises(FileFormatError, match="inconsistent array sizes"):
         Kriging.from_dict(document)
+
+
+def test_damaged_documents_raise_file_format_error_in_one_line(rng):
+    X = latin_hypercube(20, 3, rng)
+    good = json.loads(json.dumps(Kriging(random_state=0).fit(X, sines(X)).to_dict()))
+    Kriging.from_dict(good)  # the cases below differ from a loadable document in one thing
+    settings = good["settings"]
+    cases = {
+        "not a dict": [good],
+        "format tag": dict(good, format="robocal.network"),
+        "no format tag": {k: v for k, v in good.items() if k != "format"},
+        "theta size": dict(good, theta=good["theta"][:2]),
+        "Y rows": dict(good, Y=good["Y"][:-1]),
+        "vector with 3 outputs": dict(good, y_is_vector=True),
+        "ragged X": dict(good, X=[good["X"][0][:2]] + good["X"][1:]),
+        "NaN theta": dict(good, theta=[[float("nan")] * 3] * 3),
+        "negative jitter": dict(good, jitter=[-1.0, 0.0, 0.0]),
+        "text for a bool": dict(good, y_is_vector="false"),
+        "settings": dict(good, settings=dict(settings, regression="cubic")),
+        "settings type": dict(good, settings=dict(settings, shared_theta="no")),
+    }
+    cases.update({f"missing {key}": {k: v for k, v in good.items() if k != key}
+                  for key in good if key not in ("format", "version")})
+    cases.update({f"missing setting {key}": dict(good, settings={k: v for k, v in settings.items()
+                                                                if k != key})
+                  for key in settings})
+    for name, document in cases.items():
+        with pytest.raises(FileFormatError) as caught:
+            Kriging.from_dict(document)
+        message = str(caught.value)
+        assert "\n" not in message and ("refit" in message or "to_dict()" in message), name
 
 
 # -------------------------------------------------------------------------- bad input
@@ -321,8 +352,12 @@ def test_duplicate_points_need_a_nugget(rng):
 
 def test_predict_checks_columns_and_fitting(rng):
     X = latin_hypercube(20, 3, rng)
-    with pytest.raises(InputError, match="not fitted"):
+    with pytest.raises(InputError,
+                       match=r"^this Kriging model is not fitted: call fit\(X, Y\) first$"):
         Kriging().predict(X)
+    with pytest.raises(InputError, match="not fitted") as caught:
+        Kriging().to_dict()
+    assert not isinstance(caught.value, FileFormatError)  # the caller's mistake, not a file's
     model = Kriging(random_state=0).fit(X, wavy(X))
     with pytest.raises(InputError, match="X has 2 columns but the model was fitted on 3"):
         model.predict(X[:, :2])
@@ -333,10 +368,42 @@ def test_settings_are_checked(rng):
     for options, words in [({"regression": "cubic"}, "regression must be one of"),
                            ({"correlation": "exponential"}, "correlation must be one of"),
                            ({"nugget": -1.0}, "nugget must be"),
+                           ({"nugget": "none"}, "nugget must be"),
                            ({"theta_bounds": (1.0, 0.1)}, "theta_bounds"),
-                           ({"n_starts": 0}, "give theta0")]:
+                           ({"theta_bounds": "wide"}, "theta_bounds"),
+                           ({"n_starts": 0}, "give theta0"),
+                           ({"n_starts": 2.5}, "n_starts must be a whole number"),
+                           ({"n_starts": "two"}, "n_starts must be a whole number"),
+                           ({"theta0": [0.5, -1.0, 0.5]}, "theta0 must be"),
+                           ({"theta0": "small"}, "theta0 must be"),
+                           ({"theta0": [0.5, 0.5]}, r"theta0 must be one positive number or 3"),
+                           ({"shared_theta": "yes"}, "shared_theta must be True or False"),
+                           ({"random_state": -1}, "random_state must be"),
+                           ({"random_state": 1.5}, "random_state must be"),
+                           ({"random_state": "abc"}, "random_state must be")]:
         with pytest.raises(InputError, match=words):
             Kriging(**options).fit(X, wavy(X))
+
+
+def test_settings_are_stored_as_given_and_checked_first_by_fit(rng):
+    settings = dict(regression="cubic", correlation=["gaussian"], theta0="small",
+                    theta_bounds="wide", nugget=-1, n_starts="two", shared_theta="yes",
+                    random_state="abc")
+    model = Kriging(**settings)  # no check, no conversion in __init__
+    for name, value in settings.items():
+        assert getattr(model, name) is value
+    # The settings are reported before anything about the data.
+    with pytest.raises(InputError, match="regression must be one of 'constant', 'linear', "
+                                         "'quadratic', got 'cubic'"):
+        model.fit([[np.nan]], [1.0, 2.0])
+
+
+def test_a_generator_seeds_as_its_integer_does(rng):
+    X = latin_hypercube(40, 3, rng)
+    Y = sines(2 * X)
+    by_int = Kriging(random_state=5).fit(X, Y)
+    by_generator = Kriging(random_state=np.random.default_rng(5)).fit(X, Y)
+    np.testing.assert_array_equal(by_generator.theta_, by_int.theta_)
 
 
 def test_extrapolation_warns_with_count_and_standard_deviation(rng):

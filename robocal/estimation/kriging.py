@@ -32,7 +32,6 @@ Prediction at x with r = R(x, X):
 the mean squared error of the best linear unbiased predictor of the noise-free field.
 """
 import math
-import numbers
 import warnings
 
 import numpy as np
@@ -40,7 +39,8 @@ from scipy.linalg import lapack
 from scipy.optimize import minimize
 
 from ..errors import InputError, RobocalWarning
-from .arrays import as_matrix, standard_scaler
+from .arrays import (as_matrix, check_choice, check_flag, check_header, check_random_state,
+                     check_whole, damaged, is_real, not_fitted, standard_scaler)
 
 REGRESSIONS = ("constant", "linear", "quadratic")
 CORRELATIONS = ("gaussian", "matern52")
@@ -229,6 +229,10 @@ class _State:
 class Kriging:
     """Kriging (DACE) regression of one or several outputs, fit/predict like scikit-learn.
 
+    As robocal's Cartesian error model, X are commanded (nominal) TCP positions (N, 3) in mm
+    and Y the position errors e = measured − model (N, 3) in mm; the class itself takes any
+    inputs (n, d) and outputs (n, m).  The settings are stored as given; ``fit`` checks them.
+
     Parameters
     ----------
     regression : "constant" | "linear" | "quadratic"
@@ -258,18 +262,29 @@ class Kriging:
         False: one θ (and nugget) per output, each maximising its own likelihood (the paper's
         way).  True: one θ for all outputs, maximising the sum of their likelihoods.
     random_state : None, int or numpy Generator
-        Seeds the Latin hypercube of starts.
+        Seeds the Latin hypercube of starts: an int ≥ 0 makes fits reproducible, a Generator
+        is used (and advanced) as is, None draws fresh entropy.
 
-    Attributes after ``fit``
-    ------------------------
-    theta_ : (m, d) array, or (d,) with ``shared_theta`` — θ in standardised-input units.
-    nugget_ : (m,) nugget per output (relative to σ²).
-    jitter_ : (m,) what had to be added to the diagonal for a stable factorisation.
-    beta_ : (p, m) trend coefficients for standardised inputs and outputs.
-    sigma2_ : (m,) process variance σ² in output units squared.
-    log_likelihood_ : (m,) concentrated log-likelihood of each (standardised) output.
-    n_features_in_ : d.
-    diagnostics_ : list of str — notes on bounds hit, ill-conditioning and the data.
+    Attributes
+    ----------
+    theta_ : array, shape (m, d), or (d,) with ``shared_theta``
+        θ in standardised-input units.
+    nugget_ : array, shape (m,)
+        Nugget per output, relative to σ².
+    jitter_ : array, shape (m,)
+        What had to be added to the diagonal for a stable factorisation.
+    beta_ : array, shape (p, m)
+        Trend coefficients for standardised inputs and outputs.
+    sigma2_ : array, shape (m,)
+        Process variance σ² in output units squared (mm² for position errors).
+    log_likelihood_ : array, shape (m,)
+        Concentrated log-likelihood of each (standardised) output.
+    n_features_in_ : int
+        Number of input columns d.
+    diagnostics_ : list of str
+        Notes on bounds hit, ill-conditioning and the data.
+
+    All are set by ``fit`` or ``from_dict``.
     """
 
     def __init__(self, regression="constant", correlation="gaussian", theta0=None,
@@ -287,14 +302,32 @@ class Kriging:
     # ------------------------------------------------------------------ fitting
 
     def fit(self, X, Y):
-        """Estimate θ (and the nugget), β and σ² from inputs X (n, d) and outputs Y (n,) or (n, m).
+        """Estimate θ (and the nugget), β and σ² from training points.
 
-        A fit that raises leaves an already fitted model as it was.
+        Parameters
+        ----------
+        X : array-like, shape (n, d)
+            Inputs; as an error model, commanded (nominal) TCP positions (n, 3) in mm.
+
+        Y : array-like, shape (n,) or (n, m)
+            Outputs; as an error model, position errors e = measured − model (n, 3) in mm.
+
+        Returns
+        -------
+        self : Kriging
+            The fitted model.
+
+        Raises
+        ------
+        InputError
+            If a setting is invalid (checked first, before any work) or the data cannot be
+            used.  A fit that raises leaves an already fitted model as it was.
         """
         self._check_settings()
         y_is_vector = np.ndim(Y) == 1
         X, Y = as_matrix(X, "X"), as_matrix(Y, "Y")
         n, d = X.shape
+        self._theta0(d)  # its length can only be checked against X
         if len(Y) != n:
             raise InputError(f"X has {n} rows but Y has {len(Y)}: give one output row per input "
                              f"point")
@@ -318,12 +351,9 @@ class Kriging:
         return self
 
     def _check_settings(self):
-        if self.regression not in REGRESSIONS:
-            raise InputError(f"regression must be one of {', '.join(REGRESSIONS)}, "
-                             f"got {self.regression!r}")
-        if self.correlation not in CORRELATIONS:
-            raise InputError(f"correlation must be one of {', '.join(CORRELATIONS)}, "
-                             f"got {self.correlation!r}")
+        """Raise an InputError naming the first invalid setting and the values it may take."""
+        check_choice("regression", self.regression, REGRESSIONS)
+        check_choice("correlation", self.correlation, CORRELATIONS)
         try:
             lo, hi = (float(b) for b in self.theta_bounds)
         except (TypeError, ValueError):
@@ -331,14 +361,17 @@ class Kriging:
         if not 0 < lo <= hi < np.inf:
             raise InputError(f"theta_bounds must be two numbers with 0 < lo ≤ hi < inf, got "
                              f"{self.theta_bounds!r}")
-        if not (self.nugget == "estimate" or (isinstance(self.nugget, numbers.Real)
-                                              and 0 <= self.nugget < np.inf)):
+        estimate = isinstance(self.nugget, str) and self.nugget == "estimate"
+        if not (estimate or (is_real(self.nugget) and self.nugget >= 0)):
             raise InputError(f"nugget must be a number ≥ 0 or 'estimate', got {self.nugget!r}")
-        if self.n_starts is not None and (int(self.n_starts) != self.n_starts or self.n_starts < 0):
-            raise InputError(f"n_starts must be a whole number ≥ 0 or None, got {self.n_starts!r}")
-        if self.n_starts == 0 and (self.theta0 is None or self.nugget == "estimate"):
+        check_whole("n_starts", self.n_starts, 0, none_allowed=True)
+        if self.theta0 is not None:
+            self._theta0_values()
+        if self.n_starts == 0 and (self.theta0 is None or estimate):
             raise InputError("n_starts=0 fixes θ at theta0 without optimising: give theta0 and "
                              "a numeric nugget")
+        check_flag("shared_theta", self.shared_theta)
+        check_random_state(self.random_state)
 
     def _groups(self, m):
         """Output columns that share θ: all together, or each on its own."""
@@ -363,12 +396,23 @@ class Kriging:
         warnings.warn(message, RobocalWarning, stacklevel=3)
         return [message]
 
+    def _theta0_values(self):
+        """theta0 as a flat array of positive finite numbers (raises an InputError if not)."""
+        try:
+            theta0 = np.asarray(self.theta0, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            theta0 = np.array([np.nan])
+        if not theta0.size or not np.all((theta0 > 0) & np.isfinite(theta0)):
+            raise InputError(f"theta0 must be None, one positive number or one per input "
+                             f"column, got {self.theta0!r}")
+        return theta0
+
     def _theta0(self, d):
         """theta0 as d positive numbers (default 0.5 / d)."""
         if self.theta0 is None:
             return np.full(d, 0.5 / d)
-        theta0 = np.asarray(self.theta0, dtype=float).reshape(-1)
-        if theta0.size not in (1, d) or not np.all((theta0 > 0) & np.isfinite(theta0)):
+        theta0 = self._theta0_values()
+        if theta0.size not in (1, d):
             raise InputError(f"theta0 must be one positive number or {d} (one per input "
                              f"column), got {self.theta0!r}")
         return np.broadcast_to(theta0, (d,)).copy()
@@ -383,7 +427,7 @@ class Kriging:
         first = np.log(self._theta0(d))
         if self.nugget == "estimate":
             first = np.append(first, math.log(1e-6))
-        n_starts = self.n_starts if self.n_starts is not None else \
+        n_starts = int(self.n_starts) if self.n_starts is not None else \
             4 if n <= 400 else 2 if n <= 1500 else 1
         if n_starts == 1:
             return np.clip(first, lower, upper)[None, :]
@@ -499,15 +543,43 @@ class Kriging:
     # ---------------------------------------------------------------- prediction
 
     def predict(self, X, return_mse=False, batch_size=1000):
-        """Predicted mean at the rows of X (N, d): (N, m), or (N,) if Y was 1-D.
+        """Predict the outputs at new inputs: as an error model, the position error there.
 
-        With ``return_mse`` also the mean squared error of each prediction, same shape, in
-        output units squared.  Points are processed ``batch_size`` at a time so that memory
-        stays at batch_size × n.  Points farther outside the training box than 10 % of its
-        size raise a RobocalWarning.
+        Parameters
+        ----------
+        X : array-like, shape (N, d)
+            Points with the columns of the X given to ``fit``; as an error model, commanded
+            (nominal) TCP positions (N, 3) in mm.
+
+        return_mse : bool, optional (default: False)
+            Also return the mean squared error of each prediction.
+
+        batch_size : int, optional (default: 1000)
+            Points processed at a time, so that memory stays at batch_size × n floats.
+
+        Returns
+        -------
+        Y : array, shape (N, m), or (N,) if Y was 1-D in ``fit``
+            Predicted mean; as an error model, the position error e = measured − model
+            (N, 3) in mm.
+
+        mse : array, same shape as Y
+            Only with ``return_mse``: the mean squared error of each prediction, in output
+            units squared (mm² for position errors).
+
+        Raises
+        ------
+        InputError
+            If the model is not fitted, or X has other columns than in ``fit`` or contains
+            NaN or infinite values.
+
+        Warns
+        -----
+        RobocalWarning
+            For points farther outside the training box than 10 % of its size.
         """
         if not hasattr(self, "_states"):
-            raise InputError("this Kriging model is not fitted: call fit(X, Y) first")
+            raise not_fitted("Kriging model", "fit(X, Y)")
         X = as_matrix(X, "X")
         if X.shape[1] != self.n_features_in_:
             raise InputError(f"X has {X.shape[1]} columns but the model was fitted on "
@@ -580,9 +652,21 @@ class Kriging:
     # ------------------------------------------------------------ serialisation
 
     def to_dict(self):
-        """A JSON-ready dict (lists, floats, strings) from which ``from_dict`` rebuilds the model."""
+        """The fitted model as a JSON-ready dict, from which ``from_dict`` rebuilds it.
+
+        Returns
+        -------
+        document : dict
+            Lists, numbers and strings only: the format tag and version, the settings, the
+            training data and the fitted θ, nugget and jitter.
+
+        Raises
+        ------
+        InputError
+            If the model is not fitted.
+        """
         if not hasattr(self, "_states"):
-            raise InputError("this Kriging model is not fitted: call fit(X, Y) first")
+            raise not_fitted("Kriging model", "fit(X, Y)")
         theta = np.atleast_2d(self.theta_)
         return {
             "format": FORMAT,
@@ -604,41 +688,72 @@ class Kriging:
         }
 
     @classmethod
-    def from_dict(cls, data):
-        """Rebuild a fitted model from ``to_dict`` output: identical predictions, no optimisation."""
-        if not isinstance(data, dict) or data.get("format") != FORMAT:
-            raise InputError(f"not a Kriging model: expected a dict with format '{FORMAT}'")
-        if data.get("version") != FORMAT_VERSION:
-            raise InputError(f"Kriging model version {data.get('version')} is not supported "
-                             f"(this robocal reads version {FORMAT_VERSION}): refit the model")
-        try:
-            settings = data["settings"]
-            model = cls(regression=settings["regression"], correlation=settings["correlation"],
-                        theta_bounds=tuple(settings["theta_bounds"]), nugget=settings["nugget"],
-                        shared_theta=settings["shared_theta"])
-            X = as_matrix(data["X"], "X")
-            Y = as_matrix(data["Y"], "Y")
-            theta = np.array(data["theta"], dtype=float)
-            nugget = np.array(data["nugget"], dtype=float)
-            jitter = np.array(data["jitter"], dtype=float)
-            y_is_vector = bool(data["y_is_vector"])
-            diagnostics = [str(note) for note in data["diagnostics"]]
-        except (KeyError, TypeError, ValueError) as error:
-            raise InputError(f"Kriging model is incomplete or malformed ({error!r}): refit and "
-                             f"save it again") from None
-        model._check_settings()
+    def from_dict(cls, document):
+        """Rebuild a fitted model from ``to_dict`` output: identical predictions, no optimisation.
+
+        Parameters
+        ----------
+        document : dict
+            What ``to_dict`` returned (possibly after a round trip through JSON).
+
+        Returns
+        -------
+        model : Kriging
+            The fitted model.
+
+        Raises
+        ------
+        FileFormatError
+            If the document is not a Kriging model of this format version, or is incomplete
+            or inconsistent.
+        """
+        check_header(document, "Kriging model", FORMAT, FORMAT_VERSION)
+        model, parts = _read_document(cls, document)
+        X, Y, theta, nugget, jitter = (parts[k] for k in ("X", "Y", "theta", "nugget", "jitter"))
+        y_is_vector = parts["y_is_vector"]
         groups = model._groups(Y.shape[1])
         m, d = Y.shape[1], X.shape[1]
         if theta.shape != (len(groups), d) or nugget.shape != (m,) or jitter.shape != (m,) \
-                or len(X) != len(Y):
-            raise InputError("Kriging model has inconsistent array sizes: refit and save it again")
-        data = _Training(X, Y, model.regression, model.correlation)
+                or len(X) != len(Y) or (y_is_vector and m != 1):
+            raise damaged("Kriging model", "inconsistent array sizes")
+        # A NaN θ or jitter would make the factorisation below retry forever.
+        if not (np.all(theta > 0) and np.all(nugget >= 0) and np.all(jitter >= 0)
+                and np.all(np.isfinite(np.concatenate([theta.ravel(), nugget, jitter])))):
+            raise damaged("Kriging model", "theta, nugget or jitter is negative or not finite")
+        try:
+            data = _Training(X, Y, model.regression, model.correlation)
+        except InputError as error:
+            raise damaged("Kriging model", str(error)) from None
         # The stored jitter is tried first, so the factorisation is the one the fit ended with.
         states = [data.problem.condition(theta[i], nugget[cols[0]], data.Ys[:, cols],
                                          start_jitter=jitter[cols[0]])
                   for i, cols in enumerate(groups)]
-        model._install(data, y_is_vector, groups, states, diagnostics)
+        model._install(data, y_is_vector, groups, states, parts["diagnostics"])
         return model
+
+
+def _read_document(cls, document):
+    """The settings of a Kriging document (as an unfitted model) and its other parts as
+    arrays and plain values, or a FileFormatError saying what is missing or malformed."""
+    try:
+        settings = document["settings"]
+        model = cls(regression=settings["regression"], correlation=settings["correlation"],
+                    theta_bounds=tuple(settings["theta_bounds"]), nugget=settings["nugget"],
+                    shared_theta=settings["shared_theta"])
+        parts = {"X": as_matrix(document["X"], "X"), "Y": as_matrix(document["Y"], "Y")}
+        parts.update((key, np.array(document[key], dtype=float))
+                     for key in ("theta", "nugget", "jitter"))
+        parts.update((key, document[key]) for key in ("y_is_vector", "diagnostics"))
+    except (KeyError, TypeError, ValueError) as error:  # InputError is a ValueError
+        raise damaged("Kriging model", error) from None
+    if not isinstance(parts["y_is_vector"], bool) or not isinstance(parts["diagnostics"], list):
+        raise damaged("Kriging model", "'y_is_vector' or 'diagnostics' has the wrong type")
+    parts["diagnostics"] = [str(note) for note in parts["diagnostics"]]
+    try:
+        model._check_settings()
+    except InputError as error:
+        raise damaged("Kriging model", f"invalid settings: {error}") from None
+    return model, parts
 
 
 class _Training:
