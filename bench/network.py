@@ -72,7 +72,7 @@ def _hidden_for(n_poses, inputs, n_joints=6):
 
 def train(q, dp, inputs, settings):
     hidden = _hidden_for(len(q), inputs, q.shape[1])
-    model = NetworkErrorModel(hidden=hidden, inputs=inputs, seed=0, **settings)
+    model = NetworkErrorModel(hidden=hidden, inputs=inputs, random_state=0, **settings)
     t0 = time.perf_counter()
     model.fit(q, dp)
     return model, time.perf_counter() - t0

@@ -8,7 +8,7 @@ from robocal.compensation.joint_space import correct_joints, damped_pseudo_inver
 from robocal.errors import FileFormatError, InputError
 from robocal.estimation.network import (Encoding, Fitness, GeneticAlgorithm, Layout,
                                         NetworkErrorModel, adaptive_probability)
-from robocal.estimation.network.genetic import PC1, PC2, PM1, PM2, chromosome, split_chromosome
+from robocal.estimation.network.genetic import PC1, PC2, PM1, PM2, chromosome
 from robocal.estimation.network.mlp import forward, forward_one, loss_and_gradient
 from robocal.io.library import builtin
 from robocal.simulation import TrueRobot, make_true_robot, uniform_joints
@@ -110,16 +110,14 @@ def test_binary_genes_round_trip_to_the_quantisation_step(rng):
     np.testing.assert_allclose(encoding.decode(encoding.encode([10.0, -10.0])), [3.0, -3.0])
 
 
-def test_chromosome_holds_structure_then_genes_and_splits_back(rng):
+def test_chromosome_holds_structure_then_genes(rng):
     encoding = Encoding(bits=8, bound=1.0)
     structure = rng.random((3, 9)) < 0.5
     codes = rng.integers(0, 256, size=(3, 20))
     bits = chromosome(encoding, structure, codes)
     assert bits.shape == (3, 9 + 20 * 8)
     np.testing.assert_array_equal(bits[:, :9], structure)
-    back_structure, back_codes = split_chromosome(encoding, bits, 9)
-    np.testing.assert_array_equal(back_structure, structure)
-    np.testing.assert_array_equal(back_codes, codes)
+    np.testing.assert_array_equal(encoding.from_bits(bits[:, 9:]), codes)
 
 
 # ----------------------------------------------------------------------------- GA operators
@@ -251,7 +249,7 @@ def kr150():
 @pytest.fixture(scope="module")
 def trained(kr150):
     chain, truth, q, dp, test = kr150
-    model = NetworkErrorModel(hidden=(24, 24), population_size=20, generations=40, seed=0)
+    model = NetworkErrorModel(hidden=(24, 24), population_size=20, generations=40, random_state=0)
     return model.fit(q, dp)
 
 
@@ -312,9 +310,9 @@ def test_damped_solve_is_exact_when_regular_and_bounded_when_singular(rng):
 def test_training_is_reproducible_with_a_seed_and_differs_without(kr150):
     chain, truth, q, dp, test = kr150
     settings = dict(hidden=(6, 6), population_size=8, generations=5, max_iterations=20)
-    a = NetworkErrorModel(seed=3, **settings).fit(q[:300], dp[:300])
-    b = NetworkErrorModel(seed=3, **settings).fit(q[:300], dp[:300])
-    c = NetworkErrorModel(seed=4, **settings).fit(q[:300], dp[:300])
+    a = NetworkErrorModel(random_state=3, **settings).fit(q[:300], dp[:300])
+    b = NetworkErrorModel(random_state=3, **settings).fit(q[:300], dp[:300])
+    c = NetworkErrorModel(random_state=4, **settings).fit(q[:300], dp[:300])
     np.testing.assert_array_equal(a.predict(test), b.predict(test))
     assert a.history_ == b.history_
     assert not np.array_equal(a.predict(test), c.predict(test))
@@ -324,11 +322,11 @@ def test_lbfgs_baseline_and_ga_alone(kr150):
     chain, truth, q, dp, test = kr150
     truth_error = truth.error(test)
     ga = NetworkErrorModel(hidden=(8, 8), population_size=10, generations=20, refine=None,
-                           seed=0).fit(q[:500], dp[:500])
+                           random_state=0).fit(q[:500], dp[:500])
     assert "refine_seconds" not in ga.training_
     assert ga.training_["rms_mm"] == ga.training_["ga_rms_mm"]
     baseline = NetworkErrorModel(hidden=(8, 8), trainer="lbfgs", restarts=2, max_iterations=300,
-                                 seed=0).fit(q[:500], dp[:500])
+                                 random_state=0).fit(q[:500], dp[:500])
     assert baseline.history_ == [] and baseline.training_["active_weights"] == 155
     error = lambda m: np.linalg.norm(m.predict(test) - truth_error, axis=1).mean()  # noqa: E731
     nominal = np.linalg.norm(truth_error, axis=1).mean()
@@ -347,8 +345,12 @@ def test_model_dict_round_trips_through_json(kr150, trained):
 
 def test_bad_model_dicts_are_refused(trained):
     good = json.loads(json.dumps(trained.to_dict()))
+    NetworkErrorModel.from_dict(good)  # the cases below differ from a loadable document in one thing
+    settings = good["settings"]
     cases = {
         "not a network": {"format": "robocal.kriging"},
+        "not a dict": [good],
+        "format tag": dict(good, format="robocal.kriging"),
         "version": dict(good, version=99),
         "missing": {k: v for k, v in good.items() if k != "layers"},
         "layer shape": dict(good, layers=good["layers"][:-1]),
@@ -356,11 +358,78 @@ def test_bad_model_dicts_are_refused(trained):
         "nan": dict(good, output_scale=[1.0, float("nan"), 1.0]),
         "active": dict(good, active=[[1, 0], good["active"][1]]),
         "joints": dict(good, n_joints=7),
+        "no joints": dict(good, n_joints=0),
         "hidden": dict(good, settings=dict(good["settings"], hidden=[24])),
+        "seed": dict(good, settings=dict(settings, random_state="zero")),
+        "history": dict(good, history=["best"]),
     }
+    cases.update({f"missing {key}": {k: v for k, v in good.items() if k != key}
+                  for key in good if key not in ("format", "version")})
+    cases.update({f"missing setting {key}": dict(good, settings={k: v for k, v in settings.items()
+                                                                if k != key})
+                  for key in settings if key != "random_state"})  # random_state may be absent
     for name, document in cases.items():
-        with pytest.raises(FileFormatError):
+        with pytest.raises(FileFormatError) as caught:
             NetworkErrorModel.from_dict(document)
+        message = str(caught.value)
+        assert "\n" not in message and ("refit" in message or "to_dict()" in message), name
+
+
+def test_the_seed_is_saved_as_random_state_and_old_seed_documents_still_load(kr150, trained):
+    chain, truth, q, dp, test = kr150
+    document = json.loads(json.dumps(trained.to_dict()))
+    assert document["settings"]["random_state"] == 0 and "seed" not in document["settings"]
+    settings = {k: v for k, v in document["settings"].items() if k != "random_state"}
+    for seed in (7, None):  # a model file written before the rename
+        old = NetworkErrorModel.from_dict(dict(document, settings=dict(settings, seed=seed)))
+        assert old.random_state == seed
+        np.testing.assert_array_equal(old.predict(test), trained.predict(test))
+    assert NetworkErrorModel.from_dict(dict(document, settings=settings)).random_state is None
+    generator = NetworkErrorModel(hidden=(4, 4), generations=1, population_size=4,
+                                  random_state=np.random.default_rng(0)).fit(q[:300], dp[:300])
+    assert generator.to_dict()["settings"]["random_state"] is None  # a Generator has no JSON form
+
+
+def test_settings_are_stored_as_given_and_checked_first_by_fit(kr150):
+    chain, truth, q, dp, test = kr150
+    cases = [({"hidden": (16,)}, "hidden must list at least two layer widths"),
+             ({"trainer": "sgd"}, "trainer must be one of 'ga', 'lbfgs', got 'sgd'"),
+             ({"refine": "adam"}, "refine must be one of 'lbfgs', None, got 'adam'"),
+             ({"inputs": "raw"}, "inputs must be one of 'joints', 'trig'"),
+             ({"alpha": 0.0}, r"alpha must be a number in \(0, 1\]"),
+             ({"alpha": "high"}, r"alpha must be a number in \(0, 1\]"),
+             ({"populations": 0}, "populations must be a whole number >= 1"),
+             ({"population_size": 5}, "population_size must be even"),
+             ({"population_size": 2}, "population_size must be a whole number >= 4"),
+             ({"population_size": "30"}, "population_size must be a whole number >= 4"),
+             ({"generations": -1}, "generations must be a whole number >= 0"),
+             ({"generations": 2.5}, "generations must be a whole number >= 0"),
+             ({"tolerance": float("nan")}, "tolerance must be a finite number"),
+             ({"window": 0}, "window must be a whole number >= 1"),
+             ({"migration_interval": 0}, "migration_interval must be a whole number >= 1 or None"),
+             ({"bits": 40}, "bits must be a whole number from 2 to 30"),
+             ({"bound": -1.0}, "bound must be a finite number > 0"),
+             ({"max_iterations": 0}, "max_iterations must be a whole number >= 1"),
+             ({"restarts": 0}, "restarts must be a whole number >= 1"),
+             ({"random_state": -1}, "random_state must be None, a whole number >= 0 or a numpy"),
+             ({"random_state": "abc"}, "random_state must be"),
+             ({"random_state": True}, "random_state must be")]
+    for options, words in cases:
+        model = NetworkErrorModel(**options)  # no check, no conversion in __init__
+        for name, value in options.items():
+            assert getattr(model, name) is value
+        # The settings are reported before anything about the data (here: far too few poses).
+        with pytest.raises(InputError, match=words):
+            model.fit(q[:2], dp[:2])
+
+
+def test_a_generator_seeds_as_its_integer_does(kr150):
+    chain, truth, q, dp, test = kr150
+    settings = dict(hidden=(6, 6), population_size=8, generations=5, max_iterations=20)
+    by_int = NetworkErrorModel(random_state=3, **settings).fit(q[:300], dp[:300])
+    generator = np.random.default_rng(3)
+    by_generator = NetworkErrorModel(random_state=generator, **settings).fit(q[:300], dp[:300])
+    np.testing.assert_array_equal(by_generator.predict(test), by_int.predict(test))
 
 
 def test_bad_input_is_explained(kr150, trained):
@@ -382,8 +451,12 @@ def test_bad_input_is_explained(kr150, trained):
         NetworkErrorModel(hidden=(4, 4)).fit(q[:300], np.ones((300, 3)))
     with pytest.raises(InputError, match="another robot"):
         trained.predict(np.zeros((3, 7)))
-    with pytest.raises(InputError, match="not trained"):
+    with pytest.raises(InputError,
+                       match=r"^this NetworkErrorModel is not fitted: call fit\(X, Y\) first$"):
         NetworkErrorModel().predict(test)
+    with pytest.raises(InputError, match="not fitted") as caught:
+        NetworkErrorModel().to_dict()
+    assert not isinstance(caught.value, FileFormatError)  # the caller's mistake, not a file's
     with pytest.raises(InputError, match="6 joints"):
         correct_joints(chain, trained, np.zeros((2, 5)))
     with pytest.raises(InputError, match="iterations"):

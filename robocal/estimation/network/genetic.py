@@ -52,14 +52,17 @@ from .mlp import forward
 PC1, PC2 = 0.9, 0.6
 PM1, PM2 = 0.1, 0.01
 ALPHA = 0.95
+# The sizes (bits) of one gene that Encoding accepts; the network model checks its ``bits``
+# setting against them so that a wrong value is reported before training starts.
+MIN_BITS, MAX_BITS = 2, 30
 
 
 class Encoding:
     """Fixed-point binary genes: ``bits`` bits over [−bound, bound] (see the module docstring)."""
 
     def __init__(self, bits=16, bound=4.0):
-        if not 2 <= int(bits) <= 30:
-            raise ValueError("a gene needs between 2 and 30 bits")
+        if not MIN_BITS <= int(bits) <= MAX_BITS:
+            raise ValueError(f"a gene needs between {MIN_BITS} and {MAX_BITS} bits")
         self.bits = int(bits)
         self.bound = float(bound)
         self.top = (1 << self.bits) - 1
@@ -88,12 +91,6 @@ class Encoding:
 def chromosome(encoding, structure, codes):
     """The binary string of individuals: structure bits (…, H) then every gene's bits."""
     return np.concatenate([np.asarray(structure, dtype=bool), encoding.to_bits(codes)], axis=-1)
-
-
-def split_chromosome(encoding, bits, n_hidden):
-    """Inverse of :func:`chromosome`: (structure bits, gene codes)."""
-    bits = np.asarray(bits, dtype=bool)
-    return bits[..., :n_hidden], encoding.from_bits(bits[..., n_hidden:])
 
 
 def adaptive_probability(y, y_mean, y_max, high, low):
