@@ -16,7 +16,8 @@ from robocal.io.library import builtin
 from robocal.io.model_file import load_model, save_model
 from robocal.io.observations import Observations
 from robocal.io.tables import Measurements, write_measurements
-from robocal.methods.base import FitRecord, Method
+from robocal.methods import FitRecord
+from robocal.methods.base import Method
 from robocal.methods.frames import registered_nominal
 from robocal.simulation import make_true_robot, uniform_joints
 

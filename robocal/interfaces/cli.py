@@ -128,22 +128,23 @@ def _print_result(result, as_json, title):
 
 
 def _print_calibration(calibration):
-    """Identified parameters with standard errors, and what could not be identified."""
-    ident = calibration["identifiability"]
-    table = Table(title=f"identified parameters ({ident['rank']}; {calibration['units']})")
+    """Identified parameters with standard errors, and what could not be identified
+    (a :class:`~robocal.methods.CalibrationRecord`)."""
+    ident = calibration.identifiability
+    table = Table(title=f"identified parameters ({ident.rank}; {calibration.units})")
     for col in ("parameter", "deviation", "std. error"):
         table.add_column(col, justify="right")
-    for name, value in calibration["parameters"].items():
-        table.add_row(name, f"{value['deviation']:.6g}", f"{value['std_error']:.2g}")
+    for name, value in calibration.parameters.items():
+        table.add_row(name, f"{value.deviation:.6g}", f"{value.std_error:.2g}")
     out.print(table)
-    out.print(f"condition number {ident['condition_number']:.3g}, O1 {ident['o1']:.3g}, O3 {ident['o3']:.3g}, "
-              f"noise amplification {ident['noise_amplification']:.3g}")
-    for name, reason in ident["fixed"].items():
+    out.print(f"condition number {ident.condition_number:.3g}, O1 {ident.o1:.3g}, O3 {ident.o3:.3g}, "
+              f"noise amplification {ident.noise_amplification:.3g}")
+    for name, reason in ident.fixed.items():
         out.print(f"fixed {name}: {reason}")
-    for a, b, r in calibration["correlated_pairs"]:
+    for a, b, r in calibration.correlated_pairs:
         out.print(f"strongly correlated: {a} and {b} ({r:+.3f})")
-    if calibration.get("outlier_rows"):
-        out.print(f"down-weighted as outliers: rows {', '.join(map(str, calibration['outlier_rows']))}")
+    if calibration.outlier_rows:
+        out.print(f"down-weighted as outliers: rows {', '.join(map(str, calibration.outlier_rows))}")
 
 
 def _floats(text, count, name):
@@ -273,9 +274,9 @@ def calibrate(
     with progress(label, fitter.progress_total(), enabled=not as_json) as advance:
         result = calibrate_job(robot, measurements, out_file, method=fitter, fixture=fixture, progress=advance,
                                root=root, tip=tip)
-    if not as_json and "calibration" in result:
-        _print_calibration(result["calibration"])
-    _print_result(result, as_json, f"{method} model -> {out_file}")
+    if not as_json and result.record.calibration is not None:
+        _print_calibration(result.record.calibration)
+    _print_result(result.to_dict(), as_json, f"{method} model -> {out_file}")
 
 
 @app.command()

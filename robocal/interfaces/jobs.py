@@ -1,6 +1,8 @@
 """What each command does, as plain functions of parsed arguments that return JSON-ready
 results: read the files, call the method registry, write the files.  ``cli.py`` only parses,
 prints and maps errors to exit codes."""
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..errors import InputError
@@ -12,6 +14,21 @@ from ..io.tables import write_measurements
 from ..methods import fitted_from_model_file, make_method
 from ..methods.evaluation import position_scores, socket_scores, with_fixture
 from ..methods.validation import cross_validate
+
+
+@dataclass(frozen=True)
+class Calibrated:
+    """What ``calibrate`` did: the method, the robot, the model file written, the training
+    data (``file``, ``n_poses``, ``kind``, ``fixture_file``) and the fit's record."""
+
+    method: str
+    robot: str
+    out: str
+    data: dict
+    record: object  # robocal.methods.FitRecord
+
+    def to_dict(self):
+        return {"method": self.method, "robot": self.robot, "out": self.out, **self.data, **self.record.to_dict()}
 
 
 def calibrate_job(robot, measurements, out, *, method="kinematic", settings=None, fixture=None, progress=None,
@@ -26,9 +43,8 @@ def calibrate_job(robot, measurements, out, *, method="kinematic", settings=None
     training = {"file": str(measurements), "n_poses": observations.n_poses, "kind": observations.kind}
     if fixture is not None:
         training["fixture_file"] = str(fixture)
-    model = fitter.to_model_file(chain, training)
-    save_model(model, out)
-    return {"method": fitter.name, "robot": chain.name, "out": str(out), **model.training}
+    save_model(fitter.to_model_file(chain, training), out)
+    return Calibrated(fitter.name, chain.name, str(out), training, fitter.record_)
 
 
 def load_fitted(model_path, robot=None):

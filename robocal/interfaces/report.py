@@ -112,28 +112,29 @@ def _socket_distance_section(stats):
 
 
 def _calibration_section(calibration):
-    if not calibration:
+    """The identified parameters of a :class:`~robocal.methods.CalibrationRecord` (or nothing)."""
+    if calibration is None:
         return ""
-    ident = calibration["identifiability"]
-    rows = [(name, f"{v['deviation']:.6g}", f"{v['std_error']:.2g}") for name, v in calibration["parameters"].items()]
+    ident = calibration.identifiability
+    rows = [(name, f"{p.deviation:.6g}", f"{p.std_error:.2g}") for name, p in calibration.parameters.items()]
     parts = [f"<h2>Identified parameters</h2><p class=note>Deviations from the starting model "
-             f"({html.escape(calibration['units'])}) with their standard errors; "
-             f"{ident['rank']} parameters from {ident['rows']} equations; "
-             f"{calibration['iterations']} iterations, {'converged' if calibration['converged'] else 'stopped at the iteration limit'}.</p>",
+             f"({html.escape(calibration.units)}) with their standard errors; "
+             f"{ident.rank} parameters from {ident.rows} equations; "
+             f"{calibration.iterations} iterations, {'converged' if calibration.converged else 'stopped at the iteration limit'}.</p>",
              _table(("parameter", "deviation", "standard error"), rows),
              "<h3>Identifiability</h3>",
              _table(("condition number", "O1", "O3", "noise amplification"),
-                    [(f"{ident['condition_number']:.3g}", f"{ident['o1']:.3g}", f"{ident['o3']:.3g}",
-                      f"{ident['noise_amplification']:.3g}")], numeric_from=0)]
-    if ident["fixed"]:
+                    [(f"{ident.condition_number:.3g}", f"{ident.o1:.3g}", f"{ident.o3:.3g}",
+                      f"{ident.noise_amplification:.3g}")], numeric_from=0)]
+    if ident.fixed:
         parts.append("<p>Fixed, because the data cannot determine them:</p><ul>"
-                     + "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in ident["fixed"].items())
+                     + "".join(f"<li><b>{html.escape(k)}</b>: {html.escape(v)}</li>" for k, v in ident.fixed.items())
                      + "</ul>")
-    if calibration["correlated_pairs"]:
+    if calibration.correlated_pairs:
         parts.append("<p>Strongly correlated pairs: " + ", ".join(
-            f"{html.escape(a)} / {html.escape(b)} ({r:+.3f})" for a, b, r in calibration["correlated_pairs"]) + "</p>")
-    if calibration.get("outlier_rows"):
-        parts.append(f"<p>Rows down-weighted as outliers: {', '.join(map(str, calibration['outlier_rows']))}</p>")
+            f"{html.escape(a)} / {html.escape(b)} ({r:+.3f})" for a, b, r in calibration.correlated_pairs) + "</p>")
+    if calibration.outlier_rows:
+        parts.append(f"<p>Rows down-weighted as outliers: {', '.join(map(str, calibration.outlier_rows))}</p>")
     return "".join(parts)
 
 
@@ -169,11 +170,12 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None):
     label = "held-out poses" if held_out else "training poses (not held out: scores what the model has seen)"
     figures = _figures(fitted, data, positions, before, after, cv)
 
+    record = fitted.record_
     accuracy_rows = []
-    if training.get("residual_before"):
-        accuracy_rows.append(_stats_row("training, nominal", training["residual_before"]))
-    if training.get("residual_after_training"):
-        accuracy_rows.append(_stats_row("training, calibrated", training["residual_after_training"]))
+    if record.residual_before:
+        accuracy_rows.append(_stats_row("training, nominal", record.residual_before))
+    if record.residual_after_training:
+        accuracy_rows.append(_stats_row("training, calibrated", record.residual_after_training))
     accuracy_rows += [_stats_row(f"{'held-out' if held_out else 'this file'}, nominal", stats["nominal"]),
                       _stats_row(f"{'held-out' if held_out else 'this file'}, calibrated", stats)]
     now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
@@ -182,7 +184,7 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None):
         ("model created", model.created), ("trained on", f"{training.get('file', '?')} ({training.get('n_poses', '?')} poses, "
                                                           f"{training.get('kind', '?')} data)"),
         ("scored on", f"{measurements} ({data.n_poses} poses, {data.kind} data): {label}"),
-        ("frame", "measurement frame; base and tool registered to the data" if training.get("registered")
+        ("frame", "measurement frame; base and tool registered to the data" if record.registered
          else "measurement frame = robot base frame as given"),
         ("units", "mm and degrees"), ("report written", f"{now} by robocal {__version__}"),
     ]
@@ -196,7 +198,7 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None):
             f"<h2>Position error</h2><p class=note>{html.escape(metric)}</p>",
             _table(["data"] + [name for _, name, _ in STATS], accuracy_rows),
             _socket_distance_section(stats) if data.positions is None else _iso_section(iso_before, iso_after),
-            _calibration_section(training.get("calibration"))]
+            _calibration_section(record.calibration)]
     for title, caption, fig in figures:
         body.append(f"<h2>{html.escape(title)}</h2><p class=note>{html.escape(caption)}</p>"
                     f"<img alt=\"{html.escape(title)}\" src=\"data:image/png;base64,{_png(fig)}\">")

@@ -7,11 +7,12 @@ name and ask nothing else about it.  Adding a method is one module and one line 
 """
 from ..errors import FileFormatError, InputError
 from .ann import NetworkMethod
-from .base import FitRecord, Method, ReportFigure, Setting
+from .base import Method, Setting
 from .constraint import ConstraintMethod
 from .hybrid import HybridMethod
 from .kinematic import KinematicMethod
 from .kriging import KrigingMethod
+from .records import CalibrationRecord, FitRecord, ReportFigure
 
 REGISTRY = {method.name: method for method in (
     KinematicMethod,
@@ -49,6 +50,6 @@ def fitted_from_model_file(model, path):
     return REGISTRY[model.method].from_model_file(model, path)
 
 
-__all__ = ["REGISTRY", "ConstraintMethod", "FitRecord", "HybridMethod", "KinematicMethod", "KrigingMethod",
+__all__ = ["REGISTRY", "CalibrationRecord", "ConstraintMethod", "FitRecord", "HybridMethod", "KinematicMethod", "KrigingMethod",
            "Method", "NetworkMethod", "ReportFigure", "Setting", "fitted_from_model_file", "get_method",
            "make_method", "method_names"]

@@ -4,7 +4,8 @@ from ..compensation import Compensator
 from ..estimation.metrics import error_stats
 from ..estimation.network import NetworkErrorModel
 from ..errors import InputError
-from .base import LOSS, PARAMETERS, PAYLOAD, RANDOM_STATE, FitRecord, Method, ReportFigure, Setting, one_of, require_positions
+from .base import LOSS, PARAMETERS, PAYLOAD, RANDOM_STATE, Method, Setting, one_of, require_positions
+from .records import FitRecord, ReportFigure
 from .frames import measurement_frame
 from .kinematic import KinematicMethod
 
@@ -71,7 +72,7 @@ class NetworkMethod(Method):
         record.setdefault("residual_before", error_stats(errors))
         self.compensator_ = Compensator(model_chain, network, nominal=chain, error_input="joints")
         self.reference_ = reference
-        self.record_ = FitRecord(**record)
+        self.record_ = FitRecord.from_dict(record)
         return self
 
     def error_model_document(self):

@@ -18,7 +18,7 @@ asks which method it holds.
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -27,6 +27,7 @@ from ..compensation import Compensator
 from ..errors import FileFormatError, InputError
 from ..estimation.calibration import PARAMETER_SETS, check_payload, parameter_terms
 from ..io.model_file import ModelFile
+from .records import FitRecord
 
 REGISTER_CHOICES = ("auto", "yes", "no")
 
@@ -49,56 +50,6 @@ PARAMETERS = Setting("parameters", "full", "--parameters",
 LOSS = Setting("loss", "linear", "--loss", "linear, huber or soft_l1 (robust)")
 PAYLOAD = Setting("payload", None, "--payload", "full+compliance: mass at the TCP in kg")
 RANDOM_STATE = Setting("random_state", 0, "--seed", "seed of the random search")
-
-
-@dataclass(frozen=True)
-class FitRecord:
-    """What a fit did, as the model file's ``training`` entry keeps it (mm statistics as
-    :func:`~robocal.estimation.metrics.error_stats` gives them).
-
-    residual_before: the reference (registered nominal) on the training data;
-    residual_after_training: the fitted model on the training data; registered: whether
-    base and tool were registered; nominal_in_given_frame: the nominal robot in the data's
-    frame, before registration; iterations: of the registration; calibration: the
-    parametric calibration's result (``CalibrationResult.to_dict``, with ``outlier_rows``);
-    diagnostics: the error model's warnings; base_model and network: the network's base
-    model and training record; fixture: the fixture of ball-in-socket data.
-    """
-
-    residual_before: dict
-    residual_after_training: dict
-    registered: bool | None = None
-    nominal_in_given_frame: dict | None = None
-    iterations: int | None = None
-    calibration: dict | None = None
-    diagnostics: list | None = None
-    base_model: str | None = None
-    network: dict | None = None
-    fixture: dict | None = None
-
-    def to_dict(self):
-        """JSON-ready, without the entries this method does not have."""
-        return {key: value for key, value in asdict(self).items() if value is not None}
-
-    @classmethod
-    def from_dict(cls, document):
-        """The record of a model file's ``training`` entry (other keys are the job's)."""
-        return cls(**{f.name: document.get(f.name) for f in fields(cls)})
-
-    def replace(self, **changes):
-        return type(self)(**{**asdict(self), **changes})
-
-
-@dataclass(frozen=True)
-class ReportFigure:
-    """A diagnostic a method adds to its report: ``kind`` names the plot
-    (``kriging_uncertainty``: ``data`` has ``model`` and ``points`` (N, 3) mm;
-    ``fitness_history``: ``data`` has ``history``)."""
-
-    kind: str
-    title: str
-    caption: str
-    data: dict
 
 
 class Method:

@@ -5,7 +5,8 @@ from ..compensation import Compensator
 from ..errors import InputError
 from ..estimation.constraint import PAIRINGS, ConstraintCalibration
 from ..io.fixtures import fixture_to_dict
-from .base import PARAMETERS, PAYLOAD, FitRecord, Method, Setting, check_parameters, one_of
+from .base import PARAMETERS, PAYLOAD, Method, Setting, check_parameters, one_of
+from .records import CalibrationRecord, FitRecord
 
 PAIRS = Setting("pairs", "all", "--pairs", "all pairs of configurations, or spanning (fewer, faster)")
 
@@ -54,6 +55,6 @@ class ConstraintMethod(Method):
         self.calibration_ = calibration
         self.compensator_ = Compensator(calibration.chain_, None, nominal=chain)
         self.reference_ = chain
-        self.record_ = FitRecord(calibration=result.to_dict(calibration.chain_), fixture=fixture_to_dict(obs.fixture),
+        self.record_ = FitRecord(calibration=CalibrationRecord.from_dict(result.to_dict(calibration.chain_)), fixture=fixture_to_dict(obs.fixture),
                                  residual_before=result.residual_before, residual_after_training=result.residual_after)
         return self

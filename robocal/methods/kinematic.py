@@ -4,8 +4,9 @@ calibrated model's IK, or directly by exporting the calibrated parameters."""
 from ..compensation import Compensator
 from ..estimation.calibration import LOSSES, KinematicCalibration
 from ..estimation.metrics import error_stats
-from .base import LOSS, PARAMETERS, PAYLOAD, REGISTER, REGISTER_CHOICES, FitRecord, Method, check_parameters, \
-    one_of, require_positions
+from .base import LOSS, PARAMETERS, PAYLOAD, REGISTER, REGISTER_CHOICES, Method, check_parameters, one_of, \
+    require_positions
+from .records import CalibrationRecord, FitRecord
 from .frames import registered_nominal
 
 
@@ -34,9 +35,8 @@ class KinematicMethod(Method):
                                              sigmas=obs.sigmas)
         reference = registered_nominal(chain, obs.joints, obs.positions)
         result = calibration.result_
-        record = result.to_dict(calibration.chain_)
-        if result.outliers:
-            record["outlier_rows"] = [int(obs.rows[i]) for i in result.outliers]
+        record = CalibrationRecord.from_dict(
+            {**result.to_dict(calibration.chain_), "outlier_rows": [int(obs.rows[i]) for i in result.outliers]})
         self.calibration_ = calibration
         self.compensator_ = Compensator(calibration.chain_, None, nominal=chain)
         self.reference_ = reference

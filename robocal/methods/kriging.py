@@ -3,7 +3,8 @@ position, compensated by moving the target against the predicted error (Liu et a
 from ..compensation import Compensator
 from ..estimation.kriging import Kriging
 from ..estimation.metrics import error_stats
-from .base import RANDOM_STATE, REGISTER, FitRecord, Method, ReportFigure, Setting, require_positions
+from .base import RANDOM_STATE, REGISTER, Method, Setting, require_positions
+from .records import FitRecord, ReportFigure
 from .frames import measurement_frame
 
 TREND = Setting("trend", "constant", "--trend", "Kriging trend: constant, linear or quadratic")

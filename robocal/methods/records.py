@@ -1,0 +1,141 @@
+"""What a fit did, as named records: what the model file's ``training`` entry keeps, what
+``calibrate --json`` prints, and what the command line and the report render.
+
+Every record is a frozen dataclass with ``to_dict`` (the JSON the model file holds: keys and
+values as they always were, so files written before these classes existed read back) and
+``from_dict``.  Figures are in file units: mm, and degrees for angles (see ``units``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+from ..estimation.identifiability import IdentifiabilityReport
+
+
+def _present(record, names):
+    """``{name: value}`` of the named fields whose value is not None."""
+    return {name: getattr(record, name) for name in names if getattr(record, name) is not None}
+
+
+@dataclass(frozen=True)
+class ParameterEstimate:
+    """An identified parameter: its deviation from the starting model and standard error,
+    in the file unit of the parameter (mm, deg, urad/(N*m) or ppm)."""
+
+    deviation: float
+    std_error: float
+
+
+@dataclass(frozen=True)
+class CalibrationRecord:
+    """A parametric calibration (kinematic or constraint).
+
+    parameters: {name: ParameterEstimate}; units: what the units of the deviations are;
+    correlated_pairs: ((name, name, correlation), ...) beyond 0.95; identifiability: the
+    :class:`IdentifiabilityReport`; residual_before / residual_after: statistics of the
+    starting and the calibrated model on the training data; iterations, converged.  Kinematic
+    calibrations add orientation_rms_deg (None without measured orientations), outliers
+    (indices a robust loss down-weighted) and outlier_rows (their file lines); constraint
+    calibrations add unobservable (what no constraint can see) and pairs (counts).
+    """
+
+    parameters: dict
+    units: str
+    correlated_pairs: tuple
+    identifiability: IdentifiabilityReport
+    residual_before: dict
+    residual_after: dict
+    iterations: int
+    converged: bool
+    kind: str = "kinematic"  # "kinematic" (instrument data) or "constraint" (ball in sockets)
+    orientation_rms_deg: float | None = None
+    outliers: tuple = ()
+    outlier_rows: tuple = ()
+    unobservable: tuple = ()
+    pairs: dict = field(default_factory=dict)
+
+    def to_dict(self):
+        out = {"parameters": {name: {"deviation": p.deviation, "std_error": p.std_error}
+                              for name, p in self.parameters.items()},
+               "units": self.units, "correlated_pairs": [list(p) for p in self.correlated_pairs],
+               "identifiability": self.identifiability.to_dict(),
+               "residual_before": self.residual_before, "residual_after": self.residual_after,
+               "iterations": self.iterations, "converged": self.converged}
+        if self.kind == "constraint":
+            return {**out, "unobservable": list(self.unobservable), "pairs": dict(self.pairs)}
+        out.update(orientation_rms_deg=self.orientation_rms_deg, outliers=list(self.outliers))
+        if self.outlier_rows:
+            out["outlier_rows"] = list(self.outlier_rows)
+        return out
+
+    @classmethod
+    def from_dict(cls, doc):
+        ident = doc["identifiability"]
+        common = dict(
+            parameters={name: ParameterEstimate(float(p["deviation"]), float(p["std_error"]))
+                        for name, p in doc["parameters"].items()},
+            units=doc["units"], correlated_pairs=tuple(tuple(p) for p in doc["correlated_pairs"]),
+            identifiability=IdentifiabilityReport(**{f.name: ident[f.name] for f in fields(IdentifiabilityReport)
+                                                     if f.name in ident}),
+            residual_before=doc["residual_before"], residual_after=doc["residual_after"],
+            iterations=doc["iterations"], converged=doc["converged"])
+        if "unobservable" in doc:
+            return cls(**common, kind="constraint", unobservable=tuple(doc["unobservable"]),
+                       pairs=dict(doc.get("pairs", {})))
+        return cls(**common, orientation_rms_deg=doc.get("orientation_rms_deg"),
+                   outliers=tuple(doc.get("outliers", ())), outlier_rows=tuple(doc.get("outlier_rows", ())))
+
+
+@dataclass(frozen=True)
+class FitRecord:
+    """What a fit did (statistics as :func:`~robocal.estimation.metrics.error_stats` gives them).
+
+    residual_before: the reference (the registered nominal) on the training data;
+    residual_after_training: the fitted model on the training data; registered: whether
+    base and tool were registered; nominal_in_given_frame: the nominal robot in the data's
+    frame, before any registration; iterations: of that registration; calibration: the
+    :class:`CalibrationRecord` of a parametric calibration; diagnostics: the error model's
+    warnings; base_model and network: a network's base model and training record;
+    fixture: the fixture of ball-in-socket data (``fixture_to_dict``).
+    """
+
+    residual_before: dict
+    residual_after_training: dict
+    registered: bool | None = None
+    nominal_in_given_frame: dict | None = None
+    iterations: int | None = None
+    calibration: CalibrationRecord | None = None
+    diagnostics: list | None = None
+    base_model: str | None = None
+    network: dict | None = None
+    fixture: dict | None = None
+
+    def to_dict(self):
+        """JSON-ready, without the entries this method does not have."""
+        out = _present(self, [f.name for f in fields(self)])
+        if self.calibration is not None:
+            out["calibration"] = self.calibration.to_dict()
+        return out
+
+    @classmethod
+    def from_dict(cls, doc):
+        """The record of a model file's ``training`` entry (other keys there are the data's)."""
+        values = {f.name: doc.get(f.name) for f in fields(cls)}
+        if values["calibration"] is not None:
+            values["calibration"] = CalibrationRecord.from_dict(values["calibration"])
+        return cls(**values)
+
+    def replace(self, **changes):
+        return type(self)(**{**{f.name: getattr(self, f.name) for f in fields(self)}, **changes})
+
+
+@dataclass(frozen=True)
+class ReportFigure:
+    """A diagnostic a method adds to its report: ``kind`` names the plot
+    (``kriging_uncertainty``: ``data`` has ``model`` and ``points`` (N, 3) mm;
+    ``fitness_history``: ``data`` has ``history``)."""
+
+    kind: str
+    title: str
+    caption: str
+    data: dict
