@@ -56,7 +56,6 @@ def test_demo_reaches_the_published_after_compensation_figures(demo_result):
     assert demo_result["after"]["max_mm"] <= 0.0084
 
 
-@pytest.mark.shared_data
 def test_dataset_export_splits_without_overlap(tmp_path):
     from robocal.io.robot_file import read_robot
     from robocal.io.tables import read_measurements
@@ -73,7 +72,6 @@ def test_dataset_export_splits_without_overlap(tmp_path):
     assert np.abs(chain.d[4] - 94.56) < 1e-12  # the authors' model, not UR's
 
 
-@pytest.mark.shared_data
 def test_dataset_rejects_unknown_name_and_bad_split(tmp_path):
     result = runner.invoke(app, ["dataset", "kuka-secret", "--out", str(tmp_path / "x")])
     assert result.exit_code == 2 and "unknown dataset" in result.output

@@ -79,7 +79,6 @@ def test_constraint_refusals(socket_files, tmp_path):
     assert not (tmp_path / "m.json").exists()
 
 
-@pytest.mark.shared_data
 def test_mukca_dataset_split_by_placement(tmp_path):
     prefix = tmp_path / "p3"
     split = json.loads(_run("dataset", "mukca-panda-3", "--out", prefix, "--split", 0.5, "--json").stdout)

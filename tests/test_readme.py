@@ -19,7 +19,6 @@ def _walkthrough():
 
 @pytest.mark.skipif(shutil.which("robocal") is None and not os.environ.get("CI"),
                     reason="the robocal command is not installed")
-@pytest.mark.shared_data
 def test_readme_walkthrough_runs(tmp_path):
     (tmp_path / "examples").symlink_to(ROOT / "examples")
     script = "set -euo pipefail\n" + _walkthrough()
@@ -31,7 +30,6 @@ def test_readme_walkthrough_runs(tmp_path):
     assert "UR5" in done.stdout
 
 
-@pytest.mark.shared_data
 def test_readme_python_examples_run():
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     blocks = re.findall(r"```python\n(.*?)```", text, re.S)

@@ -6,11 +6,12 @@ import numpy as np
 import pytest
 
 from robocal.errors import FileFormatError, InputError
+from robocal.io.datasets import dataset_dir
 from robocal.io.urdf import chain_to_urdf, read_urdf, write_urdf
 from robocal.kinematics import Chain, to_poe
 from robocal.spatial import compose_pose, translation
 
-PANDA_URDF = Path("/work/shared/data/mukca/panda.urdf")
+PANDA_URDF = dataset_dir() / "mukca" / "panda.urdf"
 N_CONFIGURATIONS = 1000
 POSITION_TOL_MM = 1e-9
 ROTATION_TOL = 1e-12

@@ -437,7 +437,7 @@ def dataset(
     seed: int = typer.Option(0, help="Seed of the split."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
-    """Export a shared real dataset (../shared/data) as a robot file and measurement CSVs.
+    """Export a real dataset shipped with robocal as a robot file and measurement CSVs.
 
     Example: robocal dataset ur5-tsinghua --out ur5 --split 0.5
     """

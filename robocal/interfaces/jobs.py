@@ -214,7 +214,7 @@ DATASETS = {
 
 
 def dataset_job(name, prefix, *, split=None, seed=0):
-    """Write a shared dataset as robocal files: PREFIX.toml (the robot model the data were
+    """Write a real dataset shipped with robocal as robocal files: PREFIX.toml (the robot model the data were
     taken against) and PREFIX.csv, or PREFIX_train.csv / PREFIX_test.csv with ``split`` the
     training fraction of a random split; ball-in-socket data also PREFIX_fixture.toml, and
     are split by whole fixture placements (held-out placements, as a user would test)."""
