@@ -1,4 +1,4 @@
-"""Compensation in joint space with an error model of the joints (DESIGN.md, method 3).
+"""Compensation in joint space with an error model of the joints (docs/ARCHITECTURE.md; the ann method).
 
 The real robot commanded to c lands at FK(c) + Δp(c), with Δp = p′ − p the position error
 (measured minus nominal) that the model predicts.  To land on the target t = FK(q) of the

@@ -1,1 +1,1 @@
-"""Layer 7: the command line, reports and plots, model files."""
+"""Layer 8: the command line, reports and plots."""

@@ -1,7 +1,7 @@
 """Fixture files (TOML): socket centres of a calibration fixture in its own frame, in mm.
 
 The constraint calibration uses only the pairwise socket distances, so a fixture needs at
-least two distinct sockets.  See DESIGN.md, "Measurement file".
+least two distinct sockets.  See docs/ARCHITECTURE.md, "File formats".
 """
 
 from __future__ import annotations

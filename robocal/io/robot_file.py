@@ -1,6 +1,6 @@
 """Robot files (TOML, mm and degrees) <-> :class:`~robocal.kinematics.Chain`.
 
-Keys beyond DESIGN.md, all optional:
+Keys beyond the basic format (docs/ARCHITECTURE.md, "File formats"), all optional:
 
 * per joint: ``type = "revolute" | "prismatic"``, ``sign = -1`` (the controller's axis turns
   the other way from the model's), ``beta`` (Hayati rotation about y, deg);

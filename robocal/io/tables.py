@@ -1,4 +1,4 @@
-"""Measurement, target and command CSV files (see DESIGN.md, "Measurement file").
+"""Measurement, target and command CSV files (docs/ARCHITECTURE.md, "File formats").
 
 Values stay in file units here: millimetres and degrees.  The kinematics layer converts.
 
@@ -623,7 +623,7 @@ def write_commands(
     *,
     joint_ok: np.ndarray | None = None,
 ) -> Path:
-    """Write a commands CSV file (DESIGN.md, "Targets and commands"), atomically.
+    """Write a commands CSV file (docs/ARCHITECTURE.md, "File formats"), atomically.
 
     Args:
         joints: (N, n) joint commands in degrees.

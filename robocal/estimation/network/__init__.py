@@ -1,4 +1,4 @@
-"""Neural-network error model trained by a genetic algorithm (DESIGN.md, method 3).
+"""Neural-network error model trained by a genetic algorithm (docs/ARCHITECTURE.md; the ann method).
 
 :class:`NetworkErrorModel` maps joint vectors to position errors; :mod:`.genetic` holds the
 GA (binary encoding, adaptive crossover and mutation, elitism), :mod:`.mlp` the batched
