@@ -18,9 +18,5 @@ class FileFormatError(InputError):
     """A file that cannot be read: missing columns, bad cells, wrong units, corrupted."""
 
 
-class UnreachableError(RobocalError):
-    """A target outside the reachable workspace or the joint limits."""
-
-
 class RobocalWarning(UserWarning):
     """Data that can be used but look suspicious (radians where degrees are expected, duplicates)."""

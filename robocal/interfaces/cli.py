@@ -15,7 +15,7 @@ from rich.table import Table
 
 from .. import __version__
 from ..errors import InputError, RobocalError, RobocalWarning
-from ..methods import get_method, make_method, method_names
+from ..methods import DEFAULT_METHOD, get_method, make_method, method_names
 from .jobs import calibrate_job, compensate_job, dataset_job, evaluate_job, export_job, simulate_job, validate_job
 
 app = typer.Typer(
@@ -236,7 +236,7 @@ def calibrate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
     out_file: str = typer.Option(..., "--out", help="Model file (JSON) to write."),
-    method: str = typer.Option("kinematic", help=METHOD_HELP),
+    method: str = typer.Option(DEFAULT_METHOD, help=METHOD_HELP),
     register: str = typer.Option(None, help="Register base and tool first: auto (default), yes or no."),
     trend: str = typer.Option(None, help="kriging/hybrid: trend, constant (default), linear or quadratic."),
     correlation: str = typer.Option(None, help="kriging/hybrid: correlation, gaussian (default) or matern52."),
@@ -372,7 +372,7 @@ def export(
 def validate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
-    method: str = typer.Option("kinematic", help=METHOD_HELP + " Ball-in-socket data (constraint) are validated one fixture placement left out at a time."),
+    method: str = typer.Option(DEFAULT_METHOD, help=METHOD_HELP + " Ball-in-socket data (constraint) are validated one fixture placement left out at a time."),
     folds: int = typer.Option(5, help="Number of cross-validation folds."),
     sizes: str = typer.Option(None, help="Learning curve: training sizes, e.g. 20,50,100,200."),
     seed: int = typer.Option(0, help="Seed of the fold assignment, and of the method's random search where it has one."),

@@ -11,7 +11,7 @@ from ..io.library import load_robot
 from ..io.model_file import load_model, save_model
 from ..io.observations import read_observations, read_target_poses, write_joint_commands
 from ..io.tables import write_measurements
-from ..methods import fitted_from_model_file, make_method
+from ..methods import DEFAULT_METHOD, fitted_from_model_file, make_method
 from ..methods.evaluation import position_scores, socket_scores, with_fixture
 from ..methods.validation import cross_validate
 
@@ -31,7 +31,7 @@ class Calibrated:
         return {"method": self.method, "robot": self.robot, "out": self.out, **self.data, **self.record.to_dict()}
 
 
-def calibrate_job(robot, measurements, out, *, method="kinematic", settings=None, fixture=None, progress=None,
+def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=None, fixture=None, progress=None,
                   root=None, tip=None):
     """Fit a method (an unfitted :class:`~robocal.methods.Method`, or a registered name with
     its ``settings``) to a measurement file and save the model file.  ``progress(**info)`` is
@@ -246,7 +246,7 @@ def dataset_job(name, prefix, *, split=None, seed=0):
     return {"dataset": name, "poses": data.n_poses, "source": data.path, **written}
 
 
-def validate_job(robot, measurements, *, method="kinematic", settings=None, folds=5, sizes=None, seed=0,
+def validate_job(robot, measurements, *, method=DEFAULT_METHOD, settings=None, folds=5, sizes=None, seed=0,
                  fixture=None, root=None, tip=None, on_fit=None):
     """Held-out accuracy of a method beside the registered nominal robot: k-fold
     cross-validation (and a learning curve) on position data, one fixture placement left out

@@ -21,6 +21,8 @@ REGISTRY = {method.name: method for method in (
     ConstraintMethod,
     NetworkMethod,
 )}
+# What calibrate and validate fit when no method is named.
+DEFAULT_METHOD = KinematicMethod.name
 
 
 def method_names():
@@ -50,6 +52,6 @@ def fitted_from_model_file(model, path):
     return REGISTRY[model.method].from_model_file(model, path)
 
 
-__all__ = ["REGISTRY", "CalibrationRecord", "ConstraintMethod", "FitRecord", "HybridMethod", "KinematicMethod", "KrigingMethod",
+__all__ = ["DEFAULT_METHOD", "REGISTRY", "CalibrationRecord", "ConstraintMethod", "FitRecord", "HybridMethod", "KinematicMethod", "KrigingMethod",
            "Method", "NetworkMethod", "ReportFigure", "Setting", "fitted_from_model_file", "get_method",
            "make_method", "method_names"]
