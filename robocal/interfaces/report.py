@@ -7,6 +7,7 @@ import base64
 import datetime as _dt
 import html
 import io
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -138,6 +139,67 @@ def _calibration_section(calibration):
     return "".join(parts)
 
 
+@dataclass(frozen=True)
+class Scores:
+    """What the report shows of a model on a file: per-pose ``before`` / ``after`` (N, 3) mm
+    (errors, or deviations from the socket group's mean), the ``positions`` (N, 3) mm they are
+    drawn at, the statistics ``stats`` (as ``evaluate --json`` prints them), the ISO 9283
+    figures (position data), and a sentence on the ``metric``."""
+
+    before: np.ndarray
+    after: np.ndarray
+    positions: np.ndarray
+    stats: dict
+    iso: dict | None
+    metric: str
+
+
+def _scores(model, fitted, data, model_path):
+    head = {"model": str(model_path), "method": model.method, "file": data.path}
+    if data.positions is None:
+        data = with_fixture(fitted, data, model_path)
+        before, after, centres = socket_residuals(fitted, data)
+        return Scores(before, after, centres, {**head, **socket_scores(fitted, data)}, None,
+                      "Socket consistency: distance of each computed ball centre from the mean of its socket "
+                      "group, in mm (no instrument: the data are joint angles only)")
+    before, after, scores = position_scores(fitted, data, model.nominal.name)
+    file_joints = model.kinematics.joints_to_file(data.joints)
+    iso = {"nominal": iso9283_position(file_joints, data.positions, fitted.reference_.fk_positions(data.joints)),
+           "calibrated": iso9283_position(file_joints, data.positions, fitted.predict(data.joints))}
+    return Scores(before, after, data.positions, {**head, **scores}, iso,
+                  "Single-point error |e| = |measured − model| in mm; 'nominal' is the uncalibrated robot "
+                  "(registered in the measurement frame when the model was).")
+
+
+def _summary(model, fitted, data, label, cv, model_path):
+    training = model.training
+    now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    summary = [
+        ("robot", model.nominal.name), ("method", model.method), ("model file", str(model_path)),
+        ("model created", model.created), ("trained on", f"{training.get('file', '?')} ({training.get('n_poses', '?')} poses, "
+                                                          f"{training.get('kind', '?')} data)"),
+        ("scored on", f"{data.path} ({data.n_poses} poses, {data.kind} data): {label}"),
+        ("frame", "measurement frame; base and tool registered to the data" if fitted.record_.registered
+         else "measurement frame = robot base frame as given"),
+        ("units", "mm and degrees"), ("report written", f"{now} by robocal {__version__}"),
+    ]
+    if cv is not None:
+        pooled, nominal = cv["cross_validation"]["pooled"], cv["nominal_cross_validation"]["pooled"]
+        summary.append(("cross-validation", f"{cv['folds']}-fold on {cv['file']}: {pooled['mean_mm']:.4f} mm mean "
+                        f"(nominal {nominal['mean_mm']:.4f} mm)"))
+    return summary
+
+
+def _accuracy_rows(record, stats, held_out):
+    rows = []
+    if record.residual_before:
+        rows.append(_stats_row("training, nominal", record.residual_before))
+    if record.residual_after_training:
+        rows.append(_stats_row("training, calibrated", record.residual_after_training))
+    where = "held-out" if held_out else "this file"
+    return rows + [_stats_row(f"{where}, nominal", stats["nominal"]), _stats_row(f"{where}, calibrated", stats)]
+
+
 def report_job(model_path, measurements, out, *, validation=None, pdf=None):
     """Write the HTML report (and the PDF when ``pdf`` is a path); returns what was written
     and the numbers it shows."""
@@ -147,74 +209,36 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None):
         raise InputError(f"--pdf needs a .pdf file name, got {pdf}")
     model, fitted = load_fitted(model_path)
     data = read_observations(measurements, model.kinematics)
-    head = {"model": str(model_path), "method": model.method, "file": str(measurements)}
-    if data.positions is None:
-        data = with_fixture(fitted, data, model_path)
-        stats = {**head, **socket_scores(fitted, data)}
-        before, after, positions = socket_residuals(fitted, data)
-        iso_before, iso_after = None, None
-        metric = ("Socket consistency: distance of each computed ball centre from the mean of its socket "
-                  "group, in mm (no instrument: the data are joint angles only)")
-    else:
-        before, after, scores = position_scores(fitted, data, model.nominal.name)
-        stats = {**head, **scores}
-        positions = data.positions
-        file_joints = model.kinematics.joints_to_file(data.joints)
-        iso_before = iso9283_position(file_joints, data.positions, fitted.reference_.fk_positions(data.joints))
-        iso_after = iso9283_position(file_joints, data.positions, fitted.predict(data.joints))
-        metric = ("Single-point error |e| = |measured − model| in mm; 'nominal' is the uncalibrated robot "
-                  "(registered in the measurement frame when the model was).")
+    scores = _scores(model, fitted, data, model_path)
     cv = _read_validation(validation) if validation else None
-    training = model.training
-    held_out = Path(str(training.get("file", ""))).resolve() != Path(str(measurements)).resolve()
+    held_out = Path(str(model.training.get("file", ""))).resolve() != Path(str(measurements)).resolve()
     label = "held-out poses" if held_out else "training poses (not held out: scores what the model has seen)"
-    figures = _figures(fitted, data, positions, before, after, cv)
-
-    record = fitted.record_
-    accuracy_rows = []
-    if record.residual_before:
-        accuracy_rows.append(_stats_row("training, nominal", record.residual_before))
-    if record.residual_after_training:
-        accuracy_rows.append(_stats_row("training, calibrated", record.residual_after_training))
-    accuracy_rows += [_stats_row(f"{'held-out' if held_out else 'this file'}, nominal", stats["nominal"]),
-                      _stats_row(f"{'held-out' if held_out else 'this file'}, calibrated", stats)]
-    now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    summary = [
-        ("robot", model.nominal.name), ("method", model.method), ("model file", str(model_path)),
-        ("model created", model.created), ("trained on", f"{training.get('file', '?')} ({training.get('n_poses', '?')} poses, "
-                                                          f"{training.get('kind', '?')} data)"),
-        ("scored on", f"{measurements} ({data.n_poses} poses, {data.kind} data): {label}"),
-        ("frame", "measurement frame; base and tool registered to the data" if record.registered
-         else "measurement frame = robot base frame as given"),
-        ("units", "mm and degrees"), ("report written", f"{now} by robocal {__version__}"),
-    ]
-    if cv is not None:
-        pooled, nominal = cv["cross_validation"]["pooled"], cv["nominal_cross_validation"]["pooled"]
-        summary.append(("cross-validation", f"{cv['folds']}-fold on {cv['file']}: {pooled['mean_mm']:.4f} mm mean "
-                        f"(nominal {nominal['mean_mm']:.4f} mm)"))
+    figures = _figures(fitted, data, scores.positions, scores.before, scores.after, cv)
+    summary = _summary(model, fitted, data, label, cv, model_path)
+    accuracy_rows = _accuracy_rows(fitted.record_, scores.stats, held_out)
     body = [f"<h1>Accuracy report: {html.escape(model.nominal.name)}</h1>",
             f"<p class=note>{html.escape(model.method)} model, scored on {html.escape(label)}.</p>",
             "<h2>Summary</h2>", _table(None, summary, numeric_from=2),
-            f"<h2>Position error</h2><p class=note>{html.escape(metric)}</p>",
+            f"<h2>Position error</h2><p class=note>{html.escape(scores.metric)}</p>",
             _table(["data"] + [name for _, name, _ in STATS], accuracy_rows),
-            _socket_distance_section(stats) if data.positions is None else _iso_section(iso_before, iso_after),
-            _calibration_section(record.calibration)]
+            _socket_distance_section(scores.stats) if scores.iso is None
+            else _iso_section(scores.iso["nominal"], scores.iso["calibrated"]),
+            _calibration_section(fitted.record_.calibration)]
     for title, caption, fig in figures:
         body.append(f"<h2>{html.escape(title)}</h2><p class=note>{html.escape(caption)}</p>"
                     f"<img alt=\"{html.escape(title)}\" src=\"data:image/png;base64,{_png(fig)}\">")
-    document = (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>robocal report: "
-                f"{html.escape(model.nominal.name)}</title><style>{STYLE}</style></head><body>"
-                + "".join(body) + "</body></html>\n")
-    write_text_atomic(out, document)
+    write_text_atomic(out, f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>robocal report: "
+                           f"{html.escape(model.nominal.name)}</title><style>{STYLE}</style></head><body>"
+                      + "".join(body) + "</body></html>\n")
     if pdf is not None:
         _write_pdf(pdf, summary, accuracy_rows, [fig for _, _, fig in figures])
     import matplotlib.pyplot as plt
 
     for _, _, fig in figures:
         plt.close(fig)
-    extra = {} if iso_before is None else {"iso9283": {"nominal": iso_before, "calibrated": iso_after}}
+    extra = {} if scores.iso is None else {"iso9283": scores.iso}
     return {"out": str(out), "pdf": None if pdf is None else str(pdf), "figures": [t for t, _, _ in figures],
-            "held_out": held_out, **extra, **stats}
+            "held_out": held_out, **extra, **scores.stats}
 
 
 def _write_pdf(path, summary, accuracy_rows, figures):

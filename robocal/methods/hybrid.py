@@ -4,10 +4,10 @@ from ..compensation import Compensator
 from ..estimation.metrics import error_stats
 from .base import Method
 from .kinematic import KinematicMethod
-from .kriging import KRIGING_SETTINGS, kriging_document, kriging_from_document, kriging_of, uncertainty_figure
+from .kriging import KRIGING_SETTINGS, KrigingResidual, kriging_of
 
 
-class HybridMethod(Method):
+class HybridMethod(KrigingResidual, Method):
     """:class:`KinematicMethod`, then Kriging of its residual; the settings of both."""
 
     name = "hybrid"
@@ -27,13 +27,3 @@ class HybridMethod(Method):
             residual_after_training=error_stats(residual - model.predict(model_positions)),
             diagnostics=list(model.diagnostics_))
         return self
-
-    def error_model_document(self):
-        return kriging_document(self.compensator_.error_model)
-
-    @classmethod
-    def error_model_from_document(cls, document, path):
-        return kriging_from_document(document)
-
-    def report_figures(self, joints):
-        return [uncertainty_figure(self, joints)]

@@ -39,7 +39,22 @@ def uncertainty_figure(method, joints):
                         {"model": method.compensator_.error_model, "points": points})
 
 
-class KrigingMethod(Method):
+class KrigingResidual:
+    """What the methods whose error model is a Kriging of the position error share: its
+    model-file entry and its uncertainty figure."""
+
+    def error_model_document(self):
+        return kriging_document(self.compensator_.error_model)
+
+    @classmethod
+    def error_model_from_document(cls, document, path):
+        return kriging_from_document(document)
+
+    def report_figures(self, joints):
+        return [uncertainty_figure(self, joints)]
+
+
+class KrigingMethod(KrigingResidual, Method):
     """Kriging of the position error over the nominal position (registered in the
     measurement frame when needed).  Settings: register, trend, correlation, nugget,
     shared_theta, random_state (see :class:`~robocal.estimation.kriging.Kriging`)."""
@@ -60,13 +75,3 @@ class KrigingMethod(Method):
                                  residual_after_training=error_stats(errors - model.predict(nominal_positions)),
                                  diagnostics=list(model.diagnostics_))
         return self
-
-    def error_model_document(self):
-        return kriging_document(self.compensator_.error_model)
-
-    @classmethod
-    def error_model_from_document(cls, document, path):
-        return kriging_from_document(document)
-
-    def report_figures(self, joints):
-        return [uncertainty_figure(self, joints)]
