@@ -118,3 +118,12 @@ def test_refusals():
     measured[3, 1] = np.nan
     with pytest.raises(InputError, match="NaN"):
         KinematicCalibration().fit(chain, q, measured)
+    # Settings are stored as given and checked by fit, which names the bad one.
+    for settings, message in (({"loss": "cauchy"}, "loss must be one of"),
+                              ({"parameters": "everything"}, "parameter set must be one of"),
+                              ({"payload": "heavy"}, "payload must be"),
+                              ({"position_sigma": 0.0}, "position_sigma must be")):
+        unchecked = KinematicCalibration(**settings)
+        assert all(getattr(unchecked, k) == v for k, v in settings.items())
+        with pytest.raises(InputError, match=message):
+            unchecked.fit(chain, q, chain.fk_positions(q))

@@ -8,7 +8,7 @@ import pytest
 from robocal.compensation import Compensator
 from robocal.errors import FileFormatError, InputError
 from robocal.estimation.calibration import KinematicCalibration
-from robocal.interfaces.model_file import ModelFile, load_model, save_model
+from robocal.io.model_file import ModelFile, load_model, save_model
 from robocal.io.library import builtin
 from robocal.kinematics.compliant import CompliantChain
 from robocal.kinematics.gravity import default_mass_model
@@ -102,7 +102,7 @@ def test_model_file_keeps_the_compliance_and_refuses_a_damaged_one(tmp_path):
     body = {k: v for k, v in doc.items() if k != "checksum"}
     import hashlib
 
-    from robocal.interfaces.model_file import _canonical
+    from robocal.io.model_file import _canonical
     doc["checksum"] = hashlib.sha256(_canonical(body).encode()).hexdigest()
     path.write_text(json.dumps(doc))
     with pytest.raises(FileFormatError, match="joint_compliance"):
@@ -142,5 +142,7 @@ def test_the_payload_given_shapes_the_deflection_model():
         held_out[payload] = np.linalg.norm(cal.predict(q_test) - truth.positions(q_test), axis=1).mean()
     # The right payload makes the model exact; the rated one leaves a torque shape it cannot fit.
     assert held_out[0.0] < 1e-3 < held_out[None]
-    with pytest.raises(InputError, match="payload"):
-        KinematicCalibration("full+compliance", payload=-1.0)
+    unchecked = KinematicCalibration("full+compliance", payload=-1.0)
+    assert unchecked.payload == -1.0
+    with pytest.raises(InputError, match="payload must be"):
+        unchecked.fit(KR150, q, truth.positions(q))

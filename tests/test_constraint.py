@@ -9,9 +9,8 @@ import pytest
 from robocal.errors import InputError, RobocalWarning
 from robocal.estimation.constraint import (
     ConstraintCalibration,
-    constraint_jacobian,
     constraint_pairs,
-    constraint_residual,
+    constraint_rows,
     socket_data,
     socket_errors,
 )
@@ -183,12 +182,12 @@ def test_constraint_jacobian_matches_finite_differences(name, pairing):
     data = _small_data(chain, np.random.default_rng(0))
     pairs = constraint_pairs(data, pairing)
     names = ["tool_x", "tool_z", "theta2", "ux3", "uy5", "wx4", "wy6", "home_z", "home_ry"]
-    r, jac = constraint_jacobian(chain, data.joints, pairs, names)
-    assert np.allclose(r, constraint_residual(chain, data.joints, pairs))
+    r, jac = constraint_rows(chain, data.joints, pairs, names)
+    assert np.allclose(r, constraint_rows(chain, data.joints, pairs)[0])
     step = 1e-6
     numeric = np.column_stack([
-        (constraint_residual(chain.perturbed([n], [step]), data.joints, pairs)
-         - constraint_residual(chain.perturbed([n], [-step]), data.joints, pairs)) / (2 * step)
+        (constraint_rows(chain.perturbed([n], [step]), data.joints, pairs)[0]
+         - constraint_rows(chain.perturbed([n], [-step]), data.joints, pairs)[0]) / (2 * step)
         for n in names
     ])
     assert np.abs(jac - numeric).max() < 1e-5 * np.abs(numeric).max()
@@ -216,7 +215,7 @@ def test_pair_counts_for_all_and_spanning():
     assert set(np.unique(spanning.distance)) == set(range(12))
     # All position pairs take a centred form of N rows with the same sum of squares.
     p = chain.fk_positions(data.joints)
-    r = constraint_residual(chain, data.joints, every)
+    r = constraint_rows(chain, data.joints, every)[0]
     assert every.position_rows == 3 * 12 and r.size == 3 * 12 + len(every.distance)
     i, j = every.position.T
     assert np.isclose(r[:36] @ r[:36], np.sum((p[i] - p[j]) ** 2))
@@ -284,8 +283,12 @@ def test_refuses_nan_mismatched_and_too_few(small_plan):
     few = np.flatnonzero(plan.fixture_ids == "P1")[:4]
     with pytest.raises(InputError, match="independent constraint equations"):
         _fit(chain, plan.joints[few], plan.fixture_ids[few], plan.socket_ids[few])
-    with pytest.raises(InputError, match="pairs must be one of"):
-        ConstraintCalibration("some")
+    # Settings are stored as given and checked by fit, which names the bad one.
+    for settings, message in (({"pairs": "some"}, "pairs must be one of"), ({"payload": -1.0}, "payload must be")):
+        unchecked = ConstraintCalibration(**settings)
+        assert all(getattr(unchecked, k) == v for k, v in settings.items())
+        with pytest.raises(InputError, match=message):
+            unchecked.fit(chain, plan.joints, plan.fixture_ids, plan.socket_ids, PLATE)
 
 
 # ------------------------------------------------------------------------ sampling

@@ -6,18 +6,23 @@ The Jacobian is the chain's analytic identification Jacobian and every step is a
 robot is calibrated in its own parameterisation: DH and modified DH carry Hayati's beta on
 parallel axes, which removes the DH singularity there, and export needs no conversion.
 """
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ..kinematics.compliant import UNITS_NOTE, file_units, with_compliance
+from ..errors import FileFormatError, InputError
+from ..kinematics.compliant import with_compliance
 from ..spatial import make_transform
-from .identifiability import NEAR_PARALLEL, STRONG_CORRELATION, analyse, loose_gains
+from .identifiability import NEAR_PARALLEL, analyse
+from .identification import (Analysis, IdentifiedResult, check_payload, fitted_document, identified_parameters,
+                             identify, one_of, read_fitted_document)
 from .least_squares import levenberg_marquardt
 from .least_squares import residual as residual_of
 from .metrics import error_stats
 from .registration import kabsch
+
+__all__ = ["PARAMETER_SETS", "LOSSES", "CalibrationResult", "KinematicCalibration", "candidate_parameters",
+           "check_payload", "identified_parameters", "parameter_terms"]
 
 PARAMETER_SETS = ("offsets", "full", "full+gains", "full+compliance", "full+compliance+gains")
 LOSSES = ("linear", "huber", "soft_l1")
@@ -26,39 +31,22 @@ LOSSES = ("linear", "huber", "soft_l1")
 WRONG_ROBOT_RMS_MM = 10.0
 
 
-def identified_parameters(chain, result):
-    """The part of a calibration record every method shares: each identified parameter's
-    deviation and standard error in file units, correlated pairs and the identifiability."""
-    unit = file_units(chain, result.names)
-    return {
-        "parameters": {n: {"deviation": float(v), "std_error": float(s)}
-                       for n, v, s in zip(result.names, result.values * unit, result.std_errors * unit)},
-        "units": UNITS_NOTE,
-        "correlated_pairs": [list(p) for p in result.correlated_pairs],
-        "identifiability": result.identifiability.to_dict(),
-    }
-
-
 @dataclass(frozen=True)
-class CalibrationResult:
-    """What a calibration found (all JSON-ready through :meth:`to_dict`)."""
+class CalibrationResult(IdentifiedResult):
+    """What a kinematic calibration found (all JSON-ready through :meth:`to_dict`).
 
-    names: tuple
-    values: np.ndarray          # identified deviations from the starting model (rad, mm)
-    std_errors: np.ndarray      # standard errors of the deviations (rad, mm)
-    correlated_pairs: tuple     # ((name, name, correlation), ...)
-    identifiability: object     # IdentifiabilityReport
-    residual_before: dict
-    residual_after: dict
+    The fields of :class:`~robocal.estimation.identification.IdentifiedResult` (values and
+    std_errors in rad, mm; residual_before / residual_after: :func:`error_stats` of the
+    positions, mm), and orientation_rms_deg: the RMS orientation residual (deg) when
+    orientations were fitted, else None; outliers: indices of the poses a robust loss
+    down-weighted (weight below 0.5).
+    """
+
     orientation_rms_deg: float | None
-    iterations: int
-    converged: bool
-    outliers: tuple             # indices of poses a robust loss down-weighted
+    outliers: tuple
 
-    def to_dict(self, chain):
-        """Deviations and standard errors in file units (deg for angles, mm for lengths)."""
+    def _details(self):
         return {
-            **identified_parameters(chain, self),
             "residual_before": self.residual_before,
             "residual_after": self.residual_after,
             "orientation_rms_deg": self.orientation_rms_deg,
@@ -67,15 +55,13 @@ class CalibrationResult:
             "outliers": list(self.outliers),
         }
 
-
-def check_payload(payload):
-    """None, or a validated payload mass in kg."""
-    if payload is None:
-        return None
-    value = float(payload)
-    if not np.isfinite(value) or value < 0:
-        raise InputError(f"payload must be a mass in kg >= 0, got {payload}")
-    return value
+    @classmethod
+    def from_dict(cls, doc, chain):
+        """The result back from :meth:`to_dict` (``chain`` as given there); KeyError,
+        TypeError or ValueError if ``doc`` is damaged."""
+        rms = doc["orientation_rms_deg"]
+        return cls(**cls._shared_fields(doc, chain), orientation_rms_deg=None if rms is None else float(rms),
+                   outliers=tuple(int(i) for i in doc["outliers"]))
 
 
 def parameter_terms(parameters):
@@ -96,19 +82,15 @@ def candidate_parameters(chain, parameters="full", *, base=True, tool_orientatio
         return names + chain.parameter_names(("offsets",))
     from ..kinematics import to_poe
 
-    chain = getattr(chain, "rigid", chain)
-
+    chain = chain.rigid
     axes = to_poe(chain).axes
     parallel = [np.linalg.norm(np.cross(axes[i], axes[i + 1])) < NEAR_PARALLEL for i in range(chain.n_joints - 1)]
+    links = [p for p in chain.parameters if p.group == "link"]
     for k in range(1, chain.n_joints + 1):
-        if chain.convention == "poe":
-            names += [f"{p}{k}" for p in ("theta", "ux", "uy", "wx", "wy")]
-            continue
-        names += [f"{p}{k}" for p in ("theta", "d", "a", "alpha")]
-        # Hayati's beta where this link joins two (nearly) parallel axes.
+        # Hayati's beta only where this link joins two (nearly) parallel axes.
         pair = (k - 1) if chain.convention == "dh" else (k - 2)
-        if 0 <= pair < len(parallel) and parallel[pair]:
-            names.append(f"beta{k}")
+        with_beta = 0 <= pair < len(parallel) and parallel[pair]
+        names += [p.name for p in links if p.joint == k and (p.kind != "beta" or with_beta)]
     if chain.convention == "poe":
         names += chain.parameter_names(("home",))
     if "gains" in terms:
@@ -119,33 +101,64 @@ def candidate_parameters(chain, parameters="full", *, base=True, tool_orientatio
 class KinematicCalibration:
     """Levenberg–Marquardt identification of a chain's parameters, scikit-learn style.
 
-    parameters: 'offsets', 'full', 'full+gains' (full, plus a gain per joint: a scale error
-    of its reading), 'full+compliance' (full, plus one compliance per joint that gravity
-    loads, the deflection being proportional to the gravity torque of
-    :func:`robocal.kinematics.gravity.default_mass_model` with ``payload`` kg at the TCP, by
-    default none if the robot file gives link masses, else the rated payload of a robot of
-    that size) or 'full+compliance+gains'.  loss: 'linear', 'huber' or 'soft_l1' (per pose,
-    on the weighted residual norm; ``f_scale`` in those units, default 3x the median).
-    position_sigma (mm) and orientation_sigma (deg) weight rows when the data carry no
-    sigmas.  register: start from a Kabsch fit of the base (use False for data already in
-    the base frame of a chain whose base is right).  tolerance: stop when an iteration lowers
-    the cost by less than this fraction (on tracker data 1e-7 and 1e-9 give the same held-out
-    error to 1e-5 mm; noise-free data still converge to rounding).
+    Parameters
+    ----------
+    parameters : str
+        'offsets', 'full', 'full+gains' (full, plus a gain per joint: a scale error of its
+        reading), 'full+compliance' (full, plus one compliance per joint that gravity loads,
+        the deflection being proportional to the gravity torque of
+        :func:`robocal.kinematics.gravity.default_mass_model` with ``payload`` kg at the TCP,
+        by default none if the robot file gives link masses, else the rated payload of a
+        robot of that size) or 'full+compliance+gains'.
+    loss : str
+        'linear', 'huber' or 'soft_l1' (per pose, on the weighted residual norm; ``f_scale``
+        in those units, default 3x the median).
+    position_sigma, orientation_sigma : float
+        mm and deg: the row weights when the data carry no sigmas.
+    register : bool
+        Start from a Kabsch fit of the base (False for data already in the base frame of a
+        chain whose base is right).
+    payload : float or None
+        kg at the TCP, for the compliance sets.
+    max_iterations, tolerance
+        Stop when an iteration lowers the cost by less than ``tolerance`` of it (on tracker
+        data 1e-7 and 1e-9 give the same held-out error to 1e-5 mm; noise-free data still
+        converge to rounding).
+
+    The settings are stored as given and checked by :meth:`fit`.  After it: ``chain_`` (the
+    calibrated chain, a CompliantChain for the compliance sets), ``start_chain_`` (the
+    registered starting model), ``names_`` (the identified parameters) and ``result_`` (a
+    :class:`CalibrationResult`).
     """
 
     def __init__(self, parameters="full", *, loss="linear", f_scale=None, position_sigma=0.02,
                  orientation_sigma=0.01, register=True, payload=None, max_iterations=50, tolerance=1e-7):
-        if loss not in LOSSES:
-            raise InputError(f"loss must be one of {', '.join(LOSSES)}, got {loss!r}")
         self.parameters = parameters
         self.loss = loss
         self.f_scale = f_scale
         self.position_sigma = position_sigma
         self.orientation_sigma = orientation_sigma
         self.register = register
-        self.payload = check_payload(payload)
+        self.payload = payload
         self.max_iterations = max_iterations
         self.tolerance = tolerance
+
+    def get_settings(self):
+        """The settings, as given to ``__init__``."""
+        return {"parameters": self.parameters, "loss": self.loss, "f_scale": self.f_scale,
+                "position_sigma": self.position_sigma, "orientation_sigma": self.orientation_sigma,
+                "register": self.register, "payload": self.payload, "max_iterations": self.max_iterations,
+                "tolerance": self.tolerance}
+
+    def _validate(self):
+        """InputError naming the first bad setting; returns the payload (kg or None)."""
+        parameter_terms(self.parameters)
+        one_of(self.loss, LOSSES, "loss")
+        for setting in ("position_sigma", "orientation_sigma"):
+            value = getattr(self, setting)
+            if not isinstance(value, (int, float)) or not value > 0:
+                raise InputError(f"{setting} must be a number > 0, got {value!r}")
+        return check_payload(self.payload)
 
     # ------------------------------------------------------------------ data
     def _check(self, chain, joints, positions, orientations, sigmas):
@@ -183,87 +196,100 @@ class KinematicCalibration:
         tool[:3, :3] = rot
         return chain.replace(tool=tool)
 
-    # ------------------------------------------------------------------- fit
-    def fit(self, chain, joints, positions, orientations=None, sigmas=None):
-        """joints (N, n) rad; positions (N, 3) mm; orientations (N, 3, 3) rotation matrices
-        or None; sigmas (N, 3) mm or None.  Returns self with ``chain_`` and ``result_``."""
-        q, target, distinct = self._check(chain, joints, positions, orientations, sigmas)
-        rotations = None if orientations is None else np.asarray(orientations, dtype=float)
-        with_orientation = rotations is not None
-        rows_per_pose = 6 if with_orientation else 3
-        names = candidate_parameters(chain, self.parameters, tool_orientation=with_orientation)
-        compliant = None
-        if "compliance" in parameter_terms(self.parameters):
-            compliant, compliances = with_compliance(chain, q, self.payload)
-            names += compliances
-        if len(q) * rows_per_pose < len(names) or distinct * rows_per_pose < len(names):
-            need = int(np.ceil(len(names) / rows_per_pose))
-            raise InputError(
-                f"{distinct} distinct poses give {distinct * rows_per_pose} equations for {len(names)} "
-                f"parameters: measure at least {need} different poses (5 times as many is better)"
-            )
+    def _start(self, chain, q, target, rotations, compliant):
+        """The starting model: the base registered (Kabsch of nominal FK, the LM refines it with
+        the rest), the tool rotation in closed form, the compliance when asked for."""
         start = chain
         if self.register:
-            # Closed-form base from nominal FK; the LM below refines base and tool with the rest.
             rot, shift = kabsch(chain.fk_positions(q), target)
             start = chain.replace(base=make_transform(rot, shift) @ chain.base)
-        if with_orientation:
+        if rotations is not None:
             start = self._start_tool_rotation(start, q, rotations)
         if compliant is not None:
             start = compliant.replace(base=start.base, tool=start.tool)
-        weights = self._weights(len(q), sigmas, with_orientation)
+        return start
+
+    # ------------------------------------------------------------------- fit
+    def fit(self, chain, joints, positions, orientations=None, sigmas=None):
+        """Identify the parameters.
+
+        Parameters
+        ----------
+        chain : Chain
+            The nominal model.
+        joints : (N, n) array, rad (mm for prismatic joints)
+        positions : (N, 3) array, mm
+        orientations : (N, 3, 3) rotation matrices, or None
+        sigmas : (N, 3) array, mm, or None
+
+        Returns self, with ``chain_``, ``start_chain_``, ``names_`` and ``result_``.
+        """
+        payload = self._validate()
+        q, target, distinct = self._check(chain, joints, positions, orientations, sigmas)
+        rotations = None if orientations is None else np.asarray(orientations, dtype=float)
+        rows = 6 if rotations is not None else 3
+        names = candidate_parameters(chain, self.parameters, tool_orientation=rotations is not None)
+        compliant = None
+        if "compliance" in parameter_terms(self.parameters):
+            compliant, compliances = with_compliance(chain, q, payload)
+            names += compliances
+        if len(q) * rows < len(names) or distinct * rows < len(names):
+            need = int(np.ceil(len(names) / rows))
+            raise InputError(
+                f"{distinct} distinct poses give {distinct * rows} equations for {len(names)} "
+                f"parameters: measure at least {need} different poses (5 times as many is better)"
+            )
+        start = self._start(chain, q, target, rotations, compliant)
+        weights = self._weights(len(q), sigmas, rotations is not None)
         before = error_stats((target - start.fk_positions(q)))
-
-        # Identifiability is local: nominal geometry can make parameters look dependent
-        # (a TCP exactly on the last axis) that the real robot separates.  Analyse, fit, and
-        # analyse again at the fit until the identified set settles.
-        def solve(names):
-            fitted, identified, total_iterations = start, None, 0
-            for _ in range(3):
-                jac = fitted.identification_jacobian(q, names)[:, :rows_per_pose, :]
-                scaled = (jac * weights[:, :, None]).reshape(-1, len(names))
-                # The reasons come once, from the last analysis.
-                _, report = analyse(getattr(fitted, "rigid", fitted), scaled, names, explain=False)
-                if report.identified == identified:
-                    break
-                identified = report.identified
-                fitted, iterations, converged, robust = levenberg_marquardt(
-                    fitted, q, target, identified, rotations=rotations, weights=weights,
-                    pose_weights=self._robust_weights, max_iterations=self.max_iterations,
-                    tolerance=self.tolerance)
-                total_iterations += iterations
-            _, report = analyse(getattr(fitted, "rigid", fitted), scaled, names)
-            ident = list(identified)
-            residual = residual_of(fitted, q, target, rotations)
-            std, pairs = self._covariance(fitted, q, residual, weights * robust[:, None], ident, rows_per_pose)
-            return fitted, ident, report, total_iterations, converged, robust, residual, std, pairs
-
-        fitted, ident, report, iterations, converged, robust, residual, std, pairs = solve(names)
-        loose = loose_gains(ident, std, chain.n_joints)
-        if loose:
-            fitted, ident, report, more, converged, robust, residual, std, pairs = solve(
-                [n for n in names if n not in loose])
-            iterations += more
-            report = replace(report, fixed={**report.fixed, **loose})
+        found = identify(start, names, **self._steps(q, target, rotations, weights))
+        fitted = found.chain
+        residual = residual_of(fitted, q, target, rotations)
         after = error_stats(residual[:, :3])
         if after["rms_mm"] > WRONG_ROBOT_RMS_MM:
             raise InputError(
                 f"the residual is {after['rms_mm']:.1f} mm RMS after calibration: is this the right robot "
                 "and unit (mm, degrees) for these data?"
             )
-        values = self._deviations(chain, start, fitted, ident)
+        ident = list(found.names)
         self.chain_ = fitted
         self.start_chain_ = start
-        self.names_ = tuple(ident)
+        self.names_ = found.names
         self.result_ = CalibrationResult(
-            names=tuple(ident), values=values, std_errors=std, correlated_pairs=pairs,
-            identifiability=report, residual_before=before, residual_after=after,
+            names=found.names, values=fitted.parameter_values(ident) - start.parameter_values(ident),
+            std_errors=found.std_errors, correlated_pairs=found.correlated_pairs,
+            identifiability=found.report, residual_before=before, residual_after=after,
             orientation_rms_deg=(float(np.degrees(np.sqrt(np.mean(np.sum(residual[:, 3:] ** 2, axis=1)))))
-                                 if with_orientation else None),
-            iterations=iterations, converged=converged,
-            outliers=tuple(int(i) for i in np.flatnonzero(robust < 0.5)),
+                                 if rotations is not None else None),
+            iterations=found.iterations, converged=found.converged,
+            outliers=tuple(int(i) for i in np.flatnonzero(found.fit.pose_weights < 0.5)),
         )
         return self
+
+    def _steps(self, q, target, rotations, weights):
+        """What the identification core asks of this calibration: the analysis of the weighted
+        position (and orientation) rows, the Levenberg–Marquardt fit with the robust loss, and
+        the weighted rows at a fit for the covariance."""
+        rows = weights.shape[1]
+
+        def analyse_at(chain, candidates):
+            jac = chain.identification_jacobian(q, candidates)[:, :rows, :]
+            scaled = (jac * weights[:, :, None]).reshape(-1, len(candidates))
+            _, report = analyse(chain, scaled, candidates, explain=False)
+            return Analysis(report.identified, lambda: analyse(chain, scaled, candidates)[1])
+
+        def fit(chain, names):
+            return levenberg_marquardt(chain, q, target, names, rotations=rotations, weights=weights,
+                                       pose_weights=self._robust_weights, max_iterations=self.max_iterations,
+                                       tolerance=self.tolerance)
+
+        def linearise(fitted, names):
+            w = weights * fitted.pose_weights[:, None]
+            jac = fitted.chain.identification_jacobian(q, names)[:, :rows, :] * w[:, :, None]
+            r = residual_of(fitted.chain, q, target, rotations) * w
+            return r.reshape(-1), jac.reshape(-1, len(names))
+
+        return {"analyse": analyse_at, "fit": fit, "linearise": linearise}
 
     def _robust_weights(self, residual_w):
         if self.loss == "linear":
@@ -275,32 +301,34 @@ class KinematicCalibration:
             return np.where(s <= 1.0, 1.0, 1.0 / np.maximum(s, 1e-300))
         return 1.0 / np.sqrt(1.0 + s * s)
 
-    @staticmethod
-    def _deviations(nominal, start, fitted, names):
-        """Identified minus starting values, comparable in every parameter (rad, mm)."""
-        return fitted.parameter_values(names) - start.parameter_values(names)
-
-    @staticmethod
-    def _covariance(chain, q, residual, weights, names, rows):
-        jac = (chain.identification_jacobian(q, names)[:, :rows, :] * weights[:, :, None]).reshape(-1, len(names))
-        r = (residual * weights).reshape(-1)
-        dof = max(len(r) - len(names), 1)
-        sigma2 = float(r @ r) / dof
-        scale = np.linalg.norm(jac, axis=0)
-        scale[scale == 0] = 1.0
-        inv = np.linalg.pinv((jac / scale).T @ (jac / scale))
-        cov = sigma2 * inv / np.outer(scale, scale)
-        std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            corr = cov / np.outer(std, std)
-        pairs = []
-        for i in range(len(names)):
-            for j in range(i + 1, len(names)):
-                if abs(corr[i, j]) > STRONG_CORRELATION:
-                    pairs.append((names[i], names[j], float(corr[i, j])))
-        return std, tuple(pairs)
-
     # --------------------------------------------------------------- predict
     def predict(self, joints):
-        """TCP positions (N, 3) of the calibrated model."""
+        """TCP positions of the calibrated model.
+
+        joints: (N, n) rad (mm for prismatic joints), as commanded.  Returns (N, 3) mm in the
+        measurement frame the model was fitted in (the deflected robot's for the compliance
+        sets).  InputError if not fitted.
+        """
+        if not hasattr(self, "chain_"):
+            raise InputError("this KinematicCalibration is not fitted: call fit first")
         return self.chain_.fk_positions(np.asarray(joints, dtype=float))
+
+    # ------------------------------------------------------------ documents
+    def to_dict(self):
+        """The fitted calibration as a JSON-ready dict: settings, the calibrated and starting
+        chains (robot-file structure, mm and deg, with the joint compliance when there is
+        one), the identified names and :meth:`CalibrationResult.to_dict`."""
+        return fitted_document("kinematic", self)
+
+    @classmethod
+    def from_dict(cls, doc):
+        """A fitted calibration back from :meth:`to_dict`; FileFormatError if ``doc`` is damaged."""
+        part = read_fitted_document(doc, "kinematic")
+        try:
+            out = cls(**part.settings)
+            out._validate()
+            result = CalibrationResult.from_dict(part.result, part.chain)
+        except (KeyError, TypeError, ValueError, InputError) as exc:
+            raise FileFormatError(f"kinematic calibration document is damaged ({exc}); regenerate it") from None
+        out.chain_, out.start_chain_, out.names_, out.result_ = part.chain, part.start_chain, part.names, result
+        return out

@@ -12,7 +12,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
-from ..kinematics.chain import gain_index
 
 # A scaled column whose component outside the span of the columns before it is below this
 # is treated as a combination of them.  Its standard error would be about 1/1000 of its effect
@@ -24,10 +23,6 @@ RANK_TOLERANCE = 1e-3
 STRONG_CORRELATION = 0.95
 # Sine of the angle below which two joint axes count as parallel (Hayati's beta applies).
 NEAR_PARALLEL = 0.05
-# A joint gain the data determine no better than this (0.1 %) is left at its starting value:
-# real transmission errors are smaller, and a free one takes up noise (on the UR5 tracker
-# data the wrist's gain came out at -47 % +- 158 % while the others had 64-335 ppm errors).
-GAIN_STD_LIMIT = 1e-3
 
 
 @dataclass(frozen=True)
@@ -56,38 +51,31 @@ class IdentifiabilityReport:
                 "o3": self.o3, "noise_amplification": self.noise_amplification}
 
 
-def loose_gains(names, std_errors, n_joints):
-    """{name: reason} for the joint gains among ``names`` whose standard error (a fraction)
-    exceeds GAIN_STD_LIMIT: refit without them."""
-    return {name: (f"{name} is determined to ±{s * 1e6:.0f} ppm only (more than "
-                   f"{GAIN_STD_LIMIT * 1e6:.0f}): left at its starting value")
-            for name, s in zip(names, std_errors) if gain_index(name, n_joints) is not None and s > GAIN_STD_LIMIT}
-
-
 def _parallel_pairs(chain):
     from ..kinematics import to_poe
 
-    axes = to_poe(chain).axes
+    axes = to_poe(chain.rigid).axes
     n = len(axes)
     return {(i + 1, j + 1) for i in range(n) for j in range(i + 1, n)
             if np.linalg.norm(np.cross(axes[i], axes[j])) < NEAR_PARALLEL}
 
 
-def _joint_of(name):
-    stem = name.rstrip("0123456789")
-    return stem, (int(name[len(stem):]) if stem != name else None)
+def _joint_of(chain, name):
+    """(kind, 1-based joint or None) of a parameter of ``chain``; a name outside its space
+    (the constraint calibration's 'scale') is its own kind, of no joint."""
+    parameter = chain.parameters.get(name)
+    return (name, None) if parameter is None else (parameter.kind, parameter.joint)
 
 
 def _reason(chain, name, partners, parallel, moves):
     """A sentence on why ``name`` cannot be identified."""
+    stem, joint = _joint_of(chain, name)
     if not moves:
-        stem, joint = _joint_of(name)
         if joint == chain.n_joints and stem in ("theta", "alpha", "beta"):
             return f"{name} does not move the TCP: it lies on the axis of joint {joint}"
         return f"{name} does not move the TCP in these poses"
-    stem, joint = _joint_of(name)
     for partner in partners:
-        p_stem, p_joint = _joint_of(partner)
+        p_stem, p_joint = _joint_of(chain, partner)
         if stem == "theta" and joint == 1 and partner == "base_rz":
             return "base rotation about z absorbs the joint-1 offset (theta1)"
         if stem == "d" and joint == 1 and partner == "base_z":
@@ -101,7 +89,8 @@ def _reason(chain, name, partners, parallel, moves):
 def analyse(chain, jacobian, names, tolerance=RANK_TOLERANCE, explain=True):
     """Select the identifiable parameters of a (rows, P) Jacobian whose columns are ``names``
     in order of preference; returns (kept column indices, IdentifiabilityReport).
-    ``explain=False`` skips the reasons (the fixed parameters map to "")."""
+    ``chain`` (rigid or compliant) gives the parameters' records and the geometry the reasons
+    cite.  ``explain=False`` skips the reasons (the fixed parameters map to "")."""
     rows, count = jacobian.shape
     norms = np.linalg.norm(jacobian, axis=0)
     biggest = norms.max() if count else 0.0

@@ -5,6 +5,8 @@ step with :meth:`Chain.perturbed`, so the linearisation is always exact to first
 Residuals are measured minus model, weighted per row; an optional per-pose weight function
 turns it into iteratively reweighted least squares for robust losses.
 """
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..spatial import so3_log
@@ -12,6 +14,21 @@ from ..spatial import so3_log
 # Tracker data fit a kinematic model almost linearly: starting nearly undamped (Gauss–Newton)
 # reaches the optimum in fewer steps; the damping still rises when a step fails.
 KINEMATIC_DAMPING = 1e-7
+
+
+@dataclass(frozen=True)
+class Fit:
+    """How a least-squares fit ended.
+
+    chain: the fitted chain; iterations: steps taken; converged: whether a stopping rule was
+    met (rather than ``max_iterations``); pose_weights: (N,) robust weights of the poses at
+    the fit (:func:`levenberg_marquardt`; None from :func:`damped_least_squares`).
+    """
+
+    chain: object
+    iterations: int
+    converged: bool
+    pose_weights: np.ndarray | None = None
 
 
 def residual(chain, joints, positions, rotations=None):
@@ -29,7 +46,7 @@ def levenberg_marquardt(chain, joints, positions, names, *, rotations=None, weig
     row weights (1/sigma); pose_weights: callable (weighted residual (N, k)) -> (N,) robust
     weights, re-evaluated at every linearisation (iteratively reweighted least squares), or None.
 
-    Returns (chain, iterations, converged, final pose weights).
+    Returns a :class:`Fit` with the final pose weights (all 1 without ``pose_weights``).
     """
     names = list(names)
     rows = 6 if rotations is not None else 3
@@ -51,11 +68,10 @@ def levenberg_marquardt(chain, joints, positions, names, *, rotations=None, weig
     def weighted_only(c):
         return (weighted(c) * np.sqrt(state["robust"])[:, None]).reshape(-1)
 
-    chain, iterations, converged = damped_least_squares(
-        chain, names, linearise, weighted_only, max_iterations=max_iterations, tolerance=tolerance,
-        damping=KINEMATIC_DAMPING)
-    robust = robust_of(weighted(chain)) if pose_weights else state["robust"]
-    return chain, iterations, converged, robust
+    fit = damped_least_squares(chain, names, linearise, weighted_only, max_iterations=max_iterations,
+                               tolerance=tolerance, damping=KINEMATIC_DAMPING)
+    robust = robust_of(weighted(fit.chain)) if pose_weights else state["robust"]
+    return Fit(fit.chain, fit.iterations, fit.converged, robust)
 
 
 def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50, tolerance=1e-12, damping=1e-4):
@@ -67,7 +83,7 @@ def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50
     ``tolerance`` of it, the step or the cost is negligible, or no step lowers the cost.
     ``linearise`` may reweight the residual (robust losses): the cost is taken afresh at
     every linearisation.  ``damping``: the starting Levenberg–Marquardt damping, relative to
-    the diagonal of the column-scaled normal matrix.  Returns (chain, iterations, converged).
+    the diagonal of the column-scaled normal matrix.  Returns a :class:`Fit`.
     """
     names = list(names)
     current, jac = linearise(chain)
@@ -107,4 +123,4 @@ def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50
                 or new_cost <= 1e-20 * len(new)):
             converged = True
             break
-    return chain, iteration, converged
+    return Fit(chain, iteration, converged)

@@ -12,10 +12,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..spatial import make_transform
+from .identification import BASE, TOOL_POSITION
 from .least_squares import levenberg_marquardt
-
-TOOL_POSITION = ("tool_x", "tool_y", "tool_z")
-BASE = ("base_x", "base_y", "base_z", "base_rx", "base_ry", "base_rz")
 
 
 def kabsch(source, target, weights=None):
@@ -61,5 +59,5 @@ def register_base_and_tool(chain, joints, positions, *, tool=True, max_iteration
     names = list(BASE) + (list(TOOL_POSITION) if tool else [])
     rms = lambda c: float(np.sqrt(np.mean(np.sum((positions - c.fk_positions(q)) ** 2, axis=1))))  # noqa: E731
     start = rms(chain)
-    chain, iterations, converged, _ = levenberg_marquardt(chain, q, positions, names, max_iterations=max_iterations)
-    return chain, FitReport(tuple(names), iterations, converged, start, rms(chain))
+    fit = levenberg_marquardt(chain, q, positions, names, max_iterations=max_iterations)
+    return fit.chain, FitReport(tuple(names), fit.iterations, fit.converged, start, rms(fit.chain))

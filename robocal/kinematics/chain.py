@@ -26,18 +26,10 @@ import numpy as np
 from ..errors import InputError
 from ..spatial import invert, make_transform, matrix_to_rpy, so3_exp, translation
 from . import program
+from .parameters import FRAME_KINDS, LINK_KINDS, ParameterSpace
 from .program import Op
 
 CONVENTIONS = ("dh", "mdh", "poe")
-LINK_PARAMETERS = {
-    "dh": ("theta", "d", "a", "alpha", "beta"),
-    "mdh": ("theta", "d", "a", "alpha", "beta"),
-    # POE axis placement: shift along the joint frame's x / y, tilt about its x / y.
-    "poe": ("theta", "ux", "uy", "wx", "wy"),
-}
-FRAME_SUFFIXES = ("x", "y", "z", "rx", "ry", "rz")
-GAIN = "gain"
-_ANGULAR_LINK = {"alpha", "beta", "wx", "wy"}
 # Where random configurations stop on a prismatic joint without limits.
 UNLIMITED_STROKE_MM = 1000.0
 
@@ -49,13 +41,6 @@ def _as_array(values, n, default=0.0):
     if out.shape != (n,):
         raise InputError(f"expected {n} values, got {out.size}")
     return out
-
-
-def gain_index(name, n_joints):
-    """Joint index (0-based) of a gain parameter name of an n-joint chain, or None."""
-    if name.startswith(GAIN) and name[len(GAIN):].isdigit() and 1 <= int(name[len(GAIN):]) <= n_joints:
-        return int(name[len(GAIN):]) - 1
-    return None
 
 
 def _axis_frame(axis, point):
@@ -139,6 +124,16 @@ class Chain:
         return len(self.joint_types)
 
     @property
+    def rigid(self):
+        """The rigid chain: this one (a :class:`CompliantChain` returns its geometry)."""
+        return self
+
+    @cached_property
+    def parameters(self):
+        """The :class:`~robocal.kinematics.parameters.ParameterSpace` of this chain."""
+        return ParameterSpace.of_chain(self.convention, self.joint_types)
+
+    @property
     def revolute(self):
         """Boolean mask of revolute joints."""
         return np.array([t == "revolute" for t in self.joint_types])
@@ -219,7 +214,7 @@ class Chain:
         emit("const", matrix=translation(*self.base[:3, 3]))
         emit("mark", name="W")
         emit("const", matrix=make_transform(self.base[:3, :3]))
-        for k, s in enumerate(FRAME_SUFFIXES):
+        for k, s in enumerate(FRAME_KINDS):
             tag(f"base_{s}", "W", "trans" if k < 3 else "rot", k % 3)
 
         if self.convention == "poe":
@@ -232,7 +227,7 @@ class Chain:
         emit("const", matrix=self.flange)
         emit("const", matrix=self.tool)
         emit("mark", name="T")
-        for k, s in enumerate(FRAME_SUFFIXES):
+        for k, s in enumerate(FRAME_KINDS):
             tag(f"tool_{s}", "T", "trans" if k < 3 else "rot", k % 3)
         return tuple(ops), tags
 
@@ -299,7 +294,7 @@ class Chain:
                 tag(f"{name}{k}", f"J{k}", motion, axis, -1.0)
         emit("const", matrix=previous_inv @ self.home)
         emit("mark", name="H")
-        for k, s in enumerate(FRAME_SUFFIXES):
+        for k, s in enumerate(FRAME_KINDS):
             tag(f"home_{s}", "H", "trans" if k < 3 else "rot", k % 3)
 
     # ---------------------------------------------------------- forward kinematics
@@ -334,50 +329,42 @@ class Chain:
         groups: 'links' (per-joint parameters), 'offsets' (theta only), 'gains' (joint
         scale, see the module notes), 'base', 'tool', 'home' (POE flange pose).
         """
+        space = self.parameters
         names = []
-        n = self.n_joints
         for g in groups:
-            if g == "gains":
-                names += [f"{GAIN}{k}" for k in range(1, n + 1)]
-            elif g == "links":
-                names += [f"{p}{k}" for k in range(1, n + 1) for p in LINK_PARAMETERS[self.convention]]
+            if g == "links":
+                names += space.of_group("link")
             elif g == "offsets":
-                names += [f"theta{k}" for k in range(1, n + 1)]
-            elif g in ("base", "tool"):
-                names += [f"{g}_{s}" for s in FRAME_SUFFIXES]
+                names += [p.name for p in space if p.group == "link" and p.kind == "theta"]
+            elif g in ("gains", "base", "tool"):
+                names += space.of_group(g)
             elif g == "home":
                 if self.convention != "poe":
                     raise InputError("'home' parameters exist only in POE models")
-                names += [f"home_{s}" for s in FRAME_SUFFIXES]
+                names += space.of_group(g)
             else:
                 raise InputError(f"unknown parameter group {g!r}")
         return names
 
     def is_angular(self, name):
         """True for parameters measured in radians (reported in degrees)."""
-        stem = name.rstrip("0123456789")
-        if stem == "theta":
-            return self.joint_types[int(name[5:]) - 1] == "revolute"
-        return stem in _ANGULAR_LINK or name.endswith(("_rx", "_ry", "_rz"))
+        return self.parameters[name].angular
 
     def parameter_values(self, names=None):
         """Current values of named parameters (frames as xyz and rpy)."""
         names = self.parameter_names() if names is None else names
         out = []
-        frames = {"base": self.base, "tool": self.tool, "home": self.home}
-        for name in names:
-            if "_" in name:
-                group, s = name.split("_")
-                T = frames[group]
-                k = FRAME_SUFFIXES.index(s)
-                out.append(T[k, 3] if k < 3 else matrix_to_rpy(T[:3, :3])[k - 3])
+        for p in self.parameters.records(names):
+            if p.joint is None:
+                frame = getattr(self, p.group)
+                k = FRAME_KINDS.index(p.kind)
+                out.append(frame[k, 3] if k < 3 else matrix_to_rpy(frame[:3, :3])[k - 3])
+            elif p.group == "gains":
+                out.append(np.log(np.linalg.norm(self.joint_map[p.joint - 1])))
             else:
-                stem = name.rstrip("0123456789")
-                i = int(name[len(stem):]) - 1
-                if stem == GAIN:
-                    out.append(np.log(np.linalg.norm(self.joint_map[i])))
-                else:
-                    out.append(getattr(self, stem)[i] if stem in ("theta", "d", "a", "alpha", "beta") else 0.0)
+                # POE axis placements are deviations from the current axis: always 0.
+                values = getattr(self, p.kind, None) if p.kind in LINK_KINDS["dh"] else None
+                out.append(0.0 if values is None else values[p.joint - 1])
         return np.array(out, dtype=float)
 
     def identification_jacobian(self, q, names=None):
@@ -388,7 +375,8 @@ class Chain:
         """
         names = self.parameter_names() if names is None else list(names)
         q2, _ = self._check_q(q)
-        gains = [j for j, name in enumerate(names) if gain_index(name, self.n_joints) is not None]
+        space = self.parameters
+        gains = [j for j, name in enumerate(names) if name in space and space[name].group == "gains"]
         if gains:
             return self._with_gain_columns(q2, names, gains)
         ops, tags = self._compiled
@@ -430,7 +418,7 @@ class Chain:
 
     def _with_gain_columns(self, q2, names, gains):
         """Gain k moves the TCP as joint k's zero offset does, times the model joint value."""
-        joints = [gain_index(names[j], self.n_joints) for j in gains]
+        joints = [self.parameters[names[j]].joint - 1 for j in gains]
         others = [j for j in range(len(names)) if j not in gains]
         offsets = [self.offset_parameter(k) for k in joints]
         jac = self.identification_jacobian(q2, [names[j] for j in others] + offsets)
@@ -466,25 +454,19 @@ class Chain:
                 if getattr(self, k) is not None}
         frame_dev = {"base": np.zeros(6), "tool": np.zeros(6), "home": np.zeros(6)}
         poe_dev = np.zeros((self.n_joints, 4))
-        valid = set(self._compiled[1])
         joint_map = self.joint_map.copy()
         for name, value in items.items():
-            k = gain_index(name, self.n_joints)
-            if k is not None:
-                joint_map[k] *= np.exp(value)
-                continue
-            if name not in valid:
+            p = self.parameters.get(name)
+            if p is None:
                 raise InputError(f"parameter {name!r} does not exist in a {self.convention} model")
-            if "_" in name:
-                group, s = name.split("_")
-                frame_dev[group][FRAME_SUFFIXES.index(s)] += value
-                continue
-            stem = name.rstrip("0123456789")
-            i = int(name[len(stem):]) - 1
-            if stem in link:
-                link[stem][i] += value
+            if p.group == "gains":
+                joint_map[p.joint - 1] *= np.exp(value)
+            elif p.joint is None:
+                frame_dev[p.group][FRAME_KINDS.index(p.kind)] += value
+            elif p.kind in link:
+                link[p.kind][p.joint - 1] += value
             else:
-                poe_dev[i, ("ux", "uy", "wx", "wy").index(stem)] += value
+                poe_dev[p.joint - 1, LINK_KINDS["poe"].index(p.kind) - 1] += value
         changes = dict(link)
         if not np.array_equal(joint_map, self.joint_map):
             changes["joint_map"] = joint_map

@@ -11,43 +11,47 @@ and the same deflections.
 Gravity points along -z of the robot base (a floor-mounted robot), not of the measurement
 frame, whose z a laser tracker need not keep vertical.
 
-The class offers what the calibration and the compensation ask of a chain (forward
-kinematics, identification Jacobian, named parameters, perturbation) and hands everything
-else to the rigid chain.
+The class declares what the calibration and the compensation ask of a chain: forward
+kinematics, identification Jacobian, the parameter space, perturbation, the rigid chain's
+geometry, limits and joint conversions.  What it does not declare (the geometric Jacobian,
+joint frames, POE frames) belongs to ``rigid``: ask the rigid chain for it.
 """
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from ..errors import InputError
-from .chain import gain_index
+from ..errors import FileFormatError, InputError
 from .gravity import MassModel, default_mass_model
+from .parameters import COMPLIANCE, FILE_UNIT, ParameterSpace
 
-PREFIX = "compliance"
 # A joint whose gravity torque never exceeds this share of the most loaded joint's gets no
 # compliance parameter: its deflection would be far below any measurement noise.
 LOADED_SHARE = 0.01
-# Compliances are shown in micro-radians per N·m (a 150 kg-class joint: about 0.01).
-FILE_UNIT = 1e6
 UNITS_NOTE = "mm for lengths, deg for angles, urad/(N*m) for compliances, ppm for joint gains"
 # Deflections of a few hundredths of a degree are gone after this many fixed-point steps
 # (each shrinks the error by about dtau/dq · c, below 1e-3).
 COMMAND_ITERATIONS = 6
+GRAVITY_NOTE = "-z of the robot base"
 
 
 def file_units(chain, names):
     """(P,) factors from internal units (mm, rad, rad/(N·m), gain) to the ones files and
     reports show (mm, deg, µrad/(N·m), ppm)."""
-    n_joints = getattr(chain, "rigid", chain).n_joints
-    return np.array([FILE_UNIT if compliance_index(n) is not None or gain_index(n, n_joints) is not None
-                     else np.degrees(1.0) if chain.is_angular(n) else 1.0 for n in names])
+    return chain.parameters.file_units(names)
 
 
-def compliance_index(name):
-    """Joint index (0-based) of a compliance parameter name, or None for any other name."""
-    if name.startswith(PREFIX) and name[len(PREFIX):].isdigit():
-        return int(name[len(PREFIX):]) - 1
-    return None
+def _rigid_field(name):
+    return property(lambda self: getattr(self.rigid, name), doc=f"The rigid chain's ``{name}``.")
+
+
+def _rigid_method(name):
+    def method(self, *args, **kwargs):
+        return getattr(self.rigid, name)(*args, **kwargs)
+
+    method.__name__ = name
+    method.__doc__ = f"The rigid chain's :meth:`~robocal.kinematics.Chain.{name}` (joints as commanded)."
+    return method
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,11 +70,33 @@ class CompliantChain:
             raise InputError(f"compliance needs {self.rigid.n_joints} finite values, got {compliance.tolist()}")
         object.__setattr__(self, "compliance", compliance)
 
-    def __getattr__(self, name):
-        # Geometry, limits and names are the rigid chain's.
-        if name in ("rigid", "mass_model", "compliance"):
-            raise AttributeError(name)
-        return getattr(self.rigid, name)
+    # ------------------------------------------------ what is the rigid chain's
+    # Geometry, limits and joint conversions do not change with the compliance.
+    name = _rigid_field("name")
+    convention = _rigid_field("convention")
+    joint_types = _rigid_field("joint_types")
+    n_joints = _rigid_field("n_joints")
+    revolute = _rigid_field("revolute")
+    theta = _rigid_field("theta")
+    d = _rigid_field("d")
+    a = _rigid_field("a")
+    alpha = _rigid_field("alpha")
+    beta = _rigid_field("beta")
+    axes = _rigid_field("axes")
+    points = _rigid_field("points")
+    home = _rigid_field("home")
+    joint_map = _rigid_field("joint_map")
+    lower = _rigid_field("lower")
+    upper = _rigid_field("upper")
+    base = _rigid_field("base")
+    flange = _rigid_field("flange")
+    tool = _rigid_field("tool")
+    masses = _rigid_field("masses")
+    within_limits = _rigid_method("within_limits")
+    random_configurations = _rigid_method("random_configurations")
+    joints_from_file = _rigid_method("joints_from_file")
+    joints_to_file = _rigid_method("joints_to_file")
+    model_joints = _rigid_method("model_joints")
 
     # ------------------------------------------------------------ deflection
     def gravity_torque(self, q):
@@ -99,31 +125,43 @@ class CompliantChain:
 
     # ------------------------------------------------------------ kinematics
     def fk(self, q):
+        """TCP pose of the deflected robot at commanded joints: as :meth:`Chain.fk`."""
         return self.rigid.fk(self.deflected(q))
 
     def fk_positions(self, q):
+        """TCP positions of the deflected robot at commanded joints: as :meth:`Chain.fk_positions`."""
         return self.rigid.fk_positions(self.deflected(q))
 
     # ------------------------------------------------------------ parameters
+    @cached_property
+    def parameters(self):
+        """The rigid chain's parameter space plus one compliance per joint."""
+        return ParameterSpace.of_chain(self.rigid.convention, self.rigid.joint_types, compliance=True)
+
     def replace(self, **changes):
+        """A copy with some fields of the rigid chain changed, the same compliance."""
         return CompliantChain(self.rigid.replace(**changes), self.mass_model, self.compliance)
 
     def parameter_names(self, groups=("links", "base", "tool")):
-        names = [g for g in groups if g != "compliance"]
-        out = self.rigid.parameter_names(tuple(names))
-        if "compliance" in groups:
-            out += [f"{PREFIX}{k}" for k in range(1, self.rigid.n_joints + 1)]
+        """As :meth:`Chain.parameter_names`, with the group 'compliance' as well."""
+        out = self.rigid.parameter_names(tuple(g for g in groups if g != COMPLIANCE))
+        if COMPLIANCE in groups:
+            out += self.parameters.of_group(COMPLIANCE)
         return out
 
     def is_angular(self, name):
-        return False if compliance_index(name) is not None else self.rigid.is_angular(name)
+        """True for parameters measured in radians (compliances are not)."""
+        return self.parameters[name].angular
 
     def _split(self, names):
-        joints = [compliance_index(name) for name in names]
-        geometric = [j for j, k in enumerate(joints) if k is None]
-        return joints, geometric
+        """Per name the 0-based joint of a compliance (None for any other), and the
+        positions of the geometric names."""
+        records = [self.parameters.get(name) for name in names]
+        joints = [p.joint - 1 if p is not None and p.group == COMPLIANCE else None for p in records]
+        return joints, [j for j, k in enumerate(joints) if k is None]
 
     def parameter_values(self, names=None):
+        """Current values of named parameters (compliances in rad/(N·m))."""
         names = self.parameter_names() if names is None else list(names)
         joints, geometric = self._split(names)
         out = np.array([0.0 if k is None else self.compliance[k] for k in joints])
@@ -151,17 +189,36 @@ class CompliantChain:
         return out
 
     def perturbed(self, names, deviations=None):
+        """A new compliant chain with parameter deviations applied: as :meth:`Chain.perturbed`,
+        compliances adding to theirs."""
         items = dict(names) if deviations is None else dict(zip(names, np.asarray(deviations, float).reshape(-1)))
         compliance = self.compliance.copy()
         geometric = {}
         for name, value in items.items():
-            k = compliance_index(name)
-            if k is None:
-                geometric[name] = value
+            p = self.parameters.get(name)
+            if p is not None and p.group == COMPLIANCE:
+                compliance[p.joint - 1] += value
             else:
-                compliance[k] += value
+                geometric[name] = value
         rigid = self.rigid.perturbed(geometric) if geometric else self.rigid
         return CompliantChain(rigid, self.mass_model, compliance)
+
+    # ------------------------------------------------------------ model files
+    def compliance_document(self):
+        """The joint compliance as model files keep it: masses (kg), compliances
+        (µrad/(N·m)) and the direction of gravity, JSON-ready."""
+        return {"link_masses_kg": self.mass_model.link_masses.tolist(), "payload_kg": self.mass_model.payload,
+                "compliance_urad_per_nm": (self.compliance * FILE_UNIT).tolist(), "gravity": GRAVITY_NOTE}
+
+    @classmethod
+    def from_document(cls, chain, doc, where="the model file"):
+        """``chain`` made compliant by a :meth:`compliance_document`; FileFormatError, naming
+        ``where``, if the document is damaged."""
+        try:
+            mass = MassModel(doc["link_masses_kg"], doc["payload_kg"])
+            return cls(chain, mass, [c / FILE_UNIT for c in doc["compliance_urad_per_nm"]])
+        except (KeyError, TypeError, ValueError, InputError) as exc:
+            raise FileFormatError(f"{where}: 'joint_compliance' is damaged ({exc}); regenerate the file") from None
 
 
 def with_compliance(chain, joints, payload=None):
@@ -172,4 +229,5 @@ def with_compliance(chain, joints, payload=None):
     compliant = CompliantChain(chain, default_mass_model(chain, payload), np.zeros(chain.n_joints))
     peak = np.abs(compliant.gravity_torque(joints)).max(axis=0)
     loaded = chain.revolute & (peak > LOADED_SHARE * max(peak.max(), 1e-300))
-    return compliant, [f"{PREFIX}{k + 1}" for k in np.flatnonzero(loaded)]
+    names = compliant.parameters.of_group(COMPLIANCE)
+    return compliant, [names[k] for k in np.flatnonzero(loaded)]

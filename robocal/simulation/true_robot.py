@@ -20,7 +20,6 @@ from ..io.atomic import write_text_atomic
 from ..io.robot_file import chain_from_dict, robot_to_toml, tomllib
 from ..io.tables import Measurements
 from ..kinematics import Chain
-from ..kinematics.compliant import file_units
 from ..spatial import matrix_to_rpy, so3_exp
 from .joint_effects import Compliance, backlash_offsets, to_controller
 
@@ -35,8 +34,12 @@ _UNITS = {
 
 
 def _file_to_internal(chain, name, value):
-    """A deviation in file units (mm, deg, ppm for joint gains) -> the chain's internal units."""
-    return np.radians(value) if chain.is_angular(name) else float(value) / file_units(chain, [name])[0]
+    """A deviation in file units (mm, deg, ppm for joint gains) -> the chain's internal units
+    (an unknown name passes unchanged: ``Chain.perturbed`` refuses it)."""
+    parameter = chain.parameters.get(name)
+    if parameter is None:
+        return float(value)
+    return np.radians(value) if parameter.angular else float(value) / parameter.file_factor
 
 
 @dataclass(frozen=True, eq=False)
