@@ -127,3 +127,51 @@ def test_refusals():
         assert all(getattr(unchecked, k) == v for k, v in settings.items())
         with pytest.raises(InputError, match=message):
             unchecked.fit(chain, q, chain.fk_positions(q))
+
+
+def _damaged(doc, change):
+    import copy
+
+    broken = copy.deepcopy(doc)
+    change(broken)
+    return broken
+
+
+@pytest.mark.parametrize("parameters", ["full", "full+compliance+gains"])
+def test_a_fitted_calibration_round_trips_through_its_document(parameters):
+    import json
+
+    from robocal.errors import FileFormatError
+    from robocal.kinematics.compliant import CompliantChain
+
+    chain = builtin("kr150-2")
+    names = chain.parameter_names()
+    truth = chain.perturbed(names, _deviations(chain, names, np.random.default_rng(5)))
+    q = uniform_joints(chain, 150, np.random.default_rng(6))
+    cal = KinematicCalibration(parameters, payload=20.0).fit(chain, q, truth.fk_positions(q))
+    doc = json.loads(json.dumps(cal.to_dict()))
+    back = KinematicCalibration.from_dict(doc)
+    test = uniform_joints(chain, 200, np.random.default_rng(7))
+    assert np.abs(back.predict(test) - cal.predict(test)).max() < 1e-9
+    assert back.get_settings() == cal.get_settings() and back.names_ == cal.names_
+    assert isinstance(back.chain_, CompliantChain) == ("compliance" in parameters)
+    assert back.result_.to_dict(back.chain_).keys() == doc["result"].keys()
+    np.testing.assert_allclose(back.result_.values, cal.result_.values, rtol=1e-12, atol=1e-15)
+    assert back.result_.identifiability.fixed == cal.result_.identifiability.fixed
+    assert np.abs(back.start_chain_.fk_positions(test) - cal.start_chain_.fk_positions(test)).max() < 1e-9
+    for change in (lambda d: d["chain"]["robot"].pop("joints"), lambda d: d["settings"].update(bogus=1),
+                   lambda d: d["settings"].update(loss="cauchy"), lambda d: d.pop("result"),
+                   lambda d: d.update(estimator="constraint")):
+        with pytest.raises(FileFormatError) as refused:
+            KinematicCalibration.from_dict(_damaged(doc, change))
+        assert "\n" not in str(refused.value)
+    if "compliance" in parameters:
+        with pytest.raises(FileFormatError, match="joint_compliance"):
+            KinematicCalibration.from_dict(_damaged(doc, lambda d: d["chain"]["joint_compliance"].pop("payload_kg")))
+
+
+def test_an_unfitted_calibration_neither_predicts_nor_serialises():
+    with pytest.raises(InputError, match="not fitted"):
+        KinematicCalibration().predict(np.zeros((1, 6)))
+    with pytest.raises(InputError, match="not fitted"):
+        KinematicCalibration().to_dict()

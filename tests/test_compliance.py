@@ -146,3 +146,29 @@ def test_the_payload_given_shapes_the_deflection_model():
     assert unchecked.payload == -1.0
     with pytest.raises(InputError, match="payload must be"):
         unchecked.fit(KR150, q, truth.positions(q))
+
+
+def test_compliant_chain_declares_its_api_and_its_model_file_entry():
+    rigid = builtin("kr150-2")
+    chain = CompliantChain(rigid, default_mass_model(rigid, 40.0), np.linspace(1e-8, 3e-8, rigid.n_joints))
+    assert chain.rigid is rigid and rigid.rigid is rigid
+    for name in ("name", "n_joints", "joint_map", "lower", "upper", "base", "tool", "convention"):
+        assert getattr(chain, name) is getattr(rigid, name) or np.array_equal(getattr(chain, name), getattr(rigid, name))
+    q = rigid.random_configurations(20, rng=3)
+    assert np.array_equal(chain.within_limits(q), rigid.within_limits(q))
+    np.testing.assert_array_equal(chain.joints_to_file(q), rigid.joints_to_file(q))
+    # What is not declared is the rigid chain's alone: no silent rigid Jacobian for a compliant robot.
+    assert not hasattr(chain, "jacobian") and not hasattr(chain, "joint_frames")
+    assert chain.parameters["compliance2"].group == "compliance" and not chain.is_angular("compliance2")
+    assert chain.parameters.file_units(["compliance2", "gain1", "a2"]).tolist() == [1e6, 1e6, 1.0]
+    doc = json.loads(json.dumps(chain.compliance_document()))
+    assert doc == {"link_masses_kg": chain.mass_model.link_masses.tolist(), "payload_kg": 40.0,
+                   "compliance_urad_per_nm": (chain.compliance * 1e6).tolist(), "gravity": "-z of the robot base"}
+    back = CompliantChain.from_document(rigid, doc)
+    np.testing.assert_allclose(back.compliance, chain.compliance, rtol=1e-15)
+    np.testing.assert_allclose(back.fk_positions(q), chain.fk_positions(q), atol=1e-9)
+    for key in ("payload_kg", "compliance_urad_per_nm"):
+        with pytest.raises(FileFormatError, match="joint_compliance"):
+            CompliantChain.from_document(rigid, {k: v for k, v in doc.items() if k != key})
+    with pytest.raises(FileFormatError, match="joint_compliance"):
+        CompliantChain.from_document(rigid, {**doc, "compliance_urad_per_nm": [0.01] * 5})

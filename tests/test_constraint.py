@@ -362,3 +362,33 @@ def test_mukca_panda_1_held_out_placement():
     assert before["mean_mm"] > 5.0
     assert after["mean_mm"] < 0.15 * before["mean_mm"]
     assert after["socket_distance"]["max_mm"] < 0.1 * fixture.distance("0", "1")
+
+
+# ------------------------------------------------------------------- documents
+@pytest.mark.parametrize("settings", [{}, {"compliance": True, "gains": True, "pairs": "spanning", "payload": 1.0}])
+def test_a_fitted_calibration_round_trips_through_its_document(small_plan, settings):
+    import copy
+    import json
+
+    from robocal.errors import FileFormatError
+
+    chain, plan = small_plan
+    cal = ConstraintCalibration(**settings).fit(chain, plan.joints, plan.fixture_ids, plan.socket_ids, PLATE)
+    doc = json.loads(json.dumps(cal.to_dict()))
+    back = ConstraintCalibration.from_dict(doc)
+    q_test = chain.random_configurations(200, np.random.default_rng(3))
+    assert np.abs(back.predict(q_test) - cal.predict(q_test)).max() < 1e-9
+    assert back.get_settings() == cal.get_settings() and back.names_ == cal.names_
+    assert type(back.chain_) is type(cal.chain_)
+    assert back.result_.to_dict(back.chain_).keys() == doc["result"].keys()
+    assert back.result_.unobservable == cal.result_.unobservable and back.result_.pairs == cal.result_.pairs
+    np.testing.assert_allclose(back.result_.std_errors, cal.result_.std_errors, rtol=1e-12, atol=1e-15)
+    for change in (lambda d: d["chain"].pop("robot"), lambda d: d["settings"].update(pairs="some"),
+                   lambda d: d["result"].pop("unobservable"), lambda d: d.update(estimator="kinematic")):
+        broken = copy.deepcopy(doc)
+        change(broken)
+        with pytest.raises(FileFormatError) as refused:
+            ConstraintCalibration.from_dict(broken)
+        assert "\n" not in str(refused.value)
+    with pytest.raises(InputError, match="not fitted"):
+        ConstraintCalibration().to_dict()

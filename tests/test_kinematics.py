@@ -134,3 +134,33 @@ def test_bad_joint_count_is_a_clear_error():
 def test_unknown_parameter_name():
     with pytest.raises(InputError, match="does not exist"):
         load_robot("kr150-2").identification_jacobian(np.zeros((1, 6)), ["alpha9"])
+
+
+@pytest.mark.parametrize("convert", [lambda c: c, to_mdh, to_poe])
+def test_parameter_space_records_match_the_names(convert):
+    chain = convert(load_robot("kr150-2"))
+    space = chain.parameters
+    assert list(space.names) == chain.parameter_names(chain._groups()[:1] + ("gains",) + chain._groups()[1:])
+    for k, p in enumerate(space):
+        assert space.index(p.name) == p.index == k and space[p.name] is p
+    theta3, base_rz, tool_y, gain4 = (space[n] for n in ("theta3", "base_rz", "tool_y", "gain4"))
+    assert (theta3.group, theta3.joint, theta3.kind, theta3.unit, theta3.angular) == ("link", 3, "theta", "rad", True)
+    assert (base_rz.group, base_rz.joint, base_rz.kind, base_rz.unit) == ("base", None, "rz", "rad")
+    assert (tool_y.unit, tool_y.angular, tool_y.file_factor) == ("mm", False, 1.0)
+    assert (gain4.group, gain4.joint, gain4.unit, gain4.file_factor) == ("gains", 4, "fraction", 1e6)
+    assert theta3.file_factor == pytest.approx(180 / np.pi)
+    if chain.convention == "poe":
+        assert space["wx2"].angular and not space["ux2"].angular and "home_z" in space and "alpha2" not in space
+    else:
+        assert space["alpha2"].angular and not space["a2"].angular and "home_z" not in space
+    with pytest.raises(InputError, match="does not exist"):
+        space["theta7"]
+
+
+def test_prismatic_offsets_units_follow_the_convention():
+    chain = Chain("gantry", "dh", ("prismatic", "revolute"), theta=[0.0, 0.0], d=[100.0, 0.0],
+                  a=[0.0, 300.0], alpha=[np.pi / 2, 0.0])
+    # A DH prismatic joint's theta still turns about z; a POE one's slides along the axis.
+    assert chain.is_angular("theta1") and not chain.is_angular("d1")
+    assert not to_poe(chain).is_angular("theta1") and to_poe(chain).is_angular("theta2")
+    assert chain.rigid is chain

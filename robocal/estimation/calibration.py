@@ -10,12 +10,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import FileFormatError, InputError
+from ..errors import InputError
 from ..kinematics.compliant import with_compliance
 from ..spatial import make_transform
 from .identifiability import NEAR_PARALLEL, analyse
-from .identification import (Analysis, IdentifiedResult, check_payload, fitted_document, identified_parameters,
-                             identify, one_of, read_fitted_document)
+from .identification import (Analysis, FittedCalibration, IdentifiedResult, check_payload,
+                             identified_parameters, identify, one_of)
 from .least_squares import levenberg_marquardt
 from .least_squares import residual as residual_of
 from .metrics import error_stats
@@ -98,7 +98,7 @@ def candidate_parameters(chain, parameters="full", *, base=True, tool_orientatio
     return names
 
 
-class KinematicCalibration:
+class KinematicCalibration(FittedCalibration):
     """Levenberg–Marquardt identification of a chain's parameters, scikit-learn style.
 
     Parameters
@@ -130,6 +130,9 @@ class KinematicCalibration:
     registered starting model), ``names_`` (the identified parameters) and ``result_`` (a
     :class:`CalibrationResult`).
     """
+
+    KIND = "kinematic"
+    RESULT = CalibrationResult
 
     def __init__(self, parameters="full", *, loss="linear", f_scale=None, position_sigma=0.02,
                  orientation_sigma=0.01, register=True, payload=None, max_iterations=50, tolerance=1e-7):
@@ -309,26 +312,4 @@ class KinematicCalibration:
         measurement frame the model was fitted in (the deflected robot's for the compliance
         sets).  InputError if not fitted.
         """
-        if not hasattr(self, "chain_"):
-            raise InputError("this KinematicCalibration is not fitted: call fit first")
-        return self.chain_.fk_positions(np.asarray(joints, dtype=float))
-
-    # ------------------------------------------------------------ documents
-    def to_dict(self):
-        """The fitted calibration as a JSON-ready dict: settings, the calibrated and starting
-        chains (robot-file structure, mm and deg, with the joint compliance when there is
-        one), the identified names and :meth:`CalibrationResult.to_dict`."""
-        return fitted_document("kinematic", self)
-
-    @classmethod
-    def from_dict(cls, doc):
-        """A fitted calibration back from :meth:`to_dict`; FileFormatError if ``doc`` is damaged."""
-        part = read_fitted_document(doc, "kinematic")
-        try:
-            out = cls(**part.settings)
-            out._validate()
-            result = CalibrationResult.from_dict(part.result, part.chain)
-        except (KeyError, TypeError, ValueError, InputError) as exc:
-            raise FileFormatError(f"kinematic calibration document is damaged ({exc}); regenerate it") from None
-        out.chain_, out.start_chain_, out.names_, out.result_ = part.chain, part.start_chain, part.names, result
-        return out
+        return super().predict(joints)

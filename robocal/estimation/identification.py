@@ -244,39 +244,52 @@ def chain_from_document(doc, where):
     return chain
 
 
-@dataclass(frozen=True)
-class FittedDocument:
-    """The parts of a fitted calibration's document: settings (dict), chain and start
-    chain, names (tuple) and the result's dict."""
+class FittedCalibration:
+    """What a fitted calibration offers beyond its fit: the positions of the calibrated model
+    and its document.
 
-    settings: dict
-    chain: object
-    start_chain: object
-    names: tuple
-    result: dict
+    A subclass sets KIND (the document's "estimator" entry) and RESULT (its result class,
+    with ``from_dict(doc, chain)``), defines ``get_settings()`` and ``_validate()``, and its
+    ``fit`` sets ``chain_``, ``start_chain_``, ``names_`` and ``result_``.
+    """
 
+    KIND = ""
+    RESULT = None
 
-def fitted_document(kind, estimator):
-    """A fitted estimator as a JSON-ready dict; InputError if it is not fitted."""
-    if not hasattr(estimator, "result_"):
-        raise InputError(f"this {type(estimator).__name__} is not fitted: call fit first")
-    return {"estimator": kind, "settings": estimator.get_settings(),
-            "chain": chain_document(estimator.chain_), "start_chain": chain_document(estimator.start_chain_),
-            "names": list(estimator.names_), "result": estimator.result_.to_dict(estimator.chain_)}
+    def _require_fitted(self):
+        if not hasattr(self, "result_"):
+            raise InputError(f"this {type(self).__name__} is not fitted: call fit first")
 
+    def predict(self, joints):
+        """(N, 3) mm: positions of the calibrated model at joints (N, n) rad (mm for
+        prismatic joints), as commanded; InputError if not fitted."""
+        self._require_fitted()
+        return self.chain_.fk_positions(np.asarray(joints, dtype=float))
 
-def read_fitted_document(doc, kind):
-    """The :class:`FittedDocument` of :func:`fitted_document`'s output; FileFormatError,
-    in one line, if ``doc`` is not one of an estimator of ``kind`` or is damaged."""
-    where = f"{kind} calibration document"
-    if not isinstance(doc, dict) or doc.get("estimator") != kind:
-        raise FileFormatError(f"not a {where} (no \"estimator\": \"{kind}\")")
-    try:
-        settings, names, result = doc["settings"], doc["names"], doc["result"]
-        if not isinstance(settings, dict) or not isinstance(result, dict):
-            raise TypeError("settings and result must be tables")
-        chain = chain_from_document(doc["chain"], f"{where} (chain)")
-        start = chain_from_document(doc["start_chain"], f"{where} (start_chain)")
-        return FittedDocument(dict(settings), chain, start, tuple(str(n) for n in names), result)
-    except (KeyError, TypeError, ValueError) as exc:
-        raise FileFormatError(f"{where} is damaged ({type(exc).__name__}: {exc}); regenerate it") from None
+    def to_dict(self):
+        """The fitted calibration as a JSON-ready dict: "estimator", "settings" (as given),
+        "chain" and "start_chain" (each {"robot": robot-file structure in mm and deg, and
+        "joint_compliance" when it has one}), "names" and "result" (the result's
+        ``to_dict(chain_)``).  InputError if not fitted."""
+        self._require_fitted()
+        return {"estimator": self.KIND, "settings": self.get_settings(),
+                "chain": chain_document(self.chain_), "start_chain": chain_document(self.start_chain_),
+                "names": list(self.names_), "result": self.result_.to_dict(self.chain_)}
+
+    @classmethod
+    def from_dict(cls, doc):
+        """A fitted calibration back from :meth:`to_dict`; FileFormatError, in one line, if
+        ``doc`` is not such a document or is damaged."""
+        where = f"{cls.KIND} calibration document"
+        if not isinstance(doc, dict) or doc.get("estimator") != cls.KIND:
+            raise FileFormatError(f"not a {where} (no \"estimator\": \"{cls.KIND}\")")
+        try:
+            out = cls(**doc["settings"])
+            out._validate()
+            out.chain_ = chain_from_document(doc["chain"], f"{where} (chain)")
+            out.start_chain_ = chain_from_document(doc["start_chain"], f"{where} (start_chain)")
+            out.names_ = tuple(str(n) for n in doc["names"])
+            out.result_ = cls.RESULT.from_dict(doc["result"], out.chain_)
+        except (KeyError, TypeError, ValueError, AttributeError, InputError) as exc:
+            raise FileFormatError(f"{where} is damaged ({type(exc).__name__}: {exc}); regenerate it") from None
+        return out

@@ -30,13 +30,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ...errors import FileFormatError, InputError, RobocalWarning
+from ...errors import InputError, RobocalWarning
 from ...kinematics.compliant import with_compliance
 from ...kinematics.parameters import FRAME_KINDS
 from ...spatial import so3_log
 from ..identifiability import analyse
-from ..identification import (BASE, TOOL_POSITION, Analysis, IdentifiedResult, check_payload, fitted_document,
-                              identify, one_of, read_fitted_document)
+from ..identification import (BASE, TOOL_POSITION, Analysis, FittedCalibration, IdentifiedResult, check_payload,
+                              identify, one_of)
 from ..least_squares import damped_least_squares
 from .data import PAIRINGS, check_groups, constraint_pairs, pair_weights, socket_data
 from .metrics import grouped_socket_errors
@@ -158,7 +158,7 @@ def candidate_parameters(chain, gains=False):
     return names + chain.parameter_names(("home",) + (("gains",) if gains else ()))
 
 
-class ConstraintCalibration:
+class ConstraintCalibration(FittedCalibration):
     """Calibration from ball-in-socket data, scikit-learn style.
 
     Parameters
@@ -184,6 +184,9 @@ class ConstraintCalibration:
     CompliantChain with ``compliance``), ``start_chain_`` (the starting model in POE form),
     ``names_`` and ``result_`` (a :class:`ConstraintResult`).
     """
+
+    KIND = "constraint"
+    RESULT = ConstraintResult
 
     def __init__(self, pairs="all", *, distance=True, compliance=False, gains=False, payload=None,
                  max_iterations=50, tolerance=1e-7):
@@ -286,28 +289,7 @@ class ConstraintCalibration:
         joints: (N, n) rad (mm for prismatic joints), as commanded.  Returns (N, 3) mm in
         the starting model's base frame.  InputError if not fitted.
         """
-        if not hasattr(self, "chain_"):
-            raise InputError("this ConstraintCalibration is not fitted: call fit first")
-        return self.chain_.fk_positions(np.asarray(joints, dtype=float))
-
-    def to_dict(self):
-        """The fitted calibration as a JSON-ready dict: settings, the calibrated and starting
-        chains (robot-file structure, mm and deg, with the joint compliance when there is
-        one), the identified names and :meth:`ConstraintResult.to_dict`."""
-        return fitted_document("constraint", self)
-
-    @classmethod
-    def from_dict(cls, doc):
-        """A fitted calibration back from :meth:`to_dict`; FileFormatError if ``doc`` is damaged."""
-        part = read_fitted_document(doc, "constraint")
-        try:
-            out = cls(**part.settings)
-            out._validate()
-            result = ConstraintResult.from_dict(part.result, part.chain)
-        except (KeyError, TypeError, ValueError, InputError) as exc:
-            raise FileFormatError(f"constraint calibration document is damaged ({exc}); regenerate it") from None
-        out.chain_, out.start_chain_, out.names_, out.result_ = part.chain, part.start_chain, part.names, result
-        return out
+        return super().predict(joints)
 
 
 def _analysis(chain, q, pairs, weights, candidates):
