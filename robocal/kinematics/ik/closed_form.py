@@ -20,6 +20,7 @@ from ...errors import InputError
 from ...spatial import invert, make_transform, rot_y, rot_z
 from ..conversions import to_poe
 from .limits import LIMIT_TOL, nearest_equivalent, periodic_joints
+from .subproblems import TwoLink, matvec, sinusoid_roots
 
 # Deviations from the ideal structure below these count as rounding: the solution is exact.
 EXACT_SINE = 1e-12
@@ -149,6 +150,49 @@ class ClosedForm:
         """2-D coordinates of points in the plane spanned by ``basis``."""
         return [np.array([basis[0] @ p, basis[1] @ p]) for p in points]
 
+    # --------------------------------------- shoulder and elbow (both solvers share them)
+    def _arm_axes(self):
+        """Check the axes the shoulder and elbow need: axis 1 not parallel to axis 2 (else
+        joint 1 could not move the arm's plane), axis 3 parallel to axis 2.  Returns the sign
+        relating axes 2 and 3 (see :meth:`_parallel`).  Each solver's :meth:`_fit` calls it
+        first: of several failed checks, the first raised is the one reported."""
+        self._not_parallel(0, 1)
+        return self._parallel(1, 2)
+
+    def _fit_arm(self, kept, reached, why):
+        """Fit the shoulder and elbow common to both solvers, where joints 2 and 3 (and any
+        joint parallel to them) turn about parallel axes of direction n = axis 2.
+
+        ``kept`` (3,), mm, working frame: a point that those parallel joints move in the
+        plane normal to n, so its component along n (:attr:`along`) fixes joint 1 alone.
+        ``reached`` (3,), mm: the point that joints 2 and 3 carry; the links from axis 2 to
+        axis 3 and from axis 3 to that point form :attr:`link`, in 2-D coordinates of
+        :attr:`plane` (two unit vectors (3,) spanning the plane normal to n).  Raises
+        :class:`NoFit` with ``why`` when a link is shorter than 1 mm: the two-link problem
+        would then have no unique solution.
+        """
+        n = self.axes[1]
+        self.n = n
+        self.along = n @ kept
+        self.plane = plane_basis(n)
+        p2, p3, end = self._plane_points(self.plane, self.points[1], self.points[2], reached)
+        self.link = TwoLink(p2, p3 - p2, end - p3)
+        if min(self.link.lengths) < 1.0:
+            raise NoFit(why)
+
+    def _shoulder(self, rows, t, kept):
+        """Joint 1 for a block of B targets, from the point ``kept`` given to :meth:`_fit_arm`.
+
+        ``rows`` and ``t``: G as from :meth:`_relative`.  Joints 2.. keep n · p for the point
+        p = G · kept (coordinate arrays (B,), mm), so n · Rz(-t1) p = :attr:`along`, one
+        sinusoid condition.  Returns p and the :class:`~.subproblems.Roots` of t1 (2, B).
+        """
+        n = self.n
+        p = tuple(pi + ti for pi, ti in zip(matvec(rows, kept), t))
+        roots = sinusoid_roots(n[0] * p[0] + n[1] * p[1], n[0] * p[1] - n[1] * p[0],
+                               self.along - n[2] * p[2])
+        return p, roots
+
     def _fit(self):
         raise NotImplementedError
 
@@ -242,6 +286,13 @@ class ClosedForm:
         """Exponential angles (6, ...) -> controller joints (6, ...)."""
         model = [angles[i] - self._offsets[i] for i in range(6)]
         return np.stack([_combine(self._unmap[i], model) for i in range(6)])
+
+
+def flip_coefficients(u, w5, w6):
+    """(a, b, offset) with u · R5(t) w6 = a cos t + b sin t + offset, for unit vectors (3,):
+    the condition that gives joint 5 (the "wrist flip") in both solvers, from Rodrigues'
+    formula R5(t) w6 = w6 cos t + (w5 x w6) sin t + w5 (w5 · w6)(1 - cos t)."""
+    return (u @ w6 - (u @ w5) * (w5 @ w6), u @ np.cross(w5, w6), (u @ w5) * (w5 @ w6))
 
 
 def _reach(length_excess, cosine_excess, tolerances):

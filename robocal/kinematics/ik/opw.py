@@ -21,18 +21,9 @@ Branch k = 4 * shoulder + 2 * elbow + wrist, each 0 or 1.
 """
 import numpy as np
 
-from .closed_form import ClosedForm, NoFit, plane_basis
+from .closed_form import ClosedForm, flip_coefficients, plane_basis
 from .subproblems import (
-    TwoLink,
-    angle_about,
-    angle_of,
-    dot,
-    expand,
-    matvec,
-    planar_two_link,
-    rotate,
-    rotate_z,
-    sinusoid_roots,
+    angle_about, angle_of, dot, expand, matvec, planar_two_link, rotate, rotate_z, sinusoid_roots,
 )
 
 
@@ -43,24 +34,18 @@ class SphericalWrist(ClosedForm):
 
     def _fit(self):
         w = self.axes
-        self._not_parallel(0, 1)
-        self.sign3 = self._parallel(1, 2)
+        self.sign3 = self._arm_axes()
         self._not_parallel(3, 4)
         self._not_parallel(4, 5)
-        centre = self._meeting_point((3, 4, 5))
-        n = w[1]
-        self.n = n
-        self.centre = centre
-        self.along = n @ centre  # component of the wrist centre that joints 2 and 3 keep
-        self.plane = plane_basis(n)
-        p2, p3, c = self._plane_points(self.plane, self.points[1], self.points[2], centre)
-        self.link = TwoLink(p2, p3 - p2, c - p3)
-        if min(self.link.lengths) < 1.0:
-            raise NoFit("axes 2 and 3 coincide or axis 3 passes through the wrist centre")
+        self.centre = self._meeting_point((3, 4, 5))
+        # Joints 2 and 3 keep the wrist centre's component along their axes, and carry the
+        # centre itself (the elbow's two links end there).
+        self._fit_arm(self.centre, self.centre,
+                      "axes 2 and 3 coincide or axis 3 passes through the wrist centre")
         w4, w5, w6 = w[3], w[4], w[5]
         self.w4, self.w5, self.w6 = w4, w5, w6
         # w4 · R5(t) w6 = a cos t + b sin t + offset.
-        self.flip = (w4 @ w6 - (w4 @ w5) * (w5 @ w6), w4 @ np.cross(w5, w6), (w4 @ w5) * (w5 @ w6))
+        self.flip = flip_coefficients(w4, w5, w6)
         # With axes 4 and 6 perpendicular to 5 (every industrial wrist), the two wrist
         # solutions are mirror images: (t4, t5, t6) and (t4 + pi, t5', t6 + pi).
         self.orthogonal = self._perpendicular((3, 4), (4, 5))
@@ -70,9 +55,7 @@ class SphericalWrist(ClosedForm):
     def _angles(self, rows, t, stretch):
         n = self.n
         # 1. shoulder: n · Rz(-t1) c = n · c0 with c the wrist centre of the target.
-        c = tuple(ci + ti for ci, ti in zip(matvec(rows, self.centre), t))
-        shoulder = sinusoid_roots(n[0] * c[0] + n[1] * c[1], n[0] * c[1] - n[1] * c[0],
-                                  self.along - n[2] * c[2])
+        c, shoulder = self._shoulder(rows, t, self.centre)
         c1, s1 = shoulder.cos, -shoulder.sin  # undo joint 1
         # 2. elbow: joints 2 and 3 in the plane normal to their axes.
         centre = rotate_z(c1, s1, expand(c))

@@ -19,18 +19,9 @@ Branch k = 4 * shoulder + 2 * wrist + elbow, each 0 or 1.
 """
 import numpy as np
 
-from .closed_form import ClosedForm, NoFit, plane_basis
+from .closed_form import ClosedForm, flip_coefficients
 from .subproblems import (
-    TwoLink,
-    angle_about,
-    angle_of,
-    dot,
-    expand,
-    matvec,
-    planar_two_link,
-    rotate,
-    rotate_z,
-    sinusoid_roots,
+    angle_about, angle_of, dot, expand, matvec, planar_two_link, rotate, rotate_z, sinusoid_roots,
     transposed_matvec,
 )
 
@@ -42,34 +33,25 @@ class OffsetWrist(ClosedForm):
 
     def _fit(self):
         w = self.axes
-        self._not_parallel(0, 1)
-        self.sign3 = self._parallel(1, 2)
+        self.sign3 = self._arm_axes()
         self.sign4 = self._parallel(1, 3)
         self._not_parallel(1, 4)
         self._not_parallel(4, 5)
-        meet = self._meeting_point((4, 5))
-        n = w[1]
-        self.n, self.meet = n, meet
-        self.along = n @ meet
-        self.plane = plane_basis(n)
-        p2, p3, p4 = self._plane_points(self.plane, self.points[1], self.points[2], self.points[3])
-        self.link = TwoLink(p2, p3 - p2, p4 - p3)
-        if min(self.link.lengths) < 1.0:
-            raise NoFit("axes 2, 3 and 4 are not three distinct parallel axes")
+        self.meet = self._meeting_point((4, 5))
+        # Joints 2, 3 and 4 keep W's component along their axes; joints 2 and 3 carry
+        # axis 4 (the elbow's two links end on it).
+        self._fit_arm(self.meet, self.points[3], "axes 2, 3 and 4 are not three distinct parallel axes")
         self.w5, self.w6 = w[4], w[5]
         # n · R5(t) w6 = a cos t + b sin t + offset.
-        w5, w6 = self.w5, self.w6
-        self.flip = (n @ w6 - (n @ w5) * (w5 @ w6), n @ np.cross(w5, w6), (n @ w5) * (w5 @ w6))
+        self.flip = flip_coefficients(self.n, self.w5, self.w6)
         # Axis 4's point relative to W: where joints 5 and 6 move it from.
-        self.arm4 = self.points[3] - meet
+        self.arm4 = self.points[3] - self.meet
 
     def _angles(self, rows, t, stretch):
         n = self.n
         ex, ey = self.plane
         # 1. shoulder: n · Rz(-t1) P = n · W with P = G W.
-        p = tuple(pi + ti for pi, ti in zip(matvec(rows, self.meet), t))
-        shoulder = sinusoid_roots(n[0] * p[0] + n[1] * p[1], n[0] * p[1] - n[1] * p[0],
-                                  self.along - n[2] * p[2])
+        p, shoulder = self._shoulder(rows, t, self.meet)
         c1, s1 = shoulder.cos, shoulder.sin
         # 2. wrist: joint 5 from n · R5 w6, then joint 6.
         n1 = rotate_z(c1, s1, n)  # R1 n
