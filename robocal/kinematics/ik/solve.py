@@ -6,6 +6,8 @@ micrometre), so a closed form fitted to its idealised geometry — or to the ``n
 it came from — provides branches that are seeds; the numerical solver then polishes them on
 the real chain.  A chain with no closed form at all is solved numerically from a posture hint.
 """
+from typing import NamedTuple
+
 import numpy as np
 
 from ...errors import InputError
@@ -109,18 +111,55 @@ def solve_ik(chain, targets, hint=None, *, nominal=None, position_only=False, br
     success False and NaN joints.
     """
     targets = as_targets(targets)
-    count, n = targets.shape[0], chain.n_joints
-    reference = (np.zeros((count, n)) if hint is None
+    count = targets.shape[0]
+    reference = (np.zeros((count, chain.n_joints)) if hint is None
                  else as_joints(chain, hint, count, "hint"))
-    q = np.full((count, n), np.nan)
-    success = np.zeros(count, dtype=bool)
-    position_error = np.full(count, np.inf)
-    orientation_error = np.full(count, np.inf)
+    attempts = _Attempts(chain, targets, position_only)
+    solver, exact = _seed_solver(chain, nominal)
+    if branch is not None:
+        _check_branch(chain, solver, branch)
+    if solver is not None:
+        seeds = _closed_form_seeds(solver, exact, chain, targets, reference, position_only, branch)
+        if branch is not None:
+            _try_branch(attempts, seeds, branch, exact)
+        else:
+            _try_nearest_branches(attempts, seeds, reference, exact)
+    if branch is None:
+        _try_hint_and_restarts(attempts, chain, reference)
+    return attempts.result(reference)
 
-    def attempt(rows, seeds, likely_reached=False):
-        """Refine seeds for targets ``rows`` (a target may appear several times, in order of
-        preference); record each target's first success, or else its closest attempt."""
-        q_new, reached, pe, oe = refine(chain, targets[rows], seeds, position_only=position_only,
+
+class _Seeds(NamedTuple):
+    """Closed-form branches of N targets as seeds: q (N, K, n) controller joints (rad, mm;
+    K = 8 per seed pose), valid (N, K) those that exist, preferred (N, K) those that exist
+    without the seed allowances (equal to valid for exact solutions)."""
+
+    q: np.ndarray
+    valid: np.ndarray
+    preferred: np.ndarray
+
+
+class _Attempts:
+    """The best attempt so far at each of N targets, and the refinement that improves it.
+
+    q (N, n) rad/mm, success (N,), position_error (N,) mm and orientation_error (N,) rad, as
+    in :class:`IKResult`; a target's first success stays, else its closest attempt.
+    """
+
+    def __init__(self, chain, targets, position_only):
+        count = targets.shape[0]
+        self.chain, self.targets, self.position_only = chain, targets, position_only
+        self.q = np.full((count, chain.n_joints), np.nan)
+        self.success = np.zeros(count, dtype=bool)
+        self.position_error = np.full(count, np.inf)
+        self.orientation_error = np.full(count, np.inf)
+
+    def attempt(self, rows, seeds, likely_reached=False):
+        """Refine seeds (len(rows), n) for targets ``rows`` (a target may appear several
+        times, in order of preference); record each target's first success, or else its
+        closest attempt."""
+        q_new, reached, pe, oe = refine(self.chain, self.targets[rows], seeds,
+                                        position_only=self.position_only,
                                         likely_reached=likely_reached)
         if np.all(rows[1:] > rows[:-1]):
             pick = np.arange(rows.size)  # one seed per target
@@ -128,57 +167,81 @@ def solve_ik(chain, targets, hint=None, *, nominal=None, position_only=False, br
             order = np.lexsort((~reached, rows))  # by target, successes first, then preference
             rows, first = np.unique(rows[order], return_index=True)
             pick = order[first]
-        keep = reached[pick] | (pe[pick] < position_error[rows])
+        keep = reached[pick] | (pe[pick] < self.position_error[rows])
         rows, pick = rows[keep], pick[keep]
-        q[rows], success[rows] = q_new[pick], reached[pick]
-        position_error[rows], orientation_error[rows] = pe[pick], oe[pick]
+        self.q[rows], self.success[rows] = q_new[pick], reached[pick]
+        self.position_error[rows], self.orientation_error[rows] = pe[pick], oe[pick]
 
-    solver, exact = _seed_solver(chain, nominal)
-    if branch is not None:
-        if solver is None:
-            closed_form(chain)  # raises why there are no branches to choose from
-        if not 0 <= branch < 8:
-            raise InputError(f"branch must be 0 to 7, got {branch}")
-    if solver is not None:
-        # Position only: any orientation will do; seed with the hint posture's, turned to
-        # face the target, and with the tool pointing down, up and back from there.
-        if position_only:
-            start = chain.fk(reference)
-            tilts = (0.0,) if branch is not None else POSITION_ONLY_TILTS
-            seed_targets = [solver.facing(targets[:, :3, 3], start, tilt) for tilt in tilts]
-        else:
-            seed_targets = [targets]
-        found = [solver.solve(t, reference) if exact else solver.seeds(t, reference)
-                 for t in seed_targets]
-        branches = np.concatenate([f[0] for f in found], axis=1)
-        valid = np.concatenate([f[1] for f in found], axis=1)
-        preferred = valid if exact else np.concatenate([f[2] for f in found], axis=1)
-        if branch is not None:
-            rows = np.flatnonzero(valid[:, branch])
-            attempt(rows, branches[rows, branch], exact)
-        else:
-            # Nearest first, but seeds that exist only thanks to the seed allowances last.
-            distance = np.sum((branches - reference[:, None, :]) ** 2, axis=2)
-            distance = np.where(valid, np.where(preferred, distance, distance + ALLOWANCE_RANK), np.inf)
-            order = np.argsort(distance, axis=1)
-            ranked_valid = np.take_along_axis(valid, order, axis=1)
-            rows = np.flatnonzero(ranked_valid[:, 0])
-            attempt(rows, branches[rows, order[rows, 0]], exact)
-            rows, ranks = np.nonzero(~success[:, None] & ranked_valid[:, 1:])
-            if rows.size:
-                attempt(rows, branches[rows, order[rows, ranks + 1]], exact)
-    if branch is None:
-        rows = np.flatnonzero(~success)
-        if rows.size:
-            attempt(rows, reference[rows])
-        # Last resort for targets that were nearly reached (typically within millimetres of a
-        # singularity, where every seed so far sat on the wrong part of a near-degenerate
-        # family of postures): a few seeds spread over the joint space.
-        rows = np.flatnonzero(~success & (position_error < RESTART_RADIUS))
-        if rows.size:
-            seeds = chain.random_configurations(rows.size * RESTARTS, np.random.default_rng(0))
-            attempt(np.repeat(rows, RESTARTS), seeds)
-    q[success] = nearest_equivalent(q[success], reference[success], chain.lower, chain.upper,
-                                    periodic_joints(chain))[0]
-    q[~success] = np.nan
-    return IKResult(q, success, position_error, orientation_error)
+    def result(self, reference):
+        """The :class:`IKResult`: periodic joints of successes moved by whole turns nearest
+        ``reference`` (N, n), failures NaN."""
+        chain, q, success = self.chain, self.q, self.success
+        q[success] = nearest_equivalent(q[success], reference[success], chain.lower, chain.upper,
+                                        periodic_joints(chain))[0]
+        q[~success] = np.nan
+        return IKResult(q, success, self.position_error, self.orientation_error)
+
+
+def _check_branch(chain, solver, branch):
+    """Raise :class:`InputError` unless ``branch`` can be used: the chain needs a closed form
+    (its absence raises why) and the index must be one of the 8 branches."""
+    if solver is None:
+        closed_form(chain)  # raises why there are no branches to choose from
+    if not 0 <= branch < 8:
+        raise InputError(f"branch must be 0 to 7, got {branch}")
+
+
+def _closed_form_seeds(solver, exact, chain, targets, reference, position_only, branch):
+    """:class:`_Seeds` of the N targets (N, 4, 4) from the closed form ``solver``, periodic
+    joints nearest ``reference`` (N, n).  Position only: any orientation will do; the seed
+    poses take the hint posture's orientation, turned to face the target, and (unless a
+    branch is asked for) the tool pointing down, up and back from there: K = 8 per pose."""
+    if position_only:
+        start = chain.fk(reference)
+        tilts = (0.0,) if branch is not None else POSITION_ONLY_TILTS
+        seed_targets = [solver.facing(targets[:, :3, 3], start, tilt) for tilt in tilts]
+    else:
+        seed_targets = [targets]
+    found = [solver.solve(t, reference) if exact else solver.seeds(t, reference)
+             for t in seed_targets]
+    branches = np.concatenate([f[0] for f in found], axis=1)
+    valid = np.concatenate([f[1] for f in found], axis=1)
+    preferred = valid if exact else np.concatenate([f[2] for f in found], axis=1)
+    return _Seeds(branches, valid, preferred)
+
+
+def _try_branch(attempts, seeds, branch, exact):
+    """Refine the given branch (0-7) for every target where it exists."""
+    rows = np.flatnonzero(seeds.valid[:, branch])
+    attempts.attempt(rows, seeds.q[rows, branch], exact)
+
+
+def _try_nearest_branches(attempts, seeds, reference, exact):
+    """Refine each target's branch nearest ``reference`` (N, n) (squared joint distance),
+    then, for targets still failing, all its other branches at once in order of distance.
+    Seeds that exist only thanks to the seed allowances rank after all others."""
+    branches, valid = seeds.q, seeds.valid
+    distance = np.sum((branches - reference[:, None, :]) ** 2, axis=2)
+    distance = np.where(valid, np.where(seeds.preferred, distance, distance + ALLOWANCE_RANK), np.inf)
+    order = np.argsort(distance, axis=1)
+    ranked_valid = np.take_along_axis(valid, order, axis=1)
+    rows = np.flatnonzero(ranked_valid[:, 0])
+    attempts.attempt(rows, branches[rows, order[rows, 0]], exact)
+    rows, ranks = np.nonzero(~attempts.success[:, None] & ranked_valid[:, 1:])
+    if rows.size:
+        attempts.attempt(rows, branches[rows, order[rows, ranks + 1]], exact)
+
+
+def _try_hint_and_restarts(attempts, chain, reference):
+    """Seeds for the targets every closed-form seed missed (or all, without a closed form):
+    the hint ``reference`` (N, n) itself, then random restarts."""
+    rows = np.flatnonzero(~attempts.success)
+    if rows.size:
+        attempts.attempt(rows, reference[rows])
+    # Last resort for targets that were nearly reached (typically within millimetres of a
+    # singularity, where every seed so far sat on the wrong part of a near-degenerate
+    # family of postures): a few seeds spread over the joint space.
+    rows = np.flatnonzero(~attempts.success & (attempts.position_error < RESTART_RADIUS))
+    if rows.size:
+        seeds = chain.random_configurations(rows.size * RESTARTS, np.random.default_rng(0))
+        attempts.attempt(np.repeat(rows, RESTARTS), seeds)
