@@ -78,7 +78,11 @@ def _check_keys(path, where, keys, allowed):
 
 
 def chain_from_dict(doc, path="<robot>"):
-    """Build a Chain from a parsed robot document (file units)."""
+    """Build a Chain from a parsed robot document (file units).
+
+    The checks run in a fixed order (top-level keys, convention, each joint, masses, joint
+    map, name, frames), so a document with several faults always reports the same one.
+    """
     _check_keys(path, "the robot file", doc, _TOP_KEYS)
     convention = doc.get("convention")
     if convention not in _LINK_KEYS:
@@ -86,6 +90,32 @@ def chain_from_dict(doc, path="<robot>"):
     joints = doc.get("joints")
     if not isinstance(joints, list) or not joints:
         _fail(path, "no [[joints]] tables: list one per joint, base to tip")
+    columns, types, signs = _read_joints(path, joints, convention)
+    joint_map = _joint_map(path, doc, signs)
+    name = doc.get("name")
+    if not isinstance(name, str) or not name:
+        _fail(path, "name = \"...\" is missing")
+    fields = dict(
+        name=name, convention=convention, joint_types=tuple(types),
+        theta=columns["theta"], joint_map=joint_map, lower=columns["min"], upper=columns["max"],
+        base=_frame(path, doc, "base"), tool=_frame(path, doc, "tool"),
+        masses=columns["mass"] or None,
+    )
+    fields.update(_convention_fields(path, doc, convention, columns))
+    try:
+        return Chain(**fields)
+    except InputError as exc:
+        _fail(path, str(exc))
+
+
+def _read_joints(path, joints, convention):
+    """The [[joints]] tables as columns in model units.
+
+    Returns ``columns`` (a dict of lists, one entry per joint: theta, d, a, alpha, beta in mm
+    and rad for DH/MDH; axis (3,), point (3,) mm and theta for POE; min and max in rad or mm,
+    infinite where absent; mass in kg, for every joint or none), the joint types and the
+    per-joint signs (+-1.0).
+    """
     required = _LINK_KEYS[convention]
     allowed = required + _OPTIONAL_JOINT_KEYS + (() if convention == "poe" else ("beta",))
     columns = {k: [] for k in ("theta", "d", "a", "alpha", "beta", "axis", "point", "min", "max", "mass")}
@@ -100,25 +130,16 @@ def chain_from_dict(doc, path="<robot>"):
         if kind not in ("revolute", "prismatic"):
             _fail(path, f"{where}: type must be 'revolute' or 'prismatic', got {kind!r}")
         types.append(kind)
-        angle = np.radians if kind == "revolute" else (lambda v: v)
         sign = _number(path, f"{where} sign", joint.get("sign", 1.0))
         if sign not in (1.0, -1.0):
             _fail(path, f"{where}: sign must be 1 or -1, got {sign}")
         signs.append(sign)
-        if convention == "poe":
-            columns["axis"].append(_vector(path, f"{where} axis", joint["axis"]))
-            columns["point"].append(_vector(path, f"{where} point", joint["point"]))
-            columns["theta"].append(angle(_number(path, f"{where} theta", joint["theta"])))
-        else:
-            columns["theta"].append(np.radians(_number(path, f"{where} theta", joint["theta"])))
-            for key in ("d", "a"):
-                columns[key].append(_number(path, f"{where} {key}", joint[key]))
-            for key in ("alpha", "beta"):
-                columns[key].append(np.radians(_number(path, f"{where} {key}", joint.get(key, 0.0))))
-        lo = angle(_number(path, f"{where} min", joint.get("min", -np.inf))) if "min" in joint else -np.inf
-        hi = angle(_number(path, f"{where} max", joint.get("max", np.inf))) if "max" in joint else np.inf
-        if lo > hi:
-            _fail(path, f"{where}: min {joint['min']} is above max {joint['max']}")
+        # Joint values (theta of POE joints, limits) are degrees for revolute joints and mm
+        # for prismatic ones; DH/MDH theta is always an angle (a prismatic joint's variable
+        # is d there).
+        angle = np.radians if kind == "revolute" else (lambda v: v)
+        _read_link(path, where, joint, convention, angle, columns)
+        lo, hi = _joint_limits(path, where, joint, angle)
         columns["min"].append(lo)
         columns["max"].append(hi)
         if "mass" in joint:
@@ -126,41 +147,66 @@ def chain_from_dict(doc, path="<robot>"):
     n = len(joints)
     if columns["mass"] and len(columns["mass"]) != n:
         _fail(path, f"mass (kg) is given for {len(columns['mass'])} of {n} joints: give it for every joint or none")
-    if "joint_map" in doc:
-        if any(s != 1.0 for s in signs):
-            _fail(path, "give either per-joint sign or a joint_map, not both")
-        try:
-            joint_map = np.array(doc["joint_map"], dtype=float)
-        except (TypeError, ValueError):
-            _fail(path, "joint_map must be a list of lists of numbers")
-        if joint_map.shape != (n, n):
-            _fail(path, f"joint_map must be {n}x{n} for {n} joints, got shape {joint_map.shape}")
-        if abs(np.linalg.det(joint_map)) < 1e-9:
-            _fail(path, "joint_map is singular: every controller axis must drive the model")
+    return columns, types, signs
+
+
+def _read_link(path, where, joint, convention, angle, columns):
+    """Append one joint's link parameters to ``columns``: axis, point (mm) and theta (through
+    ``angle``: deg -> rad, or mm as it is) for POE; theta, alpha, beta (deg -> rad), d and
+    a (mm) for DH/MDH."""
+    if convention == "poe":
+        columns["axis"].append(_vector(path, f"{where} axis", joint["axis"]))
+        columns["point"].append(_vector(path, f"{where} point", joint["point"]))
+        columns["theta"].append(angle(_number(path, f"{where} theta", joint["theta"])))
     else:
-        joint_map = np.diag(signs)
-    name = doc.get("name")
-    if not isinstance(name, str) or not name:
-        _fail(path, "name = \"...\" is missing")
-    fields = dict(
-        name=name, convention=convention, joint_types=tuple(types),
-        theta=columns["theta"], joint_map=joint_map, lower=columns["min"], upper=columns["max"],
-        base=_frame(path, doc, "base"), tool=_frame(path, doc, "tool"),
-        masses=columns["mass"] or None,
-    )
+        columns["theta"].append(np.radians(_number(path, f"{where} theta", joint["theta"])))
+        for key in ("d", "a"):
+            columns[key].append(_number(path, f"{where} {key}", joint[key]))
+        for key in ("alpha", "beta"):
+            columns[key].append(np.radians(_number(path, f"{where} {key}", joint.get(key, 0.0))))
+
+
+def _joint_limits(path, where, joint, angle):
+    """(min, max) of one joint in rad or mm (``angle`` converts from file units); an absent
+    bound is infinite."""
+    lo = angle(_number(path, f"{where} min", joint.get("min", -np.inf))) if "min" in joint else -np.inf
+    hi = angle(_number(path, f"{where} max", joint.get("max", np.inf))) if "max" in joint else np.inf
+    if lo > hi:
+        _fail(path, f"{where}: min {joint['min']} is above max {joint['max']}")
+    return lo, hi
+
+
+def _joint_map(path, doc, signs):
+    """The (n, n) joint map: the document's ``joint_map`` (checked: shape, not singular, and
+    no per-joint sign besides it), else the diagonal of the per-joint ``signs``."""
+    if "joint_map" not in doc:
+        return np.diag(signs)
+    n = len(signs)
+    if any(s != 1.0 for s in signs):
+        _fail(path, "give either per-joint sign or a joint_map, not both")
+    try:
+        joint_map = np.array(doc["joint_map"], dtype=float)
+    except (TypeError, ValueError):
+        _fail(path, "joint_map must be a list of lists of numbers")
+    if joint_map.shape != (n, n):
+        _fail(path, f"joint_map must be {n}x{n} for {n} joints, got shape {joint_map.shape}")
+    if abs(np.linalg.det(joint_map)) < 1e-9:
+        _fail(path, "joint_map is singular: every controller axis must drive the model")
+    return joint_map
+
+
+def _convention_fields(path, doc, convention, columns):
+    """The Chain arguments that depend on the convention: axes, points and [home] (4x4, mm)
+    for POE; d, a, alpha, beta and [flange] (4x4, mm) for DH/MDH.  Each convention refuses
+    the other's frame table."""
     if convention == "poe":
         if "flange" in doc:
             _fail(path, "a POE robot has no [flange]: the flange pose is [home]")
-        fields.update(axes=columns["axis"], points=columns["point"], home=_frame(path, doc, "home"))
-    else:
-        if "home" in doc:
-            _fail(path, "[home] belongs to POE robots; a DH/MDH robot may have a [flange]")
-        fields.update(d=columns["d"], a=columns["a"], alpha=columns["alpha"], beta=columns["beta"],
-                      flange=_frame(path, doc, "flange"))
-    try:
-        return Chain(**fields)
-    except InputError as exc:
-        _fail(path, str(exc))
+        return dict(axes=columns["axis"], points=columns["point"], home=_frame(path, doc, "home"))
+    if "home" in doc:
+        _fail(path, "[home] belongs to POE robots; a DH/MDH robot may have a [flange]")
+    return dict(d=columns["d"], a=columns["a"], alpha=columns["alpha"], beta=columns["beta"],
+                flange=_frame(path, doc, "flange"))
 
 
 def read_robot(path) -> Chain:
