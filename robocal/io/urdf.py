@@ -18,6 +18,7 @@ rounding.
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -65,34 +66,8 @@ def read_urdf(path, *, root: str | None = None, tip: str | None = None, name: st
     tree = _LinkTree(robot, path)
     root = tree.default_root() if root is None else tree.check_link(root, "root")
     tip = tree.default_tip(root) if tip is None else tree.check_link(tip, "tip")
-    joints = tree.path(root, tip)
-
-    pose = np.eye(4)  # running pose of the current link in the root-link frame, at zero
-    joint_types, axes, points, lower, upper, masses = [], [], [], [], [], []
-    for joint in joints:
-        kind = _joint_type(joint, path)
-        pose = pose @ _origin(joint, path)
-        if kind == "fixed":
-            if masses:  # a link fixed to the one the last joint moves moves with it (a bare
-                # frame, with no <inertial>, weighs nothing)
-                masses[-1] += np.nan_to_num(tree.mass(joint.find("child").get("link")))
-            continue
-        masses.append(tree.mass(joint.find("child").get("link")))
-        if joint.find("mimic") is not None:
-            raise InputError(
-                f"{path}: joint {_name(joint)!r} mimics another joint, which robocal does not "
-                "support: choose a tip link whose path has no mimic joints, or replace the mimic "
-                "joint by a fixed one"
-            )
-        robocal_type = _MOVABLE[kind]
-        joint_types.append(robocal_type)
-        axes.append(pose[:3, :3] @ _axis(joint, path))
-        points.append(pose[:3, 3].copy())
-        low, high = _limits(joint, kind, path)
-        scale = MM_PER_M if robocal_type == "prismatic" else 1.0
-        lower.append(low * scale)
-        upper.append(high * scale)
-    if not joint_types:
+    walk = _walk(tree, tree.path(root, tip), path)
+    if not walk.joint_types:
         raise InputError(
             f"{path}: no movable joint between links {root!r} and {tip!r}: choose a tip link "
             "further from the root (or a root closer to the base)"
@@ -100,16 +75,69 @@ def read_urdf(path, *, root: str | None = None, tip: str | None = None, name: st
     return Chain(
         name=name if name is not None else robot.get("name") or path.stem,
         convention="poe",
-        joint_types=tuple(joint_types),
-        theta=np.zeros(len(joint_types)),
-        axes=np.array(axes),
-        points=np.array(points),
-        home=pose,
-        lower=np.array(lower),
-        upper=np.array(upper),
+        joint_types=tuple(walk.joint_types),
+        theta=np.zeros(len(walk.joint_types)),
+        axes=np.array(walk.axes),
+        points=np.array(walk.points),
+        home=walk.pose,
+        lower=np.array(walk.lower),
+        upper=np.array(walk.upper),
         # Link masses only when every link a joint moves declares one.
-        masses=None if any(np.isnan(masses)) else np.array(masses),
+        masses=None if any(np.isnan(walk.masses)) else np.array(walk.masses),
     )
+
+
+@dataclass
+class _Walk:
+    """The movable joints met walking from the root link to the tip, in the root-link frame
+    at zero joint values: robocal joint types, unit axes (3,), points (3,) mm on the axes,
+    limits (rad or mm), masses (kg, NaN where undeclared) of the links each joint moves;
+    ``pose`` (4x4, mm) of the current link, the tip's once the walk is over."""
+
+    joint_types: list[str] = field(default_factory=list)
+    axes: list[np.ndarray] = field(default_factory=list)
+    points: list[np.ndarray] = field(default_factory=list)
+    lower: list[float] = field(default_factory=list)
+    upper: list[float] = field(default_factory=list)
+    masses: list[float] = field(default_factory=list)
+    pose: np.ndarray = field(default_factory=lambda: np.eye(4))
+
+
+def _walk(tree: _LinkTree, joints: list[ET.Element], path: Path) -> _Walk:
+    """Compose the joints from root to tip (as :meth:`_LinkTree.path` lists them): fixed
+    joints fold into the running pose; each movable one becomes a POE joint, its axis turned
+    into the root-link frame and its point the origin of its joint frame."""
+    walk = _Walk()
+    for joint in joints:
+        kind = _joint_type(joint, path)
+        walk.pose = walk.pose @ _origin(joint, path)
+        child = joint.find("child").get("link")
+        if kind == "fixed":
+            if walk.masses:  # a link fixed to the one the last joint moves moves with it (a
+                # bare frame, with no <inertial>, weighs nothing)
+                walk.masses[-1] += np.nan_to_num(tree.mass(child))
+            continue
+        walk.masses.append(tree.mass(child))
+        _check_not_mimic(joint, path)
+        robocal_type = _MOVABLE[kind]
+        walk.joint_types.append(robocal_type)
+        walk.axes.append(walk.pose[:3, :3] @ _axis(joint, path))
+        walk.points.append(walk.pose[:3, 3].copy())
+        low, high = _limits(joint, kind, path)
+        scale = MM_PER_M if robocal_type == "prismatic" else 1.0
+        walk.lower.append(low * scale)
+        walk.upper.append(high * scale)
+    return walk
+
+
+def _check_not_mimic(joint: ET.Element, path: Path) -> None:
+    """Refuse a mimic joint: its value follows another joint's, which a Chain cannot hold."""
+    if joint.find("mimic") is not None:
+        raise InputError(
+            f"{path}: joint {_name(joint)!r} mimics another joint, which robocal does not "
+            "support: choose a tip link whose path has no mimic joints, or replace the mimic "
+            "joint by a fixed one"
+        )
 
 
 def _parse(path: Path) -> ET.Element:
@@ -349,14 +377,20 @@ def chain_to_urdf(chain: Chain, *, robot_name: str | None = None, allow_coupled:
             "(calibrated joint gains), which URDF cannot express: pass allow_coupled=True to write "
             "the model variables joint_map·q as the URDF joints instead, or export a robot file"
         )
-    if coupled:
-        signs = np.ones(chain.n_joints)
-        lower, upper = _mapped_bounds(chain.joint_map, chain.lower, chain.upper)
-    else:
-        signs = np.diag(chain.joint_map)
-        lower, upper = chain.lower, chain.upper
     origins, last_to_flange = _joint_origins(chain)
+    robot = _robot_element(chain, robot_name, coupled)
+    links = _add_links(robot, chain)
+    _fixed_joint(robot, "world_to_base", "world", "base_link", chain.base)
+    _add_movable_joints(robot, chain, links, origins, coupled)
+    _fixed_joint(robot, "flange_joint", links[-3], "flange", last_to_flange @ chain.flange)
+    _fixed_joint(robot, "tcp_joint", "flange", "tcp", chain.tool)
+    ET.indent(robot, space="  ")
+    return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
 
+
+def _robot_element(chain: Chain, robot_name: str | None, coupled: bool) -> ET.Element:
+    """The ``<robot>`` element with the comments that say where the file came from, and,
+    for a ``coupled`` joint map, what its joint values mean."""
     robot = ET.Element("robot", name=robot_name if robot_name is not None else chain.name)
     robot.append(ET.Comment(
         f" Written by robocal from the {chain.convention} model {chain.name!r}. Metres and radians. "
@@ -369,6 +403,12 @@ def chain_to_urdf(chain: Chain, *, robot_name: str | None = None, allow_coupled:
             "are the model variables q_model = joint_map . q, not the controller's joint values; "
             "their limits are the bounds of q_model over the controller's joint-limit box. "
         ))
+    return robot
+
+
+def _add_links(robot: ET.Element, chain: Chain) -> list[str]:
+    """Append the ``<link>`` elements (with the chain's masses, kg, on the links the joints
+    move) and return their names, base to TCP: world, base_link, link_1 … link_n, flange, tcp."""
     links = ["world", "base_link"] + [f"link_{k}" for k in range(1, chain.n_joints + 1)] + ["flange", "tcp"]
     for k, link in enumerate(links):
         element = ET.SubElement(robot, "link", name=link)
@@ -376,7 +416,21 @@ def chain_to_urdf(chain: Chain, *, robot_name: str | None = None, allow_coupled:
         if chain.masses is not None and 0 <= joint_index < chain.n_joints:
             inertial = ET.SubElement(element, "inertial")
             ET.SubElement(inertial, "mass", value=_numbers([chain.masses[joint_index]]))
-    _fixed_joint(robot, "world_to_base", "world", "base_link", chain.base)
+    return links
+
+
+def _add_movable_joints(robot: ET.Element, chain: Chain, links: list[str], origins, coupled: bool) -> None:
+    """Append one ``<joint>`` per robot joint, link_{i} -> link_{i+1}, at the (4x4, mm)
+    ``origins``.  Controller joints: axis (0, 0, sign) from the joint map's diagonal, limits
+    ``chain.lower`` / ``chain.upper``.  With a ``coupled`` joint map the URDF joints are the
+    model variables instead: axis (0, 0, 1) and the bounds of joint_map @ q over the limit box.
+    A revolute joint without limits is ``continuous``."""
+    if coupled:
+        signs = np.ones(chain.n_joints)
+        lower, upper = _mapped_bounds(chain.joint_map, chain.lower, chain.upper)
+    else:
+        signs = np.diag(chain.joint_map)
+        lower, upper = chain.lower, chain.upper
     for i, origin in enumerate(origins):
         joint_type = chain.joint_types[i]
         unlimited = not (np.isfinite(lower[i]) or np.isfinite(upper[i]))
@@ -389,10 +443,6 @@ def chain_to_urdf(chain: Chain, *, robot_name: str | None = None, allow_coupled:
         ET.SubElement(joint, "axis", xyz=_numbers([0.0, 0.0, signs[i]]))
         if joint_type != "continuous":
             _limit_element(joint, chain.joint_types[i], lower[i], upper[i])
-    _fixed_joint(robot, "flange_joint", links[-3], "flange", last_to_flange @ chain.flange)
-    _fixed_joint(robot, "tcp_joint", "flange", "tcp", chain.tool)
-    ET.indent(robot, space="  ")
-    return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
 
 
 def _is_coupled(joint_map: np.ndarray) -> bool:
