@@ -211,7 +211,8 @@ def _closed_form_seeds(solver, exact, chain, targets, reference, position_only, 
 
 
 def _try_branch(attempts, seeds, branch, exact):
-    """Refine the given branch (0-7) for every target where it exists."""
+    """Refine the given branch (0-7) for every target where it exists.  ``exact`` (here and
+    below): the branches are solutions already, which makes checking them cheaper."""
     rows = np.flatnonzero(seeds.valid[:, branch])
     attempts.attempt(rows, seeds.q[rows, branch], exact)
 
