@@ -18,6 +18,7 @@ Groups and kinds:
   only in the space of a :class:`~robocal.kinematics.compliant.CompliantChain`.
 """
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -95,7 +96,15 @@ class ParameterSpace:
     @classmethod
     def of_chain(cls, convention, joint_types, compliance=False):
         """The space of a chain of ``joint_types`` in ``convention``: links, gains, base,
-        tool, home (POE), and the joint compliances when ``compliance``."""
+        tool, home (POE), and the joint compliances when ``compliance``.
+
+        Spaces are immutable and depend on nothing else, so one is built per kind of chain:
+        a fit makes a new chain at every step and would otherwise rebuild it each time.
+        """
+        return _space(cls, convention, tuple(joint_types), bool(compliance))
+
+    @classmethod
+    def _build(cls, convention, joint_types, compliance):
         rows = []
         n = len(joint_types)
         for j, kind_of_joint in enumerate(joint_types, start=1):
@@ -157,3 +166,8 @@ class ParameterSpace:
     def file_units(self, names):
         """(P,) factors from internal units to the ones files and reports show."""
         return np.array([self[name].file_factor for name in names])
+
+
+@lru_cache(maxsize=64)
+def _space(cls, convention, joint_types, compliance):
+    return cls._build(convention, joint_types, compliance)

@@ -1,5 +1,5 @@
-"""The estimator of the calibration from position and distance constraints: a ball on the flange seated in the
-sockets of a fixture, joint angles only (DESIGN.md, method 2).
+"""The estimator of the calibration from position and distance constraints: a ball on the
+flange seated in the sockets of a fixture, joint angles only (DESIGN.md, method 2).
 
 Model: the global product of exponentials T = exp([S1]q1) ... exp([Sn]qn) M, with the ball
 centre as the tool (flange -> ball).  Every configuration gives a computed ball centre p(q).
@@ -23,8 +23,11 @@ that only mimic them become dependent and are fixed at their starting values, wi
 Parameters are preferred from the tip inwards (ball offset, then the joints from the last
 to the first), so what is fixed is joint 1's axis and what the base shares with joint 2:
 the calibrated model keeps the nominal base.
-"""
 
+The analyse → fit → re-analyse loop, the covariance and the refit without loose joint gains
+are :mod:`robocal.estimation.identification`'s; this module brings the constraint rows and
+the base and scale directions of the analysis, with their reasons.
+"""
 import warnings
 from dataclasses import dataclass, replace
 
