@@ -12,6 +12,7 @@ import numpy as np
 import typer
 from rich.console import Console
 from rich.table import Table
+from rich.text import Text
 
 from .. import __version__
 from ..errors import InputError, RobocalError, RobocalWarning
@@ -27,14 +28,20 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     rich_markup_mode="markdown",  # reflow docstring paragraphs in --help
 )
-out = Console(highlight=False, soft_wrap=True)
-err = Console(stderr=True, highlight=False, soft_wrap=True)
+# No markup: messages and tables carry users' text (file names, "[sockets]") that must print as is.
+out = Console(highlight=False, soft_wrap=True, markup=False)
+err = Console(stderr=True, highlight=False, soft_wrap=True, markup=False)
+
+
+def _say(label, style, message):
+    """One line on stderr: a coloured ``label:`` and the message, verbatim."""
+    err.print(Text(f"{label}:", style=style) + Text(f" {message}"))
 _state = {"debug": False}
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
     if issubclass(category, RobocalWarning):
-        err.print(f"[yellow]warning:[/] {message}")
+        _say("warning", "yellow", message)
     else:
         err.print(f"warning: {category.__name__}: {message}")
 
@@ -50,13 +57,13 @@ def user_errors(func):
         except RobocalError as exc:
             if _state["debug"]:
                 raise
-            err.print(f"[red]error:[/] {exc}")
+            _say("error", "red", exc)
             raise typer.Exit(2) from None
         except OSError as exc:  # a file the system would not read or write: the user's to fix
             if _state["debug"]:
                 raise
             where = f" {exc.filename}" if exc.filename else ""
-            err.print(f"[red]error:[/] cannot use{where}: {exc.strerror or exc}; check the path and its permissions")
+            _say("error", "red", f"cannot use{where}: {exc.strerror or exc}; check the path and its permissions")
             raise typer.Exit(2) from None
 
     return wrapper
@@ -315,7 +322,7 @@ def compensate(
     if result["unreachable_rows"]:
         rows = ", ".join(str(r) for r in result["unreachable_rows"][:10])
         more = " ..." if len(result["unreachable_rows"]) > 10 else ""
-        err.print(f"[yellow]warning:[/] {len(result['unreachable_rows'])} target(s) cannot be reached "
+        _say("warning", "yellow", f"{len(result['unreachable_rows'])} target(s) cannot be reached "
                   f"(rows {rows}{more}): their joint cells are empty and reachable = 0")
     _print_result(result, as_json, f"commands -> {out_file}")
 
@@ -363,7 +370,7 @@ def export(
     """
     result = export_job(model, out_file, fmt=fmt, convention=convention)
     for what in result["left_out"]:
-        err.print(f"[yellow]note:[/] left out of the {result['format'].upper()} file: {what}")
+        _say("note", "yellow", f"left out of the {result['format'].upper()} file: {what}")
     _print_result(result, as_json, f"{result['convention']} robot -> {out_file}")
 
 
