@@ -1,5 +1,6 @@
 """Kriging compensation end to end: model files, the Compensator, the command line."""
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,7 +15,7 @@ from robocal.methods import KrigingMethod
 from robocal.io.model_file import load_model, save_model
 from robocal.io.library import builtin
 from robocal.io.tables import read_measurements, write_measurements
-from robocal.simulation import liu2022_plan, make_true_robot, read_truth
+from robocal.simulation import liu2022_plan, make_true_robot, read_truth, uniform_joints
 
 runner = CliRunner()
 
@@ -58,7 +59,8 @@ def test_fixed_point_iteration_is_at_least_as_good_as_one_step(liu, fitted):
 def test_no_error_model_means_plain_ik(liu):
     chain, truth, q, targets, train, test = liu
     result = Compensator(chain).commands(targets[:5], hint=q[:5])
-    np.testing.assert_allclose(result.corrected, targets[:5])
+    # The controller is the chain itself: its FK of the commands gives the targets back.
+    np.testing.assert_allclose(result.corrected, targets[:5], atol=1e-8)
     np.testing.assert_allclose(chain.fk(result.q), targets[:5], atol=1e-8)
 
 
@@ -181,3 +183,35 @@ def test_calibrate_refuses_constraint_data_and_unknown_method(tmp_path):
     assert result.exit_code == 2 and "needs measured positions" in result.output
     result = runner.invoke(app, ["calibrate", "kr150-2", str(csv), "--method", "magic", "--out", str(tmp_path / "m.json")])
     assert result.exit_code == 2 and "not available" in result.output
+
+
+@pytest.mark.parametrize("name, settings", [("kinematic", {}), ("kinematic", {"parameters": "full+compliance"}),
+                                            ("kriging", {}), ("hybrid", {}),
+                                            ("ann", {"hidden": (8, 8), "generations": 5})])
+def test_corrected_cartesian_targets_make_an_unchanged_controller_command_the_compensated_joints(name, settings):
+    """A controller that keeps its nominal model, given the corrected Cartesian targets, must
+    reach them with the compensated joint commands: same landing point to 1e-6 mm."""
+    from robocal.kinematics.ik import solve_ik
+    from robocal.methods import make_method
+
+    chain = builtin("kr150-2")
+    truth = replace(make_true_robot(chain, "typical", seed=3), noise=0.0)
+    rng = np.random.default_rng(5)
+    q = uniform_joints(chain, 200, rng)
+    fitted = make_method(name, **settings).fit(chain, Observations.of(q, truth.positions(q)))
+    q_targets = uniform_joints(chain, 40, rng)
+    targets = fitted.reference_.fk(q_targets)  # reachable poses in the measurement frame
+    result = fitted.compensator_.commands(targets, hint=q_targets)
+    assert result.success.sum() >= 30
+    ok = result.success
+    sent = solve_ik(chain, result.corrected[ok], hint=result.q[ok])  # what the controller does
+    assert sent.success.all()
+    landed_by_joints = truth.positions(result.q[ok])
+    landed_by_targets = truth.positions(sent.q)
+    assert np.abs(landed_by_targets - landed_by_joints).max() < 1e-6
+    # The correction is real: the corrected targets are not the controller's view of the inputs.
+    uncorrected = chain.fk(solve_ik(fitted.reference_, targets[ok], hint=q_targets[ok]).q)
+    assert np.linalg.norm(result.corrected[ok, :3, 3] - uncorrected[:, :3, 3], axis=1).mean() > 0.05
+    # And the predicted error is the one the uncompensated robot would make.
+    assert np.all(np.isfinite(result.predicted_error[ok]))
+    assert np.linalg.norm(result.predicted_error[ok], axis=1).mean() > 0.05

@@ -10,6 +10,13 @@ robot really goes and where the model says.
 * A joint-space error model Δp(q) of the joint command q (the GA-trained network): IK gives
   q for the target, and the command moves against the predicted error through the
   Jacobian, q′ = q − J⁺Δp(q) (:func:`~robocal.compensation.joint_space.correct_joints`).
+* No error model (a parametric calibration): IK of the calibrated model itself.
+
+Either way the result is a joint command, and beside it the Cartesian target to send to a
+controller that keeps its nominal model: the controller's own forward kinematics of that
+joint command, in the controller's base frame with its own tool (the robot file's), so that
+the controller's IK gives back the compensated joints.  Targets come in the measurement
+frame; a registered base and tool are part of the calibrated model that solves them.
 """
 from dataclasses import dataclass
 
@@ -24,9 +31,11 @@ from .joint_space import correct_joints
 class CommandResult:
     """Joint commands for N targets.
 
-    q: (N, n) joints (rad, mm), NaN where unreachable; success: (N,) bool;
-    corrected: (N, 4, 4) the Cartesian targets actually sent through IK (the input targets
-    moved by the predicted error); predicted_error: (N, 3) mm.
+    q: (N, n) joint commands (rad, mm), NaN where unreachable; success: (N,) bool;
+    corrected: (N, 4, 4) the Cartesian target for a controller that keeps its nominal model
+    (its FK of ``q``, in the controller's base frame with its own tool; NaN where
+    unreachable); predicted_error: (N, 3) mm, where the robot would land without
+    compensation minus the target, as the model predicts it (NaN where unknown).
     """
 
     q: np.ndarray
@@ -43,12 +52,21 @@ JOINT_ITERATIONS = 5
 @dataclass(frozen=True)
 class Compensator:
     """Kinematic model + optional error model (anything with ``predict``) of the commanded
-    TCP position (``error_input='position'``) or of the joint command (``'joints'``)."""
+    TCP position (``error_input='position'``) or of the joint command (``'joints'``).
+
+    chain: the model whose IK solves the targets (measurement frame); nominal: the robot
+    whose closed-form IK seeds the solver; controller: the robot as its controller knows it
+    (default ``nominal``, else ``chain``): the corrected Cartesian targets are its FK;
+    reference: the nominal geometry in the measurement frame (default ``chain``): what the
+    robot would do uncompensated, for the predicted error of a model without error model.
+    """
 
     chain: object
     error_model: object = None
-    nominal: object = None  # the robot whose closed-form IK seeds the solver
+    nominal: object = None
     error_input: str = "position"
+    controller: object = None
+    reference: object = None
 
     def __post_init__(self):
         if self.error_input not in ERROR_INPUTS:
@@ -92,36 +110,51 @@ class Compensator:
         return corrected, error
 
     def commands(self, targets, hint=None, *, iterate=False):
-        """Joint commands (through IK of the model) for (N, 4, 4) targets."""
+        """Joint commands (through IK of the model) for (N, 4, 4) targets in the measurement
+        frame; see :class:`CommandResult`."""
+        targets = np.asarray(targets, dtype=float)
         if self.error_model is not None and self.error_input == "joints":
-            return self._joint_space_commands(targets, hint, iterate)
-        corrected, error = self.corrected_targets(targets, iterate=iterate)
-        q, success = self._ik(corrected, hint)
-        return CommandResult(q, success, corrected, error)
+            q, ok, error = self._joint_space_commands(targets, hint, iterate)
+        else:
+            moved, error = self.corrected_targets(targets, iterate=iterate)
+            q, ok = self._ik(moved, hint)
+            if self.error_model is None:
+                error = self._uncompensated_error(targets, hint)
+        corrected = np.full_like(targets, np.nan)
+        controller = self.controller if self.controller is not None else (self.nominal or self.chain)
+        if ok.any():
+            corrected[ok] = controller.fk(q[ok])
+        return CommandResult(q, ok, corrected, error)
 
     def _ik(self, targets, hint):
         # A compliant model is solved on its rigid geometry, then the commands are moved so
         # that the joints, once gravity has bent them, stand where the rigid solution is.
-        rigid = getattr(self.chain, "rigid", self.chain)
+        rigid = self.chain.rigid
         result = solve_ik(rigid, targets, hint=hint, nominal=self.nominal)
         q = result.q if rigid is self.chain else self.chain.commands_for(result.q)
         return q, result.success
 
+    def _uncompensated_error(self, targets, hint):
+        """Where the model says the robot lands when commanded as its nominal geometry (in the
+        measurement frame) would be, minus the target; NaN where that geometry cannot reach."""
+        reference = self.reference if self.reference is not None else self.chain
+        result = solve_ik(reference.rigid, targets, hint=hint, nominal=self.nominal)
+        error = np.full((len(targets), 3), np.nan)
+        ok = result.success
+        if ok.any():
+            error[ok] = self.predict_positions(result.q[ok]) - targets[ok, :3, 3]
+        return error
+
     def _joint_space_commands(self, targets, hint, iterate):
         """IK of the targets, then the joint-space correction; a corrected command outside
-        the joint limits counts as unreachable.  ``corrected`` is the model's pose at the
-        corrected command: what a controller keeping this model must be sent."""
-        targets = np.asarray(targets, dtype=float)
+        the joint limits counts as unreachable.  Returns (q, success, predicted error)."""
         q, ok = self._ik(targets, hint)
         q, ok = q.copy(), ok.copy()
+        error = np.full((len(targets), 3), np.nan)
         if ok.any():
+            error[ok] = self.error_model.predict(q[ok])
             q[ok] = correct_joints(self.chain, self.error_model, q[ok],
                                    iterations=JOINT_ITERATIONS if iterate else 1)
             ok[ok] = self.chain.within_limits(q[ok])
         q[~ok] = np.nan
-        corrected = targets.copy()
-        error = np.zeros((len(targets), 3))
-        if ok.any():
-            corrected[ok] = self.chain.fk(q[ok])
-            error[ok] = self.error_model.predict(q[ok])
-        return CommandResult(q, ok, corrected, error)
+        return q, ok, error

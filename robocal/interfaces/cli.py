@@ -316,6 +316,12 @@ def compensate(
 ):
     """Joint commands and corrected Cartesian targets that make the real robot hit the targets.
 
+    Targets are in the measurement frame (the frame of the data the model was fitted to).
+    In the commands file, q1..qN are the joint commands; x, y, z, rx, ry, rz are the target
+    to send instead to a controller that keeps its nominal model: its forward kinematics of
+    those joints, in the robot's base frame with the tool of the robot file (a base and tool
+    registered to the data are part of the calibrated model, not of these columns).
+
     Example: robocal compensate model.json targets.csv --out commands.csv
     """
     result = compensate_job(model, targets, out_file, iterate=iterate)

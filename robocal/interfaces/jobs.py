@@ -72,7 +72,7 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
     write_joint_commands(out, model.kinematics, result.q, result.corrected, result.success)
     return {"targets": int(len(targets.poses)), "reachable": int(result.success.sum()),
             "unreachable_rows": [int(r) for r in targets.rows[~result.success]], "out": str(out),
-            "predicted_error": error_stats(result.predicted_error)}
+            "predicted_error": error_stats(result.predicted_error[np.isfinite(result.predicted_error).all(axis=1)])}
 
 
 EXPORT_FORMATS = ("toml", "urdf")

@@ -70,7 +70,8 @@ class NetworkMethod(Method):
         record.update(base_model=self.base_model, network=network.training_,
                       residual_after_training=error_stats(errors - network.predict(obs.joints)))
         record.setdefault("residual_before", error_stats(errors))
-        self.compensator_ = Compensator(model_chain, network, nominal=chain, error_input="joints")
+        self.compensator_ = Compensator(model_chain, network, nominal=chain, error_input="joints", controller=chain,
+                                        reference=reference)
         self.reference_ = reference
         self.record_ = FitRecord.from_dict(record)
         return self

@@ -134,8 +134,8 @@ class Method:
         except (InputError, KeyError, TypeError, ValueError) as exc:
             raise FileFormatError(f"{path}: the error model is damaged ({exc}); "
                                   "regenerate the file with 'robocal calibrate'") from None
-        method.compensator_ = Compensator(model.kinematics, error_model, nominal=getattr(model.kinematics, "rigid", model.kinematics),
-                                          error_input=error_input)
+        method.compensator_ = Compensator(model.kinematics, error_model, nominal=model.kinematics.rigid,
+                                          error_input=error_input, controller=model.nominal, reference=model.reference)
         method.reference_ = model.reference
         method.record_ = FitRecord.from_dict(model.training)
         return method

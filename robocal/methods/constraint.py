@@ -53,7 +53,7 @@ class ConstraintMethod(Method):
         calibration = self.calibration().fit(chain, obs.joints, obs.placement, obs.socket, obs.fixture)
         result = calibration.result_
         self.calibration_ = calibration
-        self.compensator_ = Compensator(calibration.chain_, None, nominal=chain)
+        self.compensator_ = Compensator(calibration.chain_, None, nominal=chain, controller=chain, reference=chain)
         self.reference_ = chain
         self.record_ = FitRecord(calibration=CalibrationRecord.from_dict(result.to_dict(calibration.chain_)), fixture=fixture_to_dict(obs.fixture),
                                  residual_before=result.residual_before, residual_after_training=result.residual_after)

@@ -21,7 +21,7 @@ class HybridMethod(KrigingResidual, Method):
         model_positions = calibrated.fk_positions(observations.joints)
         residual = observations.positions - model_positions
         model = kriging_of(self).fit(model_positions, residual)
-        self.compensator_ = Compensator(calibrated, model, nominal=chain)
+        self.compensator_ = Compensator(calibrated, model, nominal=chain, controller=chain, reference=base.reference_)
         self.reference_ = base.reference_
         self.record_ = base.record_.replace(
             residual_after_training=error_stats(residual - model.predict(model_positions)),

@@ -33,12 +33,12 @@ class KinematicMethod(Method):
         obs = require_positions(observations, self.name)
         calibration = self.calibration().fit(chain, obs.joints, obs.positions, orientations=obs.rotations,
                                              sigmas=obs.sigmas)
-        reference = registered_nominal(chain, obs.joints, obs.positions)
         result = calibration.result_
         record = CalibrationRecord.from_dict(
             {**result.to_dict(calibration.chain_), "outlier_rows": [int(obs.rows[i]) for i in result.outliers]})
         self.calibration_ = calibration
-        self.compensator_ = Compensator(calibration.chain_, None, nominal=chain)
+        reference = registered_nominal(chain, obs.joints, obs.positions)
+        self.compensator_ = Compensator(calibration.chain_, None, nominal=chain, controller=chain, reference=reference)
         self.reference_ = reference
         self.record_ = FitRecord(
             registered=self.register != "no", calibration=record,

@@ -69,7 +69,7 @@ class KrigingMethod(KrigingResidual, Method):
         nominal_positions = frame.fk_positions(obs.joints)
         errors = obs.positions - nominal_positions
         model = kriging_of(self).fit(nominal_positions, errors)
-        self.compensator_ = Compensator(frame, model, nominal=frame)
+        self.compensator_ = Compensator(frame, model, nominal=frame, controller=chain, reference=frame)
         self.reference_ = frame
         self.record_ = FitRecord(**record, residual_before=error_stats(errors),
                                  residual_after_training=error_stats(errors - model.predict(nominal_positions)),
