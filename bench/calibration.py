@@ -53,9 +53,12 @@ from robocal.errors import InputError  # noqa: E402
 from robocal.estimation.calibration import KinematicCalibration  # noqa: E402
 from robocal.estimation.metrics import error_stats  # noqa: E402
 from robocal.estimation.registration import register_base_and_tool  # noqa: E402
-from robocal.estimation.validation import k_fold, kinematic_fitter  # noqa: E402
+from robocal.estimation.validation import k_fold  # noqa: E402
 from robocal.io.library import builtin  # noqa: E402
+from robocal.io.observations import Observations  # noqa: E402
 from robocal.kinematics import to_mdh  # noqa: E402
+from robocal.methods import KinematicMethod  # noqa: E402
+from robocal.methods.validation import method_fitter  # noqa: E402
 from robocal.simulation import uniform_joints  # noqa: E402
 
 SIZES = (100, 500, 2000)
@@ -358,7 +361,8 @@ def real_data_benchmark():
         print(f"{label:<19}{split:<17}{f'{train.size}/{test.size}':>11}   {_stats(before):>28}   {_stats(after):>27}")
         folds = 5
         cv_before = k_fold(data.n_poses, _nominal_fitter(chain, joints, positions), positions, k=folds)
-        cv_after = k_fold(data.n_poses, kinematic_fitter(chain, joints, positions, sigmas=sigmas), positions, k=folds)
+        fitter = method_fitter(KinematicMethod(), chain, Observations.of(joints, positions, sigmas=sigmas))
+        cv_after = k_fold(data.n_poses, fitter, positions, k=folds)
         counts = f"{data.n_poses - data.n_poses // folds}/{data.n_poses // folds}"
         print(f"{'':<19}{f'{folds}-fold, pooled':<17}{counts:>11}   {_stats(cv_before['pooled']):>28}   "
               f"{_stats(cv_after['pooled']):>27}", flush=True)

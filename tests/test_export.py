@@ -34,7 +34,7 @@ def test_exported_robot_reproduces_the_calibrated_kinematics(measured, parameter
     assert result.exit_code == 0, result.output
     report = json.loads(result.stdout)
     calibrated = load_model(model).kinematics
-    rigid = getattr(calibrated, "rigid", calibrated)
+    rigid = calibrated.rigid
     exported = load_robot(str(out))
     q = rigid.random_configurations(200, rng=1)
     # URDF has no joint gains: its joints are the model variables, and the export says so.

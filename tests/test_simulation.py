@@ -7,6 +7,7 @@ from robocal.errors import InputError
 from robocal.io.library import load_robot
 from robocal.kinematics.ik import ik_all
 from robocal.simulation import (
+    GRAVITY,
     Compliance,
     TrueRobot,
     grid,
@@ -116,8 +117,13 @@ def test_gravity_torque_is_minus_the_gradient_of_the_potential_energy(chain):
     q = chain.random_configurations(8, rng=7)
     step = 1e-6
     shifts = np.eye(chain.n_joints) * step
-    energy_up = compliance.mass_model.potential_energy(chain, (q[:, None, :] + shifts).reshape(-1, chain.n_joints))
-    energy_down = compliance.mass_model.potential_energy(chain, (q[:, None, :] - shifts).reshape(-1, chain.n_joints))
+    mass_model = compliance.mass_model
+
+    def potential_energy(joints):  # (N,) J, heights of the link masses and payload in m
+        return GRAVITY * (mass_model.mass_points(chain, joints)[..., 2] * 1e-3) @ mass_model.masses
+
+    energy_up = potential_energy((q[:, None, :] + shifts).reshape(-1, chain.n_joints))
+    energy_down = potential_energy((q[:, None, :] - shifts).reshape(-1, chain.n_joints))
     gradient = (energy_up - energy_down).reshape(q.shape) / (2 * step)  # dV / d(controller joint)
     # The torque is per model joint; q_model = q @ joint_map.T, so dV/dq = dV/dq_model @ joint_map.
     torque = compliance.gravity_torque(chain, q) @ chain.joint_map

@@ -14,22 +14,17 @@ comes from.  This module runs the rest the same way for both:
 
 Names of the base frame and tool position parameters are defined here, once.
 """
-import sys
 from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
 
 from ..errors import FileFormatError, InputError
-from ..io.robot_file import chain_from_dict, robot_to_toml
+from ..io.robot_file import chain_from_dict, chain_to_dict
 from ..kinematics.compliant import UNITS_NOTE, CompliantChain, file_units
 from .identifiability import STRONG_CORRELATION, IdentifiabilityReport
 from .least_squares import Fit
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 BASE = ("base_x", "base_y", "base_z", "base_rx", "base_ry", "base_rz")
 TOOL_POSITION = ("tool_x", "tool_y", "tool_z")
@@ -228,7 +223,7 @@ class IdentifiedResult:
 def chain_document(chain):
     """A chain (rigid or compliant) as {"robot": robot-file structure (mm, deg), and
     "joint_compliance" when it has one}, JSON-ready."""
-    doc = {"robot": tomllib.loads(robot_to_toml(chain.rigid))}
+    doc = {"robot": chain_to_dict(chain)}
     if isinstance(chain, CompliantChain):
         doc["joint_compliance"] = chain.compliance_document()
     return doc

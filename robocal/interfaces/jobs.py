@@ -92,7 +92,7 @@ def export_job(model_path, out, *, fmt="toml", convention=None):
     if convention is not None and convention not in converters:
         raise InputError(f"convention must be one of dh, mdh, poe, got {convention!r}")
     model = load_model(model_path)
-    rigid = getattr(model.kinematics, "rigid", model.kinematics)
+    rigid = model.kinematics.rigid
     chain = rigid if convention is None else converters[convention](rigid)
     left_out = []
     if rigid is not model.kinematics:

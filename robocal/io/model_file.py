@@ -19,29 +19,18 @@ or truncated (checksum, missing keys, arrays of the wrong shape).  Nothing is ev
 import datetime as _dt
 import hashlib
 import json
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from .. import __version__
 from ..errors import FileFormatError, InputError
 from .atomic import write_text_atomic
-from .robot_file import chain_from_dict, robot_to_toml
-from ..kinematics.compliant import FILE_UNIT, CompliantChain
-from ..kinematics.gravity import MassModel
+from .robot_file import chain_from_dict, chain_to_dict, robot_to_toml
+from ..kinematics.compliant import CompliantChain
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 SCHEMA = "robocal.model"
 SCHEMA_VERSION = 1
-
-
-def chain_document(chain):
-    """A chain as the robot-file structure (mm, deg), JSON-ready."""
-    return tomllib.loads(robot_to_toml(chain))
 
 
 def robot_hash(chain):
@@ -76,32 +65,17 @@ class ModelFile:
             "created": self.created or _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
             "method": self.method,
             "robot": {"name": self.nominal.name, "hash": robot_hash(self.nominal),
-                      "model": chain_document(self.nominal)},
-            "kinematics": chain_document(getattr(self.kinematics, "rigid", self.kinematics)),
-            "reference": chain_document(self.reference if self.reference is not None else self.kinematics),
+                      "model": chain_to_dict(self.nominal)},
+            "kinematics": chain_to_dict(self.kinematics),
+            "reference": chain_to_dict(self.reference if self.reference is not None else self.kinematics),
             "error_model": self.error_model,
             "training": self.training,
             "options": self.options,
         }
         if isinstance(self.kinematics, CompliantChain):
-            doc["joint_compliance"] = _compliance_document(self.kinematics)
+            doc["joint_compliance"] = self.kinematics.compliance_document()
         doc["checksum"] = hashlib.sha256(_canonical(doc).encode()).hexdigest()
         return doc
-
-
-def _compliance_document(chain):
-    return {"link_masses_kg": chain.mass_model.link_masses.tolist(), "payload_kg": chain.mass_model.payload,
-            "compliance_urad_per_nm": (chain.compliance * FILE_UNIT).tolist(),
-            "gravity": "-z of the robot base"}
-
-
-def _compliant(chain, doc, path):
-    """``chain`` with the joint compliance of a model file's 'joint_compliance' entry."""
-    try:
-        mass = MassModel(doc["link_masses_kg"], doc["payload_kg"])
-        return CompliantChain(chain, mass, [c / FILE_UNIT for c in doc["compliance_urad_per_nm"]])
-    except (KeyError, TypeError, ValueError, InputError) as exc:
-        raise FileFormatError(f"{path}: 'joint_compliance' is damaged ({exc}); regenerate the file") from None
 
 
 def save_model(model: ModelFile, path):
@@ -152,7 +126,7 @@ def load_model(path, robot=None) -> ModelFile:
     reference = (chain_from_dict(doc["reference"], f"{path} (reference)") if isinstance(doc.get("reference"), dict)
                  else kinematics)
     if "joint_compliance" in doc:
-        kinematics = _compliant(kinematics, _require(doc, "joint_compliance", dict, path), path)
+        kinematics = CompliantChain.from_document(kinematics, _require(doc, "joint_compliance", dict, path), path)
     if kinematics.n_joints != nominal.n_joints:
         raise FileFormatError(f"{path}: the calibrated kinematics and the robot have different joint counts")
     if robot is not None and robot_hash(robot) != robot_doc.get("hash"):

@@ -285,3 +285,9 @@ def _toml_string(text):
 def write_robot(chain: Chain, path, description=None):
     """Write a robot TOML file atomically."""
     write_text_atomic(path, robot_to_toml(chain, description))
+
+
+def chain_to_dict(chain: Chain) -> dict:
+    """The rigid geometry of ``chain`` as the robot-file structure (mm, deg), JSON-ready: what
+    :func:`chain_from_dict` reads back (model files keep their chains this way)."""
+    return tomllib.loads(robot_to_toml(chain.rigid))

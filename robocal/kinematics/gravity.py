@@ -83,11 +83,6 @@ class MassModel:
         """(N, n + 1, 3) positions (mm, world frame) of the link masses and the payload."""
         return self._bodies(chain, q)[2]
 
-    def potential_energy(self, chain, q):
-        """(N,) gravitational potential energy (J) relative to z = 0 of the world frame."""
-        heights = self.mass_points(chain, q)[..., 2] * MM
-        return GRAVITY * heights @ self.masses
-
     def gravity_torque(self, chain, q):
         """(N, n) torque (N·m; N for prismatic joints) that gravity exerts on each model joint.
 
