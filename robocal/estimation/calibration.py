@@ -12,14 +12,13 @@ import numpy as np
 
 from ..errors import InputError
 from ..kinematics.compliant import with_compliance
-from ..spatial import make_transform
 from .identifiability import NEAR_PARALLEL, analyse
 from .identification import (Analysis, FittedCalibration, IdentifiedResult, check_payload,
                              identified_parameters, identify, one_of)
 from .least_squares import levenberg_marquardt
 from .least_squares import residual as residual_of
 from .metrics import error_stats
-from .registration import kabsch
+from .registration import register_base_and_tool
 
 __all__ = ["PARAMETER_SETS", "LOSSES", "CalibrationResult", "KinematicCalibration", "candidate_parameters",
            "check_payload", "identified_parameters", "parameter_terms"]
@@ -29,6 +28,14 @@ LOSSES = ("linear", "huber", "soft_l1")
 # Nominal geometry of the right robot in the right unit lands within a few mm; a calibrated
 # model that still misses by this much is fitting the wrong robot, unit or data.
 WRONG_ROBOT_RMS_MM = 10.0
+# Manufacturing and assembly put a real robot within millimetres and a fraction of a degree
+# of its drawing (typical calibrations find 0.1-5 mm and 0.01-0.5 deg, base and tool
+# measured from the registered start).  A fit that needs a tenth of the reach or ten degrees
+# has turned the model into another robot: a full DH model of one six-axis arm can fit
+# another's positions exactly (KR 150-2 joints with UR10 positions: 0.000 mm residual with
+# d2 moved by 1956 mm), so a small residual alone proves nothing.
+IMPLAUSIBLE_REACH_FRACTION = 0.1
+IMPLAUSIBLE_ANGLE_DEG = 10.0
 
 
 @dataclass(frozen=True)
@@ -116,8 +123,10 @@ class KinematicCalibration(FittedCalibration):
     position_sigma, orientation_sigma : float
         mm and deg: the row weights when the data carry no sigmas.
     register : bool
-        Start from a Kabsch fit of the base (False for data already in the base frame of a
-        chain whose base is right).
+        Start from the nominal geometry with base and tool registered to the data
+        (:func:`~robocal.estimation.registration.register_base_and_tool`; False for data
+        already in the base frame of a chain whose base and tool are right).  That start is
+        also the honest "before" of every figure, and deviations are measured from it.
     payload : float or None
         kg at the TCP, for the compliance sets.
     max_iterations, tolerance
@@ -200,12 +209,11 @@ class KinematicCalibration(FittedCalibration):
         return chain.replace(tool=tool)
 
     def _start(self, chain, q, target, rotations, compliant):
-        """The starting model: the base registered (Kabsch of nominal FK, the LM refines it with
-        the rest), the tool rotation in closed form, the compliance when asked for."""
+        """The starting model: base and tool position registered (the LM refines them with the
+        rest), the tool rotation in closed form, the compliance when asked for."""
         start = chain
         if self.register:
-            rot, shift = kabsch(chain.fk_positions(q), target)
-            start = chain.replace(base=make_transform(rot, shift) @ chain.base)
+            start = register_base_and_tool(chain, q, target)[0]
         if rotations is not None:
             start = self._start_tool_rotation(start, q, rotations)
         if compliant is not None:
@@ -255,11 +263,13 @@ class KinematicCalibration(FittedCalibration):
                 "and unit (mm, degrees) for these data?"
             )
         ident = list(found.names)
+        values = fitted.parameter_values(ident) - start.parameter_values(ident)
+        _check_plausible(start, q, ident, values)
         self.chain_ = fitted
         self.start_chain_ = start
         self.names_ = found.names
         self.result_ = CalibrationResult(
-            names=found.names, values=fitted.parameter_values(ident) - start.parameter_values(ident),
+            names=found.names, values=values,
             std_errors=found.std_errors, correlated_pairs=found.correlated_pairs,
             identifiability=found.report, residual_before=before, residual_after=after,
             orientation_rms_deg=(float(np.degrees(np.sqrt(np.mean(np.sum(residual[:, 3:] ** 2, axis=1)))))
@@ -313,3 +323,21 @@ class KinematicCalibration(FittedCalibration):
         sets).  InputError if not fitted.
         """
         return super().predict(joints)
+
+
+def _check_plausible(start, joints, names, values):
+    """InputError when the identified deviations (rad, mm) are beyond what manufacturing can
+    explain: lengths past IMPLAUSIBLE_REACH_FRACTION of the reach at these poses, angles past
+    IMPLAUSIBLE_ANGLE_DEG; the message names the worst."""
+    reach = float(np.linalg.norm(start.rigid.replace(base=np.eye(4)).fk_positions(joints), axis=1).max())
+    space = start.parameters
+    limits = {"mm": IMPLAUSIBLE_REACH_FRACTION * reach, "rad": np.radians(IMPLAUSIBLE_ANGLE_DEG)}
+    beyond = [(abs(v) / limits[space[n].unit], n, v) for n, v in zip(names, values) if space[n].unit in limits]
+    beyond = sorted((b for b in beyond if b[0] > 1.0), reverse=True)
+    if beyond:
+        said = ", ".join(f"{n} by {np.degrees(v):.1f} deg" if space[n].unit == "rad" else f"{n} by {v:.1f} mm"
+                         for _, n, v in beyond[:3])
+        raise InputError(
+            f"the calibration moves {said} from the registered nominal robot: far beyond manufacturing "
+            f"tolerances ({IMPLAUSIBLE_REACH_FRACTION:.0%} of the {reach:.0f} mm reach, {IMPLAUSIBLE_ANGLE_DEG:.0f} deg), "
+            "so these data are not this robot's, or not in mm and degrees: check the robot file and the data")

@@ -37,7 +37,10 @@ class KinematicMethod(Method):
         record = CalibrationRecord.from_dict(
             {**result.to_dict(calibration.chain_), "outlier_rows": [int(obs.rows[i]) for i in result.outliers]})
         self.calibration_ = calibration
-        reference = registered_nominal(chain, obs.joints, obs.positions)
+        # The calibration starts from the registered nominal; without registration the
+        # baseline is still the nominal registered to the data (the honest "before").
+        reference = (calibration.start_chain_.rigid if self.register != "no"
+                     else registered_nominal(chain, obs.joints, obs.positions))
         self.compensator_ = Compensator(calibration.chain_, None, nominal=chain, controller=chain, reference=reference)
         self.reference_ = reference
         self.record_ = FitRecord(
