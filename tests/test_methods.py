@@ -163,3 +163,24 @@ def test_a_new_method_is_one_class_and_one_registry_line(tmp_path, ur5_data, mon
         cv["nominal_cross_validation"]["pooled"]["mean_mm"], abs=1e-9)
     compensated = jobs.compensate_job(out, EXAMPLES / "ur5-targets.csv", tmp_path / "c.csv")
     assert compensated["reachable"] > 0
+
+
+def test_the_constraint_method_round_trips_and_beats_the_nominal_on_a_placement_it_never_saw(tmp_path):
+    from robocal.io.fixtures import read_fixture
+    from robocal.methods.evaluation import socket_scores
+    from robocal.simulation.sampling import socket_plan
+
+    chain = builtin("kr150-2")
+    truth = make_true_robot(chain, "typical", seed=2)
+    fixture = read_fixture(EXAMPLES / "plate-fixture.toml")
+    observations = socket_plan(truth, fixture, 4, 8, rng=3).observations(fixture)
+    held_out = observations.placement == observations.placement[-1]
+    fitted = methods.make_method("constraint").fit(chain, observations.subset(~held_out))
+    path = tmp_path / "sockets.json"
+    save_model(fitted.to_model_file(chain), path)
+    loaded = methods.fitted_from_model_file(load_model(path), path)
+    q = observations.joints
+    np.testing.assert_allclose(loaded.predict(q), fitted.predict(q), atol=1e-9)
+    assert loaded.record_ == fitted.record_ and loaded.record_.fixture["name"] == fixture.name
+    scores = socket_scores(loaded, observations.subset(held_out))
+    assert scores["mean_mm"] < scores["nominal"]["mean_mm"] / 5

@@ -163,13 +163,17 @@ def test_backlash_acts_on_model_joints_through_the_joint_map():
 def test_measurement_noise_has_the_requested_spread():
     truth = TrueRobot(KR150, noise=0.05, noise_orientation=0.02)
     q = np.tile(deg(0, -90, 90, 0, 60, 0), (4000, 1))
-    positions, rpy = truth.measure(q, np.random.default_rng(0), orientation=True)
+    positions, rotations = truth.measure(q, np.random.default_rng(0), orientation=True)
     assert positions.std(axis=0) == pytest.approx([0.05] * 3, rel=0.05)
-    turns = so3_log(rpy_to_matrix(np.radians(rpy)) @ np.swapaxes(truth.pose(q)[:, :3, :3], 1, 2))
+    turns = so3_log(rotations @ np.swapaxes(truth.pose(q)[:, :3, :3], 1, 2))
     assert np.degrees(turns.std(axis=0)) == pytest.approx([0.02] * 3, rel=0.05)
-    table = truth.measurements(q[:3], rng=1)
+    table = truth.measurements(q[:3], rng=1, orientation=True)
     np.testing.assert_array_equal(table.joints, np.degrees(q[:3]))
     np.testing.assert_array_equal(table.sigmas, 0.05)
+    # The same draws in internal units: rotation matrices, joints in rad.
+    observed = truth.observations(q[:3], rng=1, orientation=True)
+    np.testing.assert_array_equal(observed.joints, q[:3])
+    np.testing.assert_allclose(rpy_to_matrix(np.radians(table.orientations)), observed.rotations, atol=1e-12)
 
 
 def test_truth_file_round_trip_reproduces_the_robot_exactly(tmp_path):

@@ -16,6 +16,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from ..errors import InputError
+from ..io.observations import Observations
 from ..io.tables import Measurements
 from ..kinematics.ik import closed_form, ik_all, solve_ik
 from ..spatial import make_transform, rot_z, so3_exp
@@ -200,6 +201,10 @@ class SocketPlan:
     socket_ids: np.ndarray
     ball: np.ndarray
     placements: np.ndarray
+
+    def observations(self, fixture):
+        """The plan as :class:`~robocal.io.observations.Observations` of ``fixture``'s sockets."""
+        return Observations.of(self.joints, placement=self.fixture_ids, socket=self.socket_ids, fixture=fixture)
 
     def measurements(self, chain):
         """The plan as a measurement table (joints in file units, fixture and socket columns)."""

@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import FileFormatError, InputError
 from ..io.atomic import write_text_atomic
 from ..io.robot_file import chain_from_dict, robot_to_toml, tomllib
+from ..io.observations import Observations
 from ..io.tables import Measurements
 from ..kinematics import Chain
 from ..spatial import matrix_to_rpy, so3_exp
@@ -139,10 +140,10 @@ class TrueRobot:
     def measure(self, q, rng, previous=None, orientation=False):
         """What an instrument reads: true TCP positions (N, 3) mm with Gaussian noise.
 
-        With ``orientation`` also the orientations as rpy (N, 3) in degrees, each turned by
-        a small random rotation (``noise_orientation`` deg about each world axis) so that
-        the noise stays isotropic near gimbal lock; returns (positions, rpy) then.
-        rng: a numpy Generator or a seed.
+        With ``orientation`` also the orientations as rotation matrices (N, 3, 3), each
+        turned by a small random rotation (``noise_orientation`` deg about each world axis)
+        so that the noise stays isotropic near gimbal lock; returns (positions, rotations)
+        then.  rng: a numpy Generator or a seed.
         """
         rng = np.random.default_rng(rng)
         q = np.atleast_2d(np.asarray(q, dtype=float))
@@ -155,17 +156,23 @@ class TrueRobot:
         if not orientation:
             return positions
         turn = so3_exp(rng.normal(scale=np.radians(self.noise_orientation), size=positions.shape))
-        return positions, np.degrees(matrix_to_rpy(turn @ poses[:, :3, :3]))
+        return positions, turn @ poses[:, :3, :3]
 
-    def measurements(self, q, rng, previous=None, orientation=False):
-        """:meth:`measure` as a :class:`~robocal.io.tables.Measurements` table (file units),
-        with the position noise as each row's sigma when there is any."""
+    def observations(self, q, rng, previous=None, orientation=False):
+        """:meth:`measure` as :class:`~robocal.io.observations.Observations` (internal units),
+        what every method fits; the position noise is each row's sigma when there is any."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
         measured = self.measure(q, rng, previous, orientation)
-        positions, rpy = measured if orientation else (measured, None)
+        positions, rotations = measured if orientation else (measured, None)
         sigmas = np.full_like(positions, self.noise) if self.noise > 0 else None
-        return Measurements(path="", joints=self.nominal.joints_to_file(q), positions=positions,
-                            orientations=rpy, sigmas=sigmas)
+        return Observations.of(q, positions, rotations=rotations, sigmas=sigmas)
+
+    def measurements(self, q, rng, previous=None, orientation=False):
+        """The same as a :class:`~robocal.io.tables.Measurements` table (file units: deg)."""
+        obs = self.observations(q, rng, previous, orientation)
+        rpy = None if obs.rotations is None else np.degrees(matrix_to_rpy(obs.rotations))
+        return Measurements(path="", joints=self.nominal.joints_to_file(obs.joints), positions=obs.positions,
+                            orientations=rpy, sigmas=obs.sigmas)
 
     # ------------------------------------------------------------------ truth file
     def to_dict(self):
