@@ -330,7 +330,6 @@ def test_socket_plan_noise_and_seating_error():
 
 
 # ---------------------------------------------------------------------- real data
-@pytest.mark.shared_data
 def test_mukca_loader():
     from robocal.io.datasets import mukca
 
@@ -345,7 +344,6 @@ def test_mukca_loader():
         mukca("panda_9")
 
 
-@pytest.mark.shared_data
 def test_mukca_panda_1_held_out_placement():
     from robocal.io.datasets import mukca
 
