@@ -1,5 +1,5 @@
 """The estimator of the calibration from position and distance constraints: a ball on the
-flange seated in the sockets of a fixture, joint angles only (DESIGN.md, method 2).
+flange seated in the sockets of a fixture, joint angles only (docs/ARCHITECTURE.md; the constraint method).
 
 Model: the global product of exponentials T = exp([S1]q1) ... exp([Sn]qn) M, with the ball
 centre as the tool (flange -> ball).  Every configuration gives a computed ball centre p(q).
