@@ -69,6 +69,9 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
     model, fitted = load_fitted(model_path)
     targets = read_target_poses(targets_path, model.kinematics)
     result = fitted.compensator_.commands(targets.poses, hint=targets.hints, iterate=iterate)
+    if not result.success.any():
+        raise InputError(f"none of the {len(targets.poses)} targets in {targets_path} can be reached by the calibrated "
+                         f"robot: are they in the measurement frame, in mm and degrees? nothing was written")
     write_joint_commands(out, model.kinematics, result.q, result.corrected, result.success)
     return {"targets": int(len(targets.poses)), "reachable": int(result.success.sum()),
             "unreachable_rows": [int(r) for r in targets.rows[~result.success]], "out": str(out),
@@ -161,6 +164,8 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
     from ..simulation import grid, latin_hypercube_box, liu2022_plan, uniform_joints, write_truth
     from ..spatial import rpy_to_matrix
 
+    if n is not None and n < 1:
+        raise InputError(f"--n is the number of poses to simulate and must be at least 1, got {n}")
     chain = load_robot(robot, root=root, tip=tip)
     rng = np.random.default_rng(seed)
     true_robot = _true_robot(chain, errors, seed)
@@ -226,6 +231,8 @@ def dataset_job(name, prefix, *, split=None, seed=0):
         raise InputError(f"unknown dataset {name!r}; available: {', '.join(DATASETS)}")
     loader, kwargs = DATASETS[name]
     chain, data, *fixture = getattr(datasets, loader)(**kwargs)
+    # The split is checked before anything is written: a refused split leaves no files.
+    train, chosen = (None, None) if split is None else datasets.split_indices(data, split, seed)
     write_robot(chain, f"{prefix}.toml", description=f"robot model of the {name} dataset")
     written = {"robot": f"{prefix}.toml"}
     if fixture:
@@ -235,7 +242,6 @@ def dataset_job(name, prefix, *, split=None, seed=0):
         write_measurements(f"{prefix}.csv", data)
         written["measurements"] = f"{prefix}.csv"
         return {"dataset": name, "poses": data.n_poses, "source": data.path, **written}
-    train, chosen = datasets.split_indices(data, split, seed)
     if chosen is not None:
         written["train_placements"] = chosen
     test = np.setdiff1d(np.arange(data.n_poses), train)

@@ -4,7 +4,7 @@ from ..compensation import Compensator
 from ..estimation.metrics import error_stats
 from ..estimation.network import NetworkErrorModel
 from ..errors import InputError
-from .base import LOSS, PARAMETERS, PAYLOAD, RANDOM_STATE, Method, Setting, one_of, require_positions
+from .base import LOSS, PARAMETERS, PAYLOAD, RANDOM_STATE, Method, Setting, one_of, require_distinct, require_positions
 from .records import FitRecord, ReportFigure
 from .frames import measurement_frame
 from .kinematic import KinematicMethod
@@ -51,7 +51,7 @@ class NetworkMethod(Method):
                                  generations=self.generations, random_state=self.random_state)
 
     def fit(self, chain, observations, progress=None):
-        obs = require_positions(observations, self.name)
+        obs = require_distinct(require_positions(observations, self.name), self.name)
         one_of(self.base_model, BASE_MODELS, "base_model")
         unused = [s.option for s in (PARAMETERS, LOSS, PAYLOAD) if getattr(self, s.name) != s.default]
         if self.base_model == "nominal" and unused:

@@ -175,3 +175,18 @@ def require_positions(observations, name):
         raise InputError(f"{observations.path or 'the data'} has no x, y, z columns: the {name} method needs "
                          "measured positions")
     return observations
+
+
+# A model of the error over the workspace learns nothing from fewer distinct poses than this
+# (one pose repeated 50 times would otherwise become a constant correction everywhere).
+MIN_DISTINCT_POSES = 5
+
+
+def require_distinct(observations, name, minimum=MIN_DISTINCT_POSES):
+    """``observations`` if at least ``minimum`` of their joint configurations differ."""
+    distinct = len(np.unique(np.round(observations.joints, 9), axis=0))
+    if distinct < minimum:
+        raise InputError(f"{observations.path or 'the data'} holds {distinct} distinct pose(s) in {observations.n_poses} "
+                         f"rows: the {name} method models the error over the workspace and needs at least {minimum} "
+                         "different poses spread over it; measure more poses")
+    return observations

@@ -3,7 +3,7 @@ position, compensated by moving the target against the predicted error (Liu et a
 from ..compensation import Compensator
 from ..estimation.kriging import Kriging
 from ..estimation.metrics import error_stats
-from .base import RANDOM_STATE, REGISTER, Method, Setting, require_positions
+from .base import RANDOM_STATE, REGISTER, Method, Setting, require_distinct, require_positions
 from .records import FitRecord, ReportFigure
 from .frames import measurement_frame
 
@@ -64,7 +64,7 @@ class KrigingMethod(KrigingResidual, Method):
     settings = (REGISTER,) + KRIGING_SETTINGS
 
     def fit(self, chain, observations, progress=None):
-        obs = require_positions(observations, self.name)
+        obs = require_distinct(require_positions(observations, self.name), self.name)
         frame, record = measurement_frame(chain, obs.joints, obs.positions, self.register)
         nominal_positions = frame.fk_positions(obs.joints)
         errors = obs.positions - nominal_positions
