@@ -20,6 +20,7 @@ from . import plots
 from ..io.observations import read_observations
 from ..methods.evaluation import position_scores, socket_residuals, socket_scores, with_fixture
 from .jobs import load_fitted
+from .tables import parameter_notes, parameter_rows
 
 # How each kind of method diagnostic (robocal.methods.ReportFigure) is drawn.
 DIAGNOSTIC_PLOTS = {
@@ -112,17 +113,19 @@ def _socket_distance_section(stats):
             + _table(("model", "pairs", "mean |error|", "RMS", "max |error|", "mean signed"), rows))
 
 
-def _calibration_section(calibration):
-    """The identified parameters of a :class:`~robocal.methods.CalibrationRecord` (or nothing)."""
+def _calibration_section(calibration, chain):
+    """The identified parameters of a :class:`~robocal.methods.CalibrationRecord` (or nothing),
+    with the units of ``chain``'s parameters."""
     if calibration is None:
         return ""
     ident = calibration.identifiability
-    rows = [(name, f"{p.deviation:.6g}", f"{p.std_error:.2g}") for name, p in calibration.parameters.items()]
+    rows = parameter_rows(calibration, chain)
+    notes = "".join(f"<p class=note>{html.escape(n)}.</p>" for n in parameter_notes(calibration, chain))
     parts = [f"<h2>Identified parameters</h2><p class=note>Deviations from the starting model "
              f"({html.escape(calibration.units)}) with their standard errors; "
              f"{ident.rank} parameters from {ident.rows} equations; "
              f"{calibration.iterations} iterations, {'converged' if calibration.converged else 'stopped at the iteration limit'}.</p>",
-             _table(("parameter", "deviation", "standard error"), rows),
+             _table(("parameter", "deviation", "standard error", "unit"), rows), notes,
              "<h3>Identifiability</h3>",
              _table(("condition number", "O1", "O3", "noise amplification"),
                     [(f"{ident.condition_number:.3g}", f"{ident.o1:.3g}", f"{ident.o3:.3g}",
@@ -223,7 +226,7 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None):
             _table(["data"] + [name for _, name, _ in STATS], accuracy_rows),
             _socket_distance_section(scores.stats) if scores.iso is None
             else _iso_section(scores.iso["nominal"], scores.iso["calibrated"]),
-            _calibration_section(fitted.record_.calibration)]
+            _calibration_section(fitted.record_.calibration, fitted.compensator_.chain)]
     for title, caption, fig in figures:
         body.append(f"<h2>{html.escape(title)}</h2><p class=note>{html.escape(caption)}</p>"
                     f"<img alt=\"{html.escape(title)}\" src=\"data:image/png;base64,{_png(fig)}\">")

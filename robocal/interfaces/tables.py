@@ -53,3 +53,41 @@ def robot_tables(chain):
     if coupled:
         out.append("joint_map (q_model = joint_map @ q_controller):\n" + np.array2string(chain.joint_map))
     return out
+
+
+# What the POE parameter names mean, said wherever they are printed.
+POE_NAMES_NOTE = ("POE parameters: thetaK is joint K's zero offset; uxK, uyK shift its axis along the x, y "
+                  "of its frame; wxK, wyK tilt the axis about them; home_* is the flange pose at zero")
+BASE_NOTE = ("base_* and tool_* are changes from the registered start (nominal geometry with base and tool "
+             "fitted to the data), not from the robot file")
+
+
+def estimate_text(value, std_error):
+    """A deviation written to the precision its standard error supports: the standard error
+    to two significant digits and the deviation to the same decimal place."""
+    if not (np.isfinite(std_error) and std_error > 0):
+        return f"{value:.6g}", f"{std_error:.2g}"
+    place = 1 - int(np.floor(np.log10(std_error)))  # decimals that show 2 digits of the error
+    digits = max(place, 0)
+    text = f"{value:.{digits}f}"
+    return ("0" if float(text) == 0 else text), f"{std_error:.{digits}f}"
+
+
+def parameter_rows(calibration, chain):
+    """(name, deviation, standard error, unit) of every identified parameter of a
+    :class:`~robocal.methods.CalibrationRecord`, as text; ``chain`` names the units."""
+    space = chain.parameters
+    rows = []
+    for name, estimate in calibration.parameters.items():
+        deviation, error = estimate_text(estimate.deviation, estimate.std_error)
+        record = space.get(name)
+        rows.append((name, deviation, error, record.file_unit if record is not None else ""))
+    return rows
+
+
+def parameter_notes(calibration, chain):
+    """The sentences a parameter table needs to be read right."""
+    notes = [BASE_NOTE] if any(n.startswith(("base_", "tool_")) for n in calibration.parameters) else []
+    if chain.convention == "poe":
+        notes.append(POE_NAMES_NOTE)
+    return notes

@@ -59,6 +59,12 @@ class Parameter:
     angular: bool
 
     @property
+    def file_unit(self):
+        """The unit files and reports show: 'mm', 'deg', 'ppm' (gains), 'µrad/(N·m)' or
+        'nm/N' (compliances, in millionths)."""
+        return {"rad": "deg", "mm": "mm", "fraction": "ppm", "rad/(N*m)": "µrad/(N·m)", "mm/N": "nm/N"}[self.unit]
+
+    @property
     def file_factor(self):
         """Internal unit -> file unit: degrees for angles, millionths for gains and
         compliances, 1 for lengths."""
