@@ -500,3 +500,11 @@ def test_twelve_thousand_rows_read_quickly(tmp_path):
     elapsed = time.perf_counter() - start
     np.testing.assert_array_equal(loaded.positions, original.positions)
     assert elapsed < 1.0
+
+
+def test_written_numbers_carry_no_rounding_noise(tmp_path):
+    joints = np.array([[2.598e-16, -0.0, 90.0]])
+    path = write_commands(tmp_path / "c.csv", joints, np.array([[-1e-14, 1.5, 0.0]]), np.array([[0.0, -0.0, 180.0]]))
+    with open(path, newline="") as stream:
+        rows = list(csv.reader(stream))
+    assert rows[1] == ["0.0", "0.0", "90.0", "0.0", "1.5", "0.0", "0.0", "0.0", "180.0"]

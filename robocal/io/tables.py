@@ -678,7 +678,18 @@ def _add_number_columns(columns: dict[str, list[str]], names, values: np.ndarray
         )
     for column, name in enumerate(names):
         empty = blank & (is_joint[column] | ~np.isfinite(values[:, column]))
-        columns[name] = ["" if skip else repr(value) for value, skip in zip(values[:, column].tolist(), empty.tolist())]
+        columns[name] = ["" if skip else _number_text(value) for value, skip in zip(values[:, column].tolist(), empty.tolist())]
+
+
+# Below this a value is rounding noise of a zero (a joint at 0 deg read back as 2.6e-16),
+# far under any instrument's resolution in mm or degrees.
+_ZERO_NOISE = 1e-12
+
+
+def _number_text(value: float) -> str:
+    """The shortest text that reads back as ``value`` (repr), with rounding noise of a zero
+    and a negative zero written as 0.0."""
+    return "0.0" if abs(value) < _ZERO_NOISE else repr(value)
 
 
 def _write_csv(path: str | os.PathLike, columns: dict[str, list[str]]) -> Path:
