@@ -2,7 +2,7 @@
 joint gains on request) identified by Levenberg–Marquardt; compensated through the
 calibrated model's IK, or directly by exporting the calibrated parameters."""
 from ..compensation import Compensator
-from ..estimation.calibration import LOSSES, KinematicCalibration
+from ..estimation.calibration import LOSSES, KinematicCalibration, OutlierError
 from ..estimation.metrics import error_stats
 from .base import LOSS, PARAMETERS, PAYLOAD, REGISTER, REGISTER_CHOICES, Method, check_parameters, one_of, \
     require_positions
@@ -31,8 +31,12 @@ class KinematicMethod(Method):
 
     def fit(self, chain, observations, progress=None):
         obs = require_positions(observations, self.name)
-        calibration = self.calibration().fit(chain, obs.joints, obs.positions, orientations=obs.rotations,
-                                             sigmas=obs.sigmas)
+        try:
+            calibration = self.calibration().fit(chain, obs.joints, obs.positions, orientations=obs.rotations,
+                                                 sigmas=obs.sigmas)
+        except OutlierError as error:
+            # The outlying poses as the lines of the user's file.
+            raise error.naming(obs.rows, obs.path) from None
         result = calibration.result_
         record = CalibrationRecord.from_dict(
             {**result.to_dict(calibration.chain_), "outlier_rows": [int(obs.rows[i]) for i in result.outliers]})

@@ -1,0 +1,84 @@
+"""Data that used to give a silent wrong answer: each is refused with one line that names the
+cause, or (gross outliers) handled by the robust loss that lists them."""
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from robocal.errors import InputError
+from robocal.estimation.calibration import KinematicCalibration, OutlierError
+from robocal.io.datasets import ur5_tsinghua
+from robocal.io.library import builtin
+from robocal.io.observations import observations
+from robocal.methods import KinematicMethod
+
+
+# ----------------------------------------------------------------------- gross outliers
+@pytest.fixture(scope="module")
+def ur5_split():
+    """The real UR5 data (mm, deg) as observations, split into 500 training and 500 test poses,
+    and the held-out mean error of the clean plain fit."""
+    chain, data = ur5_tsinghua()
+    obs = observations(chain, data)
+    order = np.random.default_rng(0).permutation(obs.n_poses)
+    train, test = obs.subset(np.sort(order[:500])), obs.subset(np.sort(order[500:]))
+    clean = KinematicCalibration().fit(chain, train.joints, train.positions)
+    return chain, train, test, _held_out(clean, test)
+
+
+def _held_out(calibration, test):
+    return float(np.mean(np.linalg.norm(test.positions - calibration.predict(test.joints), axis=1)))
+
+
+def _corrupted(positions, count, seed):
+    """``count`` rows with x shifted by 50-500 mm either way; returns (positions, sorted rows)."""
+    rng = np.random.default_rng(seed)
+    bad = np.sort(rng.choice(len(positions), count, replace=False))
+    positions = positions.copy()
+    positions[bad, 0] += rng.uniform(50.0, 500.0, count) * rng.choice([-1.0, 1.0], count)
+    return positions, bad
+
+
+@pytest.mark.parametrize("count", [1, 5, 25])  # 25 of 500: 5 % of the rows
+def test_robust_fit_gets_past_gross_outliers_and_lists_them(ur5_split, count):
+    chain, train, test, clean_error = ur5_split
+    positions, bad = _corrupted(train.positions, count, seed=count)
+    for loss in ("huber", "soft_l1"):
+        robust = KinematicCalibration(loss=loss).fit(chain, train.joints, positions)
+        assert robust.result_.outliers == tuple(bad)
+        assert _held_out(robust, test) < 1.1 * clean_error
+
+
+@pytest.mark.parametrize("count", [1, 5, 25])
+def test_plain_fit_names_the_outliers(ur5_split, count):
+    chain, train, _, _ = ur5_split
+    positions, bad = _corrupted(train.positions, count, seed=count)
+    with pytest.raises(OutlierError, match="--loss huber") as caught:
+        KinematicCalibration().fit(chain, train.joints, positions)
+    assert sorted(caught.value.poses) == list(bad)
+    assert caught.value.inlier_rms < 0.2
+    shown = sorted(caught.value.poses[:10])
+    assert f"{shown[0]}" in str(caught.value) and "(0-based)" in str(caught.value)
+
+
+def test_methods_name_the_outliers_as_file_rows(ur5_split):
+    chain, train, _, _ = ur5_split
+    positions, bad = _corrupted(train.positions, 5, seed=5)
+    data = replace(train, positions=positions, path="ur5.csv")
+    with pytest.raises(OutlierError) as caught:
+        KinematicMethod().fit(chain, data)
+    message = str(caught.value)
+    assert "of ur5.csv" in message and "(0-based)" not in message
+    for row in train.rows[bad]:
+        assert str(row) in message
+    # The robust loss goes through and records the same rows.
+    method = KinematicMethod(loss="huber").fit(chain, data)
+    assert method.record_.calibration.outlier_rows == tuple(int(r) for r in train.rows[bad])
+
+
+def test_wrong_robot_is_still_refused_with_a_robust_loss(ur5_split):
+    _, train, _, _ = ur5_split
+    other = builtin("kr150-2")
+    with pytest.raises(InputError) as caught:
+        KinematicCalibration(loss="huber").fit(other, train.joints, train.positions)
+    assert not isinstance(caught.value, OutlierError)
