@@ -82,3 +82,22 @@ def test_wrong_robot_is_still_refused_with_a_robust_loss(ur5_split):
     with pytest.raises(InputError) as caught:
         KinematicCalibration(loss="huber").fit(other, train.joints, train.positions)
     assert not isinstance(caught.value, OutlierError)
+
+
+# ------------------------------------------------------------------ Python API: joint width
+def test_joint_conversions_refuse_the_wrong_width():
+    from robocal.kinematics.compliant import with_compliance
+
+    robot = builtin("ur5")
+    compliant, _ = with_compliance(robot, np.zeros((3, 6)), None)
+    for chain in (robot, compliant):
+        for convert in (chain.joints_from_file, chain.joints_to_file):
+            with pytest.raises(InputError, match=f"7 joint values for the 6-joint robot '{robot.name}'"):
+                convert([[0] * 7])
+            with pytest.raises(InputError, match="5 joint values"):
+                convert([0] * 5)
+            with pytest.raises(InputError, match="one number"):
+                convert(3.0)
+            assert convert(np.zeros((2, 4, 6))).shape == (2, 4, 6)
+            assert convert(np.zeros((0, 6))).shape == (0, 6)
+    assert np.allclose(robot.joints_from_file([180.0] * 6), np.pi)

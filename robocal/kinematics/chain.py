@@ -143,15 +143,33 @@ class Chain:
         return replace(self, **changes)
 
     def joints_from_file(self, values):
-        """Joint values in file units (deg, mm) -> internal units (rad, mm)."""
-        values = np.array(values, dtype=float)
+        """Joint values in file units (deg, mm) -> internal units (rad, mm); one joint vector
+        (n,) or a batch (..., n).  InputError for another width."""
+        values = self._joint_vectors(values)
         values[..., self.revolute] = np.radians(values[..., self.revolute])
         return values
 
     def joints_to_file(self, values):
-        """Joint values in internal units (rad, mm) -> file units (deg, mm)."""
-        values = np.array(values, dtype=float)
+        """Joint values in internal units (rad, mm) -> file units (deg, mm); one joint vector
+        (n,) or a batch (..., n).  InputError for another width."""
+        values = self._joint_vectors(values)
         values[..., self.revolute] = np.degrees(values[..., self.revolute])
+        return values
+
+    def _joint_vectors(self, values):
+        """``values`` as a float array whose last axis has one value per joint."""
+        try:
+            values = np.array(values, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"joint values for the robot {self.name!r} must be numbers in rows of "
+                             f"{self.n_joints}") from None
+        if values.ndim == 0:
+            raise InputError(f"one number for the {self.n_joints}-joint robot {self.name!r}: give joint vectors of "
+                             f"{self.n_joints} values, q1 to q{self.n_joints}")
+        width = values.shape[-1]
+        if width != self.n_joints:
+            raise InputError(f"{width} joint value{'s' if width != 1 else ''} for the {self.n_joints}-joint robot "
+                             f"{self.name!r}: give one value per joint, q1 to q{self.n_joints}")
         return values
 
     def within_limits(self, q, tol=1e-9):
