@@ -12,6 +12,8 @@ from ..errors import RobocalWarning
 
 BEFORE = "#c0504d"
 AFTER = "#1f77b4"
+# A joint whose values span less than this (deg) over the file was held still.
+CONSTANT_JOINT_DEG = 1e-6
 
 
 def _pyplot():
@@ -49,14 +51,14 @@ def error_distribution(before, after):
 
 def error_vectors(positions, before, after):
     """Error vectors drawn at their poses in three projections, nominal above, calibrated below,
-    each row on its own scale (given in the title)."""
+    both on one scale (given in the titles), so that the arrows compare as the errors do."""
     plt = _pyplot()
     fig, axes = plt.subplots(2, 3, figsize=(12, 7.5))
     planes = ((0, 1, "x", "y"), (0, 2, "x", "z"), (1, 2, "y", "z"))
     span = np.ptp(positions, axis=0).max() or 1.0
+    biggest = max(np.linalg.norm(before, axis=1).max(), np.linalg.norm(after, axis=1).max()) or 1.0
+    scale = 0.08 * span / biggest  # the largest arrow of either row is 8 % of the workspace
     for row, (errors, color, label) in enumerate(((before, BEFORE, "nominal"), (after, AFTER, "calibrated"))):
-        biggest = np.linalg.norm(errors, axis=1).max() or 1.0
-        scale = 0.08 * span / biggest  # the largest arrow is 8 % of the workspace
         for ax, (i, j, a, b) in zip(axes[row], planes):
             ax.scatter(positions[:, i], positions[:, j], s=3, color="0.6")
             ax.quiver(positions[:, i], positions[:, j], errors[:, i] * scale, errors[:, j] * scale,
@@ -84,6 +86,11 @@ def error_against_joints(joints_deg, before, after):
         ax.scatter(joints_deg[:, k], before, s=4, color=BEFORE, label="nominal")
         ax.scatter(joints_deg[:, k], after, s=4, color=AFTER, label="calibrated")
         ax.set_xlabel(f"q{k + 1} (deg)")
+        if np.ptp(joints_deg[:, k]) < CONSTANT_JOINT_DEG:
+            # A joint held still: without this the axis would span its rounding noise.
+            centre = float(np.median(joints_deg[:, k]))
+            ax.set_xlim(centre - 1.0, centre + 1.0)
+            ax.set_xlabel(f"q{k + 1} (deg, constant)")
         ax.set_ylabel("|e| (mm)")
     axes.flat[0].legend(fontsize=8)
     fig.tight_layout()
@@ -132,13 +139,20 @@ def fitness_history(history):
     return fig
 
 
-def learning_curve(curve):
-    """Held-out error against the number of training poses (``robocal validate --sizes``)."""
+def learning_curve(curve, nominal=None):
+    """Held-out error against the number of training poses (``robocal validate --sizes``):
+    mean, RMS and max, the spread of the mean over the repeated draws (shaded), and the
+    registered nominal robot's cross-validated mean (``nominal``, mm) as the baseline."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 3.6))
     sizes = [entry["n_train"] for entry in curve]
     for key, style, label in (("mean_mm", "-o", "mean"), ("rms_mm", "-s", "RMS"), ("max_mm", "-^", "max")):
         ax.plot(sizes, [entry["held_out"][key] for entry in curve], style, label=label)
+    means = [[r["mean_mm"] for r in entry.get("per_repeat", [entry["held_out"]])] for entry in curve]
+    ax.fill_between(sizes, [min(m) for m in means], [max(m) for m in means], color="C0", alpha=0.2,
+                    label="mean, spread over draws")
+    if nominal is not None:
+        ax.axhline(nominal, color=BEFORE, ls="--", lw=1.0, label="nominal (registered), mean")
     from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter, NullLocator
 
     ax.set_xscale("log")

@@ -89,7 +89,8 @@ def _figures(fitted, observations, positions, before, after, validation):
     if validation is not None and validation.get("learning_curve"):
         figures.append(("Learning curve", "Held-out error against the number of training poses "
                         f"({validation['method']}, from {validation['file']}).",
-                        plots.learning_curve(validation["learning_curve"])))
+                        plots.learning_curve(validation["learning_curve"],
+                                             validation["nominal_cross_validation"]["pooled"]["mean_mm"])))
     return figures
 
 
