@@ -1,0 +1,185 @@
+"""A hostile user's inputs, through the command line: every row must be refused with a non-zero
+exit, one line that says what is wrong (plus at most the usage hint), no traceback, and no
+output file left behind.  Add a row with every refusal added to robocal."""
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from robocal.interfaces.cli import app
+
+runner = CliRunner()
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+OUT = ("m.json", "s.csv", "c.csv", "r.html", "x.toml", "p.pdf", "d.toml", "d.csv", "d_train.csv")
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """Good files to break: a UR5 measurement file and its model, ball-in-socket data, and
+    broken variants of each format."""
+    root = tmp_path_factory.mktemp("bad")
+
+    def run(*args):
+        result = runner.invoke(app, [str(a) for a in args])
+        assert result.exit_code == 0, result.output
+
+    run("simulate", "ur5", "--n", "80", "--out", root / "meas.csv")
+    run("calibrate", "ur5", root / "meas.csv", "--out", root / "model.json")
+    run("simulate", "kr150-2", "--sampling", "sockets", "--fixture", EXAMPLES / "plate-fixture.toml",
+        "--placements", "3", "--per-socket", "6", "--out", root / "sockets.csv")
+    run("simulate", "kr150-2", "--sampling", "sockets", "--fixture", EXAMPLES / "plate-fixture.toml",
+        "--placements", "1", "--per-socket", "6", "--out", root / "one_placement.csv")
+    lines = (root / "meas.csv").read_text().splitlines()
+    header, rows = lines[0], lines[1:]
+    write = {
+        "empty.csv": "",
+        "header_only.csv": header + "\n",
+        "joints_only.csv": "q1,q2,q3,q4,q5,q6\n" + "\n".join(",".join(r.split(",")[:6]) for r in rows) + "\n",
+        "nan.csv": "\n".join([header, rows[0].replace(rows[0].split(",")[6], "nan", 1)] + rows[1:]) + "\n",
+        "text.csv": "\n".join([header, "abc" + rows[0][rows[0].index(","):]] + rows[1:]) + "\n",
+        "seven.csv": header.replace("q6,", "q6,q7,") + "\n" + "\n".join(
+            ",".join(r.split(",")[:6] + ["0"] + r.split(",")[6:]) for r in rows) + "\n",
+        "few.csv": "\n".join([header] + rows[:3]) + "\n",
+        "same.csv": "\n".join([header] + [rows[0]] * 40) + "\n",
+        "no_targets_cols.csv": "x,y,z\n1,2,3\n",
+        "far.csv": "x,y,z,rx,ry,rz\n5000,0,0,180,0,0\n0,7000,0,180,0,0\n",
+        "one_socket.toml": 'name = "one"\n[sockets]\nA = [0, 0, 0]\n',
+        "not_toml.toml": "this is [not toml\n",
+        "misspelt.toml": 'name = "x"\n[socket]\nA = [0, 0, 0]\nB = [1, 0, 0]\n',
+        "no_joints.toml": 'name = "nothing"\nconvention = "dh"\n',
+        "junk.json": "{not json",
+        "cv_junk.json": json.dumps({"hello": 1}),
+    }
+    for name, text in write.items():
+        (root / name).write_text(text)
+    (root / "binary.csv").write_bytes(b"\xff\xfe\x00\x01garbage")
+    model = json.loads((root / "model.json").read_text())
+    model["kinematics"]["joints"][1]["a"] += 0.5
+    (root / "edited.json").write_text(json.dumps(model))
+    (root / "truncated.json").write_text((root / "model.json").read_text()[:500])
+    (root / "a_directory").mkdir()
+    return root
+
+
+ROWS = [
+    # calibrate: files
+    ("calibrate ur5 missing.csv --out m.json", "does not exist"),
+    ("calibrate ur5 empty.csv --out m.json", ""),
+    ("calibrate ur5 header_only.csv --out m.json", ""),
+    ("calibrate ur5 joints_only.csv --out m.json", "x, y, z"),
+    ("calibrate ur5 nan.csv --out m.json", ""),
+    ("calibrate ur5 text.csv --out m.json", ""),
+    ("calibrate ur5 seven.csv --out m.json", ""),
+    ("calibrate ur5 binary.csv --out m.json", ""),
+    ("calibrate ur5 few.csv --out m.json", ""),
+    ("calibrate ur5 same.csv --out m.json", "distinct"),
+    ("calibrate nosuchrobot meas.csv --out m.json", ""),
+    ("calibrate no_joints.toml meas.csv --out m.json", ""),
+    ("calibrate ur5 meas.csv --out missing_dir/m.json", ""),
+    ("calibrate ur5 meas.csv --out a_directory", ""),
+    # calibrate: options
+    ("calibrate ur5 meas.csv --out m.json --method nope", "nope"),
+    ("calibrate ur5 meas.csv --out m.json --method kriging --payload 2", "--payload"),
+    ("calibrate ur5 meas.csv --out m.json --trend linear", "--trend"),
+    ("calibrate ur5 meas.csv --out m.json --method kriging --loss huber", "--loss"),
+    ("calibrate ur5 meas.csv --out m.json --method kriging --pairs all", "--pairs"),
+    ("calibrate ur5 meas.csv --out m.json --parameters everything", ""),
+    ("calibrate ur5 meas.csv --out m.json --loss cauchy", ""),
+    ("calibrate ur5 meas.csv --out m.json --register maybe", ""),
+    ("calibrate ur5 meas.csv --out m.json --payload 2", "--payload"),
+    ("calibrate ur5 meas.csv --out m.json --parameters full+compliance --payload -1", "payload"),
+    ("calibrate ur5 meas.csv --out m.json --method kriging --nugget abc", ""),
+    ("calibrate ur5 meas.csv --out m.json --method kriging --trend cubic", ""),
+    ("calibrate ur5 meas.csv --out m.json --method ann --hidden 8", ""),
+    ("calibrate ur5 meas.csv --out m.json --method ann --refine adam", ""),
+    ("calibrate ur5 meas.csv --out m.json --method ann --trainer sgd", ""),
+    ("calibrate ur5 meas.csv --out m.json --method ann --parameters full+gains", "--base-model"),
+    ("calibrate ur5 meas.csv --out m.json --method ann --base-model other", ""),
+    ("calibrate ur5 meas.csv --out m.json --fixture {examples}/plate-fixture.toml", "ball-in-socket"),
+    ("calibrate ur5 meas.csv --out m.json --method constraint", ""),
+    # calibrate: ball-in-socket data
+    ("calibrate kr150-2 sockets.csv --out m.json --method constraint", "--fixture"),
+    ("calibrate kr150-2 sockets.csv --out m.json --method constraint --fixture missing.toml", ""),
+    ("calibrate kr150-2 sockets.csv --out m.json --method constraint --fixture one_socket.toml", ""),
+    ("calibrate kr150-2 sockets.csv --out m.json --method constraint --fixture not_toml.toml", ""),
+    ("calibrate kr150-2 sockets.csv --out m.json --method constraint --fixture misspelt.toml", "[sockets]"),
+    ("calibrate kr150-2 sockets.csv --out m.json --method constraint --fixture {examples}/plate-fixture.toml "
+     "--parameters offsets", ""),
+    ("calibrate kr150-2 sockets.csv --out m.json --method constraint --fixture {examples}/plate-fixture.toml "
+     "--pairs some", ""),
+    ("calibrate kr150-2 sockets.csv --out m.json", "x, y, z"),
+    # evaluate
+    ("evaluate missing.json meas.csv", ""),
+    ("evaluate junk.json meas.csv", ""),
+    ("evaluate edited.json meas.csv", "checksum"),
+    ("evaluate truncated.json meas.csv", ""),
+    ("evaluate model.json missing.csv", ""),
+    ("evaluate model.json sockets.csv", ""),
+    ("evaluate model.json meas.csv --fixture {examples}/plate-fixture.toml", ""),
+    # compensate
+    ("compensate model.json missing.csv --out c.csv", ""),
+    ("compensate model.json no_targets_cols.csv --out c.csv", "rx"),
+    ("compensate model.json far.csv --out c.csv", "none of the 2 targets"),
+    ("compensate junk.json {examples}/ur5-targets.csv --out c.csv", ""),
+    # report
+    ("report model.json meas.csv --out r.txt", ".html"),
+    ("report model.json meas.csv --out r.html --pdf p.png", ".pdf"),
+    ("report model.json meas.csv --out r.html --validation cv_junk.json", "validate"),
+    ("report model.json meas.csv --out r.html --validation junk.json", ""),
+    # export
+    ("export model.json --format step --out x.toml", ""),
+    ("export model.json --convention abc --out x.toml", ""),
+    ("export missing.json --out x.toml", ""),
+    # validate
+    ("validate ur5 meas.csv --folds 1", ""),
+    ("validate ur5 meas.csv --folds 1000", ""),
+    ("validate ur5 meas.csv --sizes 10,abc", ""),
+    ("validate ur5 meas.csv --sizes 5000", ""),
+    ("validate ur5 meas.csv --method kriging --loss huber", "--loss"),
+    ("validate kr150-2 sockets.csv --method constraint --fixture {examples}/plate-fixture.toml --sizes 10", "--sizes"),
+    ("validate kr150-2 one_placement.csv --method constraint --fixture {examples}/plate-fixture.toml", "placement"),
+    # simulate
+    ("simulate ur5 --n 0 --out s.csv", "--n"),
+    ("simulate ur5 --sampling lhs --out s.csv", "--box"),
+    ("simulate ur5 --sampling nope --out s.csv", ""),
+    ("simulate ur5 --noise -1 --out s.csv", "--noise"),
+    ("simulate ur5 --sampling lhs --box 1,2,3 --out s.csv", "--box"),
+    ("simulate ur5 --errors liu2022 --out s.csv", ""),
+    ("simulate kr150-2 --sampling sockets --out s.csv", "--fixture"),
+    ("simulate kr150-2 --sampling sockets --fixture {examples}/plate-fixture.toml --per-socket 1 --out s.csv", ""),
+    # dataset, show
+    ("dataset nope --out d", ""),
+    ("dataset ur5-tsinghua --out d --split 1.5", "--split"),
+    ("show nosuchrobot", ""),
+    ("show no_joints.toml", ""),
+]
+
+
+def _lines(output):
+    return [line for line in output.splitlines() if line.strip()]
+
+
+@pytest.mark.parametrize("command, says", ROWS, ids=[row[0] for row in ROWS])
+def test_bad_input_is_refused_with_one_line_and_leaves_nothing(files, tmp_path, monkeypatch, command, says):
+    for name in files.iterdir():  # a fresh folder per row: nothing written is missed
+        (shutil.copytree if name.is_dir() else shutil.copy)(name, tmp_path / name.name)
+    monkeypatch.chdir(tmp_path)
+    before = set(p.name for p in tmp_path.iterdir())
+    result = runner.invoke(app, command.format(examples=EXAMPLES).split())
+    lines = _lines(result.output)
+    assert result.exit_code != 0, result.output
+    assert "Traceback" not in result.output
+    assert result.exception is None or isinstance(result.exception, SystemExit), repr(result.exception)
+    errors = [line for line in lines if line.lower().lstrip("│ ").startswith("error")]
+    assert len(errors) == 1 and len(lines) <= 2, result.output
+    assert says in errors[0], result.output
+    left = set(p.name for p in tmp_path.iterdir()) - before
+    assert not left, f"left behind: {left}"
+    assert not any(name.startswith(".") and name.endswith(".tmp") for name in left)
+    assert all(not (tmp_path / out).exists() or out in before for out in OUT)
+
+
+def test_the_table_is_large_enough():
+    assert len(ROWS) >= 60
