@@ -74,7 +74,7 @@ def test_dataset_export_splits_without_overlap(tmp_path):
 
 def test_dataset_rejects_unknown_name_and_bad_split(tmp_path):
     result = runner.invoke(app, ["dataset", "kuka-secret", "--out", str(tmp_path / "x")])
-    assert result.exit_code == 2 and "unknown dataset" in result.output
+    assert result.exit_code == 2 and "dataset must be one of ur5-tsinghua" in result.output
     result = runner.invoke(app, ["dataset", "ur5-tsinghua", "--out", str(tmp_path / "x"), "--split", "1.5"])
     assert result.exit_code == 2 and "between 0 and 1" in result.output
 

@@ -1,10 +1,19 @@
 """The ``robocal`` command line.
 
 Every error a user can cause is a :class:`~robocal.errors.RobocalError`; it is printed as one
-line and the command exits with status 2.  ``--debug`` shows the traceback instead.
+line and the command exits with status 2.  ``--debug`` (before or after the command) shows the
+traceback instead.  A value the command line itself refuses (a wrong choice, a bad number, a
+missing argument) is also one line and status 2.  Ctrl-C and SIGTERM stop a command cleanly
+(no half-written file, see :mod:`robocal.io.atomic`), print one line and exit with status 130
+and 143.
 """
+import contextlib
 import functools
+import inspect
 import json
+import math
+import re
+import signal
 import sys
 import warnings
 
@@ -13,13 +22,93 @@ import typer
 from rich.console import Console
 from rich.table import Table
 from rich.text import Text
+from typer.core import TyperCommand, TyperGroup
 
 from .. import __version__
 from ..errors import InputError, RobocalError, RobocalWarning
+from ..estimation.calibration import LOSSES, PARAMETER_SETS
+from ..estimation.constraint import PAIRINGS
+from ..estimation.kriging import CORRELATIONS, REGRESSIONS
+from ..kinematics.chain import CONVENTIONS
 from ..methods import DEFAULT_METHOD, get_method, make_method, method_names
-from .jobs import calibrate_job, compensate_job, dataset_job, evaluate_job, export_job, simulate_job, validate_job
+from ..methods.ann import BASE_MODELS, REFINERS, TRAINERS
+from ..methods.base import REGISTER_CHOICES
+from .jobs import (DATASETS, EXPORT_FORMATS, calibrate_job, compensate_job, dataset_job, evaluate_job, export_job,
+                   simulate_job, validate_job)
+
+# The sampling plans simulate_job draws (it owns no list of them to import).
+SAMPLINGS = ("joint", "lhs", "grid", "sockets")
+
+# typer.BadParameter is click's; its bases are the errors click raises while parsing.
+UsageError = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
+
+
+def _plain_flags(params):
+    """Show on/off options as flags (``--json``), not with a value type (``--json <bool>``)."""
+    for param in params:
+        if getattr(param, "is_flag", False) and getattr(param, "metavar", None) is None:
+            param.metavar = ""
+    return params
+
+
+class _Command(TyperCommand):
+    def get_params(self, ctx):
+        return _plain_flags(super().get_params(ctx))
+
+
+class _App(TyperGroup):
+    """The ``robocal`` group: usage errors (a wrong choice, a missing argument) are one line."""
+
+    def get_params(self, ctx):
+        return _plain_flags(super().get_params(ctx))
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        try:
+            code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except UsageError as exc:
+            if not standalone_mode:
+                raise
+            _usage_error(exc)
+            sys.exit(exc.exit_code)
+        except typer.Abort:
+            if not standalone_mode:
+                raise
+            err.print("aborted")
+            sys.exit(1)
+        if not standalone_mode:
+            return code
+        sys.exit(code if isinstance(code, int) else 0)
+
+
+def _usage_error(exc):
+    """One line: the option or argument, what it must be; other usage errors add the usage."""
+    if type(exc).__name__ == "NoArgsIsHelpError":  # the help has been shown
+        return
+    param = getattr(exc, "param", None)
+    if isinstance(exc, _Refused) and param is not None:
+        _say("error", "red", f"{_param_label(param)} {exc.message}")
+        return
+    if isinstance(exc, typer.BadParameter) and param is not None and type(exc) is typer.BadParameter:
+        message = exc.message[:1].lower() + exc.message[1:]
+        _say("error", "red", f"{_param_label(param)}: {message.rstrip('.')}")
+        return
+    message = exc.format_message()
+    _say("error", "red", message[:1].lower() + message[1:].rstrip("."))
+    ctx = getattr(exc, "ctx", None)
+    if ctx is not None:
+        err.print(f"{ctx.get_usage()}  (see '{ctx.command_path} --help')")
+
+
+def _param_label(param):
+    """How the user wrote it: the long option, or the argument's name."""
+    names = [opt for opt in param.opts if opt.startswith("--")] or list(param.opts)
+    if getattr(param, "param_type_name", "") == "option" and names:
+        return names[0]
+    return param.name or "the value"
+
 
 app = typer.Typer(
+    cls=_App,
     help="robocal: calibrate industrial robots and compensate their positioning errors.\n\n"
          "Try: robocal demo; robocal calibrate ur5 meas.csv --out model.json; "
          "robocal report model.json test.csv --out report.html",
@@ -28,6 +117,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     rich_markup_mode="markdown",  # reflow docstring paragraphs in --help
 )
+command = functools.partial(app.command, cls=_Command)
 # No markup: messages and tables carry users' text (file names, "[sockets]") that must print as is.
 out = Console(highlight=False, soft_wrap=True, markup=False)
 err = Console(stderr=True, highlight=False, soft_wrap=True, markup=False)
@@ -46,12 +136,116 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
         err.print(f"warning: {category.__name__}: {message}")
 
 
+# --------------------------------------------------------------------------- option values
+class _Refused(typer.BadParameter):
+    """A value the command line refuses; the message follows the option's name."""
+
+
+def _choice(choices, *, or_file=None):
+    """Parser and help of an option that takes one of ``choices`` (or, with ``or_file``, the
+    name of a file ending so).  None (the option not given) passes untouched."""
+    choices = tuple(choices)
+
+    def parse(value):
+        if value in choices or (or_file and str(value).endswith(or_file)):
+            return value
+        alternative = f", or a {or_file} file" if or_file else ""
+        raise _Refused(f"must be one of {', '.join(choices)}{alternative}: {value!r} is not available")
+
+    metavar = "|".join(choices) + (f"|FILE{or_file}" if or_file else "")
+    return {"parser": parse, "metavar": f"<{metavar}>"}
+
+
+def _number(*, whole=False, at_least=None, between=None):
+    """Parser of a number option: a whole number, ``>= at_least``, or strictly ``between``."""
+    kind = "a whole number" if whole else "a number"
+    if at_least is not None:
+        kind += f" >= {at_least}"
+    if between is not None:
+        kind += f" between {between[0]} and {between[1]} (exclusive)"
+
+    def parse(value):
+        text = str(value).strip()
+        try:
+            number = int(text) if whole else float(text)
+        except ValueError:
+            raise _Refused(f"must be {kind}, got {value!r}") from None
+        if (not math.isfinite(number) or (at_least is not None and number < at_least)
+                or (between is not None and not between[0] < number < between[1])):
+            raise _Refused(f"must be {kind}, got {value!r}")
+        return number
+
+    return {"parser": parse, "metavar": "<int>" if whole else "<float>"}
+
+
+def _numbers(*, count=0, whole=False, at_least=None, at_least_count=0, example=""):
+    """Parser of comma-separated numbers: ``count`` of them (any number when 0)."""
+    what = ("whole numbers" if whole else "numbers") + (f" >= {at_least}" if at_least is not None else "")
+    how_many = f"{count} comma-separated {what}" if count else (
+        f"at least {at_least_count} comma-separated {what}" if at_least_count else f"comma-separated {what}")
+    hint = f", e.g. {example}" if example else ""
+
+    def parse(value):
+        if not isinstance(value, str):
+            return value
+        try:
+            values = [(int if whole else float)(v.strip()) for v in value.split(",")]
+        except ValueError:
+            raise _Refused(f"must be {how_many}{hint}, got {value!r}") from None
+        if ((count and len(values) != count) or len(values) < at_least_count
+                or not all(math.isfinite(v) and (at_least is None or v >= at_least) for v in values)):
+            raise _Refused(f"must be {how_many}{hint}, got {value!r}")
+        return values
+
+    return {"parser": parse, "metavar": "<" + ",".join(["x"] * count) + ">" if count else "<x,y,...>"}
+
+
+def _nugget(value):
+    if value == "estimate":
+        return value
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = -1.0
+    if not (math.isfinite(number) and number >= 0):
+        raise _Refused(f"must be 'estimate' or a number >= 0, got {value!r}")
+    return number
+
+
+def _errors_preset(value):
+    """--errors: a preset of robocal.simulation, or a truth file (JSON)."""
+    from ..simulation.presets import PRESETS
+
+    return _choice(PRESETS, or_file=".json")["parser"](value)
+
+
+@contextlib.contextmanager
+def _options_named(names):
+    """Re-raise an InputError that names a setting by its keyword (``k = 9 folds ...``, from
+    code that knows no command line) with the option the user typed (``--folds 9 ...``)."""
+    try:
+        yield
+    except InputError as exc:
+        message = str(exc)
+        for keyword, option in names.items():
+            message = re.sub(rf"(?<![\w-]){re.escape(keyword)} (= )?(?=<=|>=|must|\d)", f"{option} ", message)
+        if message == str(exc):
+            raise
+        raise InputError(message) from None
+
+
+# --------------------------------------------------------------------------- errors and interruptions
+DEBUG_OPTION = typer.Option(False, "--debug", help="Show tracebacks of errors.")
+
+
 def user_errors(func):
     """Turn RobocalError (and a system's refusal of a file) into one line on stderr and exit
-    status 2."""
+    status 2; add ``--debug`` to the command (it is also accepted before the command)."""
 
     @functools.wraps(func)
-    def wrapper(*args, **kwargs):
+    def wrapper(*args, debug=False, **kwargs):
+        if debug:
+            _state["debug"] = True
         try:
             return func(*args, **kwargs)
         except RobocalError as exc:
@@ -66,7 +260,49 @@ def user_errors(func):
             _say("error", "red", f"cannot use{where}: {exc.strerror or exc}; check the path and its permissions")
             raise typer.Exit(2) from None
 
+    signature = inspect.signature(func)
+    debug = inspect.Parameter("debug", inspect.Parameter.KEYWORD_ONLY, default=DEBUG_OPTION, annotation=bool)
+    wrapper.__signature__ = signature.replace(parameters=[*signature.parameters.values(), debug])
+    wrapper.__annotations__ = {**func.__annotations__, "debug": bool}
     return wrapper
+
+
+class Interrupted(SystemExit):
+    """SIGINT (Ctrl-C) or SIGTERM: raised in the running code so that it unwinds like any
+    error (an atomic write removes its temporary file); exit status 128 + the signal."""
+
+    def __init__(self, signum):
+        super().__init__(128 + signum)
+        self.signum = signum
+
+
+def _raise_interrupted(signum, frame):
+    raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def interruptible():
+    """Run the body with SIGINT and SIGTERM turned into :class:`Interrupted`; on one, print
+    one line (which file was left as it was) and exit with status 130 (SIGINT) / 143 (SIGTERM)."""
+    # A signal the parent ignores (Ctrl-C for a background job of a script) stays ignored.
+    signals = [s for s in (signal.SIGINT, signal.SIGTERM) if signal.getsignal(s) is not signal.SIG_IGN]
+    previous = {s: signal.signal(s, _raise_interrupted) for s in signals}
+    try:
+        yield
+    except (Interrupted, KeyboardInterrupt) as exc:
+        for s in signals:  # a second signal while reporting the first just ends the process
+            signal.signal(s, signal.SIG_DFL)
+        unwritten = getattr(exc, "unwritten_file", None)
+        if unwritten is None:
+            err.print("interrupted")
+        elif unwritten.exists():
+            _say("interrupted", "yellow", f"{unwritten} was left as it was")
+        else:
+            _say("interrupted", "yellow", f"nothing was written to {unwritten}")
+        sys.exit(exc.code if isinstance(exc, Interrupted) else 128 + signal.SIGINT)
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 def _print_version(value: bool):
@@ -82,7 +318,7 @@ def _main(debug: bool = typer.Option(False, "--debug", help="Show tracebacks of 
     _state["debug"] = debug
 
 
-@app.command()
+@command()
 @user_errors
 def robots():
     """List the built-in robots.
@@ -98,7 +334,7 @@ def robots():
     out.print(table)
 
 
-@app.command()
+@command()
 @user_errors
 def show(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
@@ -154,39 +390,25 @@ def _print_calibration(calibration):
         out.print(f"down-weighted as outliers: rows {', '.join(map(str, calibration.outlier_rows))}")
 
 
-def _floats(text, count, name):
-    """``count`` comma-separated numbers (any number of them when count is 0)."""
-    if text is None:
-        return None
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        how_many = f"{count} " if count else ""
-        raise InputError(f"{name} must be {how_many}comma-separated numbers, got {text!r}") from None
-    if count and len(values) != count:
-        raise InputError(f"{name} must be {count} comma-separated numbers, got {len(values)}")
-    return values
-
-
-@app.command()
+@command()
 @user_errors
 def simulate(
     robot: str = typer.Argument(..., help="Built-in name or robot file."),
     out_file: str = typer.Option(..., "--out", help="Measurement CSV to write."),
-    n: int = typer.Option(None, "--n", help="Number of poses (default 200; liu2022: 150)."),
-    sampling: str = typer.Option("joint", help="joint (uniform in the limits), lhs (Latin hypercube in --box), grid (n^(1/3) per axis in --box) or sockets (ball in the sockets of --fixture, joint angles only)."),
-    errors: str = typer.Option("typical", help="none, typical, liu2022 (KR150-2 only), or a truth file (JSON, as --truth writes it) whose deviations you edit, e.g. joint gains in ppm."),
-    noise: float = typer.Option(None, help="Measurement noise sigma in mm (overrides the preset); sockets: the ball's seating error."),
-    seed: int = typer.Option(0, help="Random seed."),
+    n: int = typer.Option(None, "--n", help="Number of poses (default 200; liu2022: 150).", **_number(whole=True, at_least=1)),
+    sampling: str = typer.Option("joint", help="joint (uniform in the limits), lhs (Latin hypercube in --box), grid (n^(1/3) per axis in --box) or sockets (ball in the sockets of --fixture, joint angles only).", **_choice(SAMPLINGS)),
+    errors: str = typer.Option("typical", parser=_errors_preset, help="none, typical, liu2022 (KR150-2 only), or a truth file (JSON, as --truth writes it) whose deviations you edit, e.g. joint gains in ppm."),
+    noise: float = typer.Option(None, help="Measurement noise sigma in mm (overrides the preset); sockets: the ball's seating error.", **_number(at_least=0)),
+    seed: int = typer.Option(0, help="Random seed.", **_number(whole=True, at_least=0)),
     truth: str = typer.Option(None, help="Also write the hidden truth (JSON) here."),
     orientation: bool = typer.Option(False, "--orientation", help="Also write measured rx, ry, rz."),
-    box: str = typer.Option(None, help="lhs box: xmin,xmax,ymin,ymax,zmin,zmax in mm."),
-    rpy: str = typer.Option(None, help="lhs tool orientation rx,ry,rz in deg (default 180,0,0)."),
-    hint: str = typer.Option(None, help="lhs posture hint q1,...,qn in deg (picks the IK branch)."),
+    box: str = typer.Option(None, help="lhs box: xmin,xmax,ymin,ymax,zmin,zmax in mm.", **_numbers(count=6)),
+    rpy: str = typer.Option(None, help="lhs tool orientation rx,ry,rz in deg (default 180,0,0).", **_numbers(count=3)),
+    hint: str = typer.Option(None, help="lhs posture hint q1,...,qn in deg (picks the IK branch).", **_numbers()),
     fixture: str = typer.Option(None, help="sockets: fixture TOML (socket centres, mm)."),
-    placements: int = typer.Option(4, help="sockets: number of fixture placements."),
-    per_socket: int = typer.Option(10, "--per-socket", help="sockets: configurations per socket and placement."),
-    joint_noise: float = typer.Option(0.0, "--joint-noise", help="sockets: noise of the joint readings (deg)."),
+    placements: int = typer.Option(4, help="sockets: number of fixture placements.", **_number(whole=True, at_least=1)),
+    per_socket: int = typer.Option(10, "--per-socket", help="sockets: configurations per socket and placement.", **_number(whole=True, at_least=2)),
+    joint_noise: float = typer.Option(0.0, "--joint-noise", help="sockets: noise of the joint readings (deg).", **_number(at_least=0)),
     tip: str = typer.Option(None, help="URDF only: the tip link."),
     root: str = typer.Option(None, help="URDF only: the root link."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
@@ -198,8 +420,7 @@ def simulate(
     Ball in sockets: robocal simulate kr150-2 --sampling sockets --fixture fix.toml --placements 6 --per-socket 20 --out sockets.csv
     """
     result = simulate_job(robot, out_file, n=n, sampling=sampling, errors=errors, noise=noise, seed=seed,
-                          truth=truth, orientation=orientation, box=_floats(box, 6, "--box"),
-                          rpy=_floats(rpy, 3, "--rpy"), hint=_floats(hint, 0, "--hint"), root=root, tip=tip,
+                          truth=truth, orientation=orientation, box=box, rpy=rpy, hint=hint, root=root, tip=tip,
                           fixture=fixture, placements=placements, per_socket=per_socket, joint_noise=joint_noise)
     _print_result(result, as_json, f"simulated {result['poses']} poses -> {out_file}")
 
@@ -209,9 +430,9 @@ def _method_settings(method, *, seed=None, nugget=None, hidden=None, shared_thet
     at None was not given; the method refuses those it does not take)."""
     settings = {name: value for name, value in given.items() if value is not None}
     if nugget is not None:
-        settings["nugget"] = nugget if nugget == "estimate" else _floats(nugget, 1, "--nugget")[0]
+        settings["nugget"] = nugget
     if hidden is not None:
-        settings["hidden"] = tuple(int(w) for w in _floats(hidden, 0, "--hidden"))
+        settings["hidden"] = tuple(hidden)
     if shared_theta:
         settings["shared_theta"] = True
     if seed is not None:
@@ -219,11 +440,11 @@ def _method_settings(method, *, seed=None, nugget=None, hidden=None, shared_thet
     return settings
 
 
-METHOD_HELP = f"One of {', '.join(method_names())}; 'robocal methods' describes them and lists their options."
+METHOD_HELP = "The method; 'robocal methods' describes them and lists their options."
 SEED_HELP = "Seed of the Kriging multi-start search and of the network's training (kriging, hybrid, ann)."
 
 
-@app.command()
+@command()
 @user_errors
 def methods():
     """List the calibration and compensation methods and the options each takes.
@@ -237,29 +458,29 @@ def methods():
     out.print(table)
 
 
-@app.command()
+@command()
 @user_errors
 def calibrate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
     out_file: str = typer.Option(..., "--out", help="Model file (JSON) to write."),
-    method: str = typer.Option(DEFAULT_METHOD, help=METHOD_HELP),
-    register: str = typer.Option(None, help="Register base and tool first: auto (default), yes or no."),
-    trend: str = typer.Option(None, help="kriging/hybrid: trend, constant (default), linear or quadratic."),
-    correlation: str = typer.Option(None, help="kriging/hybrid: correlation, gaussian (default) or matern52."),
-    nugget: str = typer.Option(None, help="kriging/hybrid: nugget, 'estimate' (default) or a number."),
+    method: str = typer.Option(DEFAULT_METHOD, help=METHOD_HELP, **_choice(method_names())),
+    register: str = typer.Option(None, help="Register base and tool first (default auto: when the data are not in the robot base frame).", **_choice(REGISTER_CHOICES)),
+    trend: str = typer.Option(None, help="kriging/hybrid: the trend (default constant).", **_choice(REGRESSIONS)),
+    correlation: str = typer.Option(None, help="kriging/hybrid: the correlation function (default gaussian).", **_choice(CORRELATIONS)),
+    nugget: str = typer.Option(None, parser=_nugget, metavar="<estimate|float>", help="kriging/hybrid: nugget, 'estimate' (default) or a number >= 0."),
     shared_theta: bool = typer.Option(False, "--shared-theta", help="kriging/hybrid: one theta for the three outputs."),
-    parameters: str = typer.Option(None, help="kinematic/hybrid/constraint (ann with --base-model kinematic): parameter set, offsets, full (default), full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains."),
-    loss: str = typer.Option(None, help="kinematic/hybrid: linear (default), huber or soft_l1 (robust)."),
-    payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (default: 0 if the robot file gives link masses, else the rated payload of a robot of that size)."),
-    seed: int = typer.Option(None, help=SEED_HELP + " Default 0."),
-    hidden: str = typer.Option(None, help="ann: hidden layer widths, at least two (default 16,16)."),
-    generations: int = typer.Option(None, help="ann: generation limit of the genetic algorithm (default 300)."),
-    trainer: str = typer.Option(None, help="ann: ga (genetic algorithm, default) or lbfgs (gradient from random starts)."),
-    refine: str = typer.Option(None, help="ann: refine the GA's best network by lbfgs (default), or none."),
-    base_model: str = typer.Option(None, "--base-model", help="ann: the network learns the error of the nominal robot (default) or of the kinematic calibration."),
+    parameters: str = typer.Option(None, help="kinematic/hybrid/constraint (ann with --base-model kinematic): parameter set, offsets, full (default), full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains.", **_choice(PARAMETER_SETS)),
+    loss: str = typer.Option(None, help="kinematic/hybrid: the loss (default linear; the others are robust to outliers).", **_choice(LOSSES)),
+    payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (default: 0 if the robot file gives link masses, else the rated payload of a robot of that size).", **_number(at_least=0)),
+    seed: int = typer.Option(None, help=SEED_HELP + " Default 0.", **_number(whole=True, at_least=0)),
+    hidden: str = typer.Option(None, help="ann: hidden layer widths, at least two (default 16,16).", **_numbers(whole=True, at_least=1, at_least_count=2, example="16,16")),
+    generations: int = typer.Option(None, help="ann: generation limit of the genetic algorithm (default 300).", **_number(whole=True, at_least=0)),
+    trainer: str = typer.Option(None, help="ann: ga (genetic algorithm, default) or lbfgs (gradient from random starts).", **_choice(TRAINERS)),
+    refine: str = typer.Option(None, help="ann: refine the GA's best network by lbfgs (default), or none.", **_choice(REFINERS)),
+    base_model: str = typer.Option(None, "--base-model", help="ann: the network learns the error of the nominal robot (default) or of the kinematic calibration.", **_choice(BASE_MODELS)),
     fixture: str = typer.Option(None, help="Fixture TOML (constraint method)."),
-    pairs: str = typer.Option(None, help="constraint: all pairs of configurations (default), or spanning (fewer, faster)."),
+    pairs: str = typer.Option(None, help="constraint: all pairs of configurations (default), or spanning (fewer, faster).", **_choice(PAIRINGS)),
     tip: str = typer.Option(None, help="URDF only: the tip link."),
     root: str = typer.Option(None, help="URDF only: the root link."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
@@ -286,7 +507,7 @@ def calibrate(
     _print_result(result.to_dict(), as_json, f"{method} model -> {out_file}")
 
 
-@app.command()
+@command()
 @user_errors
 def evaluate(
     model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
@@ -305,7 +526,7 @@ def evaluate(
     _print_result(result, as_json, f"{result['method']} model on {measurements}")
 
 
-@app.command()
+@command()
 @user_errors
 def compensate(
     model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
@@ -333,7 +554,7 @@ def compensate(
     _print_result(result, as_json, f"commands -> {out_file}")
 
 
-@app.command()
+@command()
 @user_errors
 def report(
     model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
@@ -358,13 +579,13 @@ def report(
     _print_result(result, as_json, f"report -> {out_file}")
 
 
-@app.command()
+@command()
 @user_errors
 def export(
     model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
-    fmt: str = typer.Option("toml", "--format", help="toml (robot file) or urdf."),
+    fmt: str = typer.Option("toml", "--format", help="toml (robot file) or urdf.", **_choice(EXPORT_FORMATS)),
     out_file: str = typer.Option(..., "--out", help="Robot file to write."),
-    convention: str = typer.Option(None, help="Convert first, exactly: dh, mdh or poe (default: as calibrated)."),
+    convention: str = typer.Option(None, help="Convert first, exactly (default: as calibrated).", **_choice(CONVENTIONS)),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Calibrated kinematics as a robot TOML or URDF (direct compensation, or ROS).
@@ -380,21 +601,21 @@ def export(
     _print_result(result, as_json, f"{result['convention']} robot -> {out_file}")
 
 
-@app.command()
+@command()
 @user_errors
 def validate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
-    method: str = typer.Option(DEFAULT_METHOD, help=METHOD_HELP + " Ball-in-socket data (constraint) are validated one fixture placement left out at a time."),
-    folds: int = typer.Option(5, help="Number of cross-validation folds."),
-    sizes: str = typer.Option(None, help="Learning curve: training sizes, e.g. 20,50,100,200."),
-    seed: int = typer.Option(0, help="Seed of the fold assignment, and of the method's random search where it has one."),
-    register: str = typer.Option(None, help="Register base and tool first: auto (default), yes or no."),
-    parameters: str = typer.Option(None, help="kinematic/hybrid/constraint: parameter set, offsets, full (default), full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains."),
-    loss: str = typer.Option(None, help="kinematic/hybrid: linear (default), huber or soft_l1."),
+    method: str = typer.Option(DEFAULT_METHOD, help=METHOD_HELP + " Ball-in-socket data (constraint) are validated one fixture placement left out at a time.", **_choice(method_names())),
+    folds: int = typer.Option(5, help="Number of cross-validation folds.", **_number(whole=True, at_least=2)),
+    sizes: str = typer.Option(None, help="Learning curve: training sizes, e.g. 20,50,100,200.", **_numbers(whole=True, at_least=1, example="20,50,100,200")),
+    seed: int = typer.Option(0, help="Seed of the fold assignment, and of the method's random search where it has one.", **_number(whole=True, at_least=0)),
+    register: str = typer.Option(None, help="Register base and tool first (default auto: when the data are not in the robot base frame).", **_choice(REGISTER_CHOICES)),
+    parameters: str = typer.Option(None, help="kinematic/hybrid/constraint: parameter set, offsets, full (default), full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains.", **_choice(PARAMETER_SETS)),
+    loss: str = typer.Option(None, help="kinematic/hybrid: the loss (default linear; the others are robust to outliers).", **_choice(LOSSES)),
     fixture: str = typer.Option(None, help="constraint: the fixture TOML."),
-    pairs: str = typer.Option(None, help="constraint: all pairs (default) or spanning."),
-    payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg."),
+    pairs: str = typer.Option(None, help="constraint: all pairs (default) or spanning.", **_choice(PAIRINGS)),
+    payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg.", **_number(at_least=0)),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Held-out accuracy of a method: k-fold cross-validation and an optional learning curve.
@@ -409,11 +630,11 @@ def validate(
     takes_seed = any(s.name == "random_state" for s in get_method(method).settings)
     settings = _method_settings(method, seed=seed if takes_seed else None, register=register,
                                 parameters=parameters, loss=loss, payload=payload, pairs=pairs)
-    size_list = None if sizes is None else [int(v) for v in _floats(sizes, 0, "--sizes")]
+    size_list = sizes
     by_placement = get_method(method).data_kind == "sockets"
     # Each fold fits the method and the registered nominal; each size of the curve 3 times.
     fits = None if by_placement else 2 * folds + 3 * len(size_list or [])
-    with progress("fitting", fits, enabled=not as_json) as advance:
+    with progress("fitting", fits, enabled=not as_json) as advance, _options_named({"k": "--folds"}):
         result = validate_job(robot, measurements, method=method, settings=settings, folds=folds, sizes=size_list,
                               seed=seed, fixture=fixture, on_fit=advance)
     if as_json:
@@ -440,25 +661,25 @@ def validate(
         out.print(curve)
 
 
-@app.command()
+@command()
 @user_errors
 def dataset(
-    name: str = typer.Argument(..., help="ur5-tsinghua, ipa-ur10-a, ipa-ur10-b (laser tracker) or mukca-panda-1/2/3 "
+    dataset: str = typer.Argument(..., parser=_choice(DATASETS)["parser"], help="ur5-tsinghua, ipa-ur10-a, ipa-ur10-b (laser tracker) or mukca-panda-1/2/3 "
                                          "(ball in sockets; split by fixture placement)."),
     prefix: str = typer.Option(..., "--out", help="Prefix of the files to write (PREFIX.toml, PREFIX*.csv)."),
-    split: float = typer.Option(None, help="Training fraction of a random train/test split, e.g. 0.5."),
-    seed: int = typer.Option(0, help="Seed of the split."),
+    split: float = typer.Option(None, help="Training fraction of a random train/test split, e.g. 0.5.", **_number(between=(0, 1))),
+    seed: int = typer.Option(0, help="Seed of the split.", **_number(whole=True, at_least=0)),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Export a real dataset shipped with robocal as a robot file and measurement CSVs.
 
     Example: robocal dataset ur5-tsinghua --out ur5 --split 0.5
     """
-    result = dataset_job(name, prefix, split=split, seed=seed)
-    _print_result(result, as_json, f"dataset {name}")
+    result = dataset_job(dataset, prefix, split=split, seed=seed)
+    _print_result(result, as_json, f"dataset {dataset}")
 
 
-@app.command()
+@command()
 @user_errors
 def demo(as_json: bool = typer.Option(False, "--json", help="Print one JSON object instead of tables.")):
     """Run the reference Kriging experiment on built-in data and print what it measured.
@@ -483,11 +704,8 @@ def main():
     """Console entry point."""
     warnings.showwarning = _show_warning
     np.seterr(all="ignore")  # NaNs are checked explicitly where they matter
-    try:
+    with interruptible():
         app()
-    except KeyboardInterrupt:
-        err.print("interrupted")
-        sys.exit(130)
 
 
 if __name__ == "__main__":

@@ -1,9 +1,13 @@
 """Write files so that a reader never sees half of them.
 
-A crash, a full disk or Ctrl-C while writing must not leave a truncated model or
+A crash, a full disk, Ctrl-C or SIGTERM while writing must not leave a truncated model or
 command file behind, and must not destroy the previous version.  The data therefore
 go to a temporary file in the target's own directory (so that the final rename stays on
 one file system and is atomic), are flushed to disk, and only then replace the target.
+
+An interruption (``KeyboardInterrupt``, or the ``SystemExit`` the command line raises on
+SIGTERM) that stops a write removes the temporary file and is re-raised with the attribute
+``unwritten_file``: the target it left as it was, for the one line the command line prints.
 """
 
 from __future__ import annotations
@@ -11,9 +15,14 @@ from __future__ import annotations
 import os
 import secrets
 import stat
+from collections.abc import Iterable
 from pathlib import Path
 
 from robocal.errors import InputError
+
+# Large contents are written in slices, so that an interruption is acted on within one slice
+# rather than after the whole file.
+_SLICE = 1 << 22
 
 
 def write_text_atomic(path: str | os.PathLike, text: str, encoding: str = "utf-8") -> Path:
@@ -25,12 +34,13 @@ def write_text_atomic(path: str | os.PathLike, text: str, encoding: str = "utf-8
     return write_bytes_atomic(path, text.encode(encoding))
 
 
-def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically and return the path.
+def write_bytes_atomic(path: str | os.PathLike, data: bytes | Iterable[bytes]) -> Path:
+    """Write ``data`` (bytes, or an iterable of byte chunks) to ``path`` atomically and
+    return the path.
 
-    Either the complete new content is at ``path`` afterwards, or (on any failure) an
-    existing file there is untouched and no temporary file is left behind.  An existing
-    target keeps its permission bits.
+    Either the complete new content is at ``path`` afterwards, or (on any failure or
+    interruption) an existing file there is untouched and no temporary file is left behind.
+    An existing target keeps its permission bits.
 
     Raises:
         InputError: the directory does not exist, ``path`` is a directory, or the
@@ -40,27 +50,44 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
     directory = target.parent
     _check_writable_target(target, directory)
     temporary = directory / f".{target.name}.{secrets.token_hex(8)}.tmp"
+    descriptor = None
     try:
         # O_EXCL: never write through a file (or symlink) someone else created under this
         # name; mode 0o666 lets the umask decide, as for any ordinary new file.
         descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
-    except PermissionError as error:
-        raise InputError(f"cannot write {target}: no permission to create files in {directory}") from error
-    except OSError as error:
-        raise InputError(f"cannot write {target}: {error.strerror or error}; choose another --out") from error
-    try:
         with os.fdopen(descriptor, "wb") as stream:
-            stream.write(data)
+            for chunk in _slices(data):
+                stream.write(chunk)
             stream.flush()
             os.fsync(stream.fileno())
         if target.exists():
             os.chmod(temporary, stat.S_IMODE(target.stat().st_mode))
         os.replace(temporary, target)
-    except BaseException:
+    except BaseException as error:
+        if descriptor is None and isinstance(error, OSError):  # the temporary file was never created
+            raise _cannot_create(target, directory, error) from error
+        # The rename is the last step: a temporary file that is gone was renamed (or never made).
+        replaced = descriptor is not None and not temporary.exists()
         temporary.unlink(missing_ok=True)
+        if not isinstance(error, Exception) and not replaced and not hasattr(error, "unwritten_file"):
+            error.unwritten_file = target  # interrupted: say which file was left as it was
         raise
     _sync_directory(directory)
     return target
+
+
+def _slices(data):
+    """The chunks to write: slices of a bytes-like object, or the items of an iterable."""
+    if isinstance(data, (bytes, bytearray, memoryview)):
+        view = memoryview(data)
+        return (view[start:start + _SLICE] for start in range(0, max(len(view), 1), _SLICE))
+    return data
+
+
+def _cannot_create(target: Path, directory: Path, error: OSError) -> InputError:
+    if isinstance(error, PermissionError):
+        return InputError(f"cannot write {target}: no permission to create files in {directory}")
+    return InputError(f"cannot write {target}: {error.strerror or error}; choose another --out")
 
 
 def _check_writable_target(target: Path, directory: Path) -> None:
