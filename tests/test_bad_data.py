@@ -5,11 +5,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from robocal.errors import InputError
+from robocal.errors import FileFormatError, InputError
 from robocal.estimation.calibration import KinematicCalibration, OutlierError
-from robocal.io.datasets import ur5_tsinghua
+from robocal.io.datasets import ipa_ur10, mukca, ur5_tsinghua
+from robocal.io.fixtures import Fixture, read_fixture
 from robocal.io.library import builtin
-from robocal.io.observations import observations
+from robocal.io.observations import observations, read_observations
+from robocal.io.tables import Measurements, write_measurements
 from robocal.methods import KinematicMethod
 
 
@@ -101,3 +103,60 @@ def test_joint_conversions_refuse_the_wrong_width():
             assert convert(np.zeros((2, 4, 6))).shape == (2, 4, 6)
             assert convert(np.zeros((0, 6))).shape == (0, 6)
     assert np.allclose(robot.joints_from_file([180.0] * 6), np.pi)
+
+
+# ------------------------------------------------------------- units and joint limits
+@pytest.mark.parametrize("factor, unit", [(1e-3, "metres"), (1 / 25.4, "inches"), (0.1, "cm"), (1e3, "micrometres")])
+def test_positions_in_another_length_unit_are_refused(tmp_path, factor, unit):
+    chain, data = ur5_tsinghua()
+    scaled = replace(data, positions=data.positions * factor, extra={})
+    path = write_measurements(tmp_path / "ur5.csv", scaled)
+    with pytest.raises(InputError, match=f"spread .* where the model of .* spreads 259 mm: they look like {unit}; "
+                                         "give x, y, z in mm"):
+        read_observations(path, chain)
+
+
+def test_a_robot_file_in_metres_is_refused():
+    chain, data = ur5_tsinghua()
+    in_metres = chain.replace(a=chain.a / 1000, d=chain.d / 1000)
+    with pytest.raises(InputError, match="reaches at most 0.8.* robot file looks like metres"):
+        observations(in_metres, data)
+
+
+def test_a_fixture_in_metres_is_refused(tmp_path):
+    path = tmp_path / "plate.toml"
+    path.write_text('[sockets]\nA = [0.0, 0.0, 0.0]\nB = [0.15, 0.0, 0.0]\nC = [0.0, 0.12, 0.0]\n')
+    with pytest.raises(FileFormatError, match="plate.toml: .* at most 0.192 apart.* look like metres; give the "
+                                              "socket positions in mm"):
+        read_fixture(path)
+    Fixture("mm", {"A": [0, 0, 0], "B": [1.5, 0, 0]})  # a small fixture in mm is still one
+
+
+def test_joint_values_beyond_the_limits_are_refused_unless_accepted(tmp_path):
+    chain = builtin("kr150-2")  # A1 within +-185 deg
+    rng = np.random.default_rng(0)
+    q = chain.joints_to_file(chain.random_configurations(60, rng))
+    q[16, 0] = 500.0
+    data = Measurements(path="kr.csv", joints=q, positions=chain.fk_positions(chain.joints_from_file(q)))
+    with pytest.raises(InputError, match=r"kr.csv row 18: q1 = 500 deg lies beyond joint 1's limits -185 to 185 deg "
+                                         r"of the robot .*beyond_limits=True"):
+        observations(chain, data)
+    assert observations(chain, data, beyond_limits=True).n_poses == 60
+    # A reading a little past a limit is a rounded data sheet, not a wrong row.
+    q[16, 0], q[20, 2] = 185.4, chain.joints_to_file(chain.lower)[2] - 0.4
+    assert observations(chain, replace(data, joints=q)).n_poses == 60
+    q[[3, 40], 5] = chain.joints_to_file(chain.upper)[5] + 0.6
+    with pytest.raises(InputError, match="rows 5 and 42: q6 = .* \\(and others\\) lies beyond joint 6's"):
+        observations(chain, replace(data, joints=q))
+    path = write_measurements(tmp_path / "kr.csv", replace(data, joints=q))
+    with pytest.raises(InputError, match="kr.csv rows 5 and 42: q6"):
+        read_observations(path, chain)
+    assert read_observations(path, chain, beyond_limits=True).n_poses == 60
+
+
+def test_the_packaged_real_data_pass_every_check():
+    for chain, data in (ur5_tsinghua(), ipa_ur10("A"), ipa_ur10("B")):
+        assert observations(chain, data).n_poses == data.n_poses
+    for unit in ("panda_1", "panda_2", "panda_3"):
+        chain, data, fixture = mukca(unit)
+        assert observations(chain, data, fixture).kind == "constraint"

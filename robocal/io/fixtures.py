@@ -27,6 +27,9 @@ else:  # pragma: no cover - exercised on Python 3.10 only
 
 # Two sockets closer than this are the same socket typed twice, not a usable distance.
 _SAME_POSITION_MM = 1e-6
+# A ball-in-socket fixture spans tens to hundreds of mm (MUKCa: 50 mm; the balls alone are
+# several mm across); sockets all closer than this are a fixture written in metres.
+_SMALLEST_FIXTURE_MM = 1.0
 _BARE_TOML_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
@@ -54,6 +57,12 @@ class Fixture:
                     f"fixture '{self.name}': sockets {first} and {second} are both at {a.tolist()}: "
                     f"each socket needs its own position"
                 )
+        largest = max(np.linalg.norm(a - b) for a, b in itertools.combinations(sockets.values(), 2))
+        if largest < _SMALLEST_FIXTURE_MM:
+            raise InputError(
+                f"fixture '{self.name}': its sockets lie at most {largest:.3g} apart, where a fixture spans tens of mm: "
+                f"they look like metres; give the socket positions in mm"
+            )
         object.__setattr__(self, "name", str(self.name))
         object.__setattr__(self, "sockets", sockets)
 

@@ -5,6 +5,11 @@ A measurement file is read in file units (mm, degrees; :class:`~robocal.io.table
 rad (mm for prismatic joints), orientations to rotation matrices, and, for ball-in-socket
 data, the fixture file to a :class:`~robocal.io.fixtures.Fixture`.  Nothing below this layer
 sees degrees.
+
+It is also where data meet their robot, so it refuses what no calibration of that robot can
+use, with one line each: joint values beyond the robot's limits, measured positions whose
+scale does not fit the robot's (metres, inches, cm, micrometres), and a robot file whose
+lengths look like metres.
 """
 from __future__ import annotations
 
@@ -16,6 +21,24 @@ from ..errors import InputError
 from ..spatial import compose_pose, pose_to_xyz_rpy, rpy_to_matrix
 from .fixtures import Fixture, read_fixture
 from .tables import Measurements, read_measurements, read_targets, write_commands
+
+# Joint readings may pass a limit by a little (limits in data sheets are rounded, encoders
+# overshoot); beyond this they are not the robot's (the packaged Panda data come within
+# 1.1 deg of the limits, the UR data within 55 deg).
+LIMIT_TOLERANCE_DEG = 0.5
+LIMIT_TOLERANCE_MM = 0.5
+# The measured positions' spread (RMS distance from their centroid) over the nominal model's
+# at the same joints.  Right unit and robot: 0.9992 (UR5), 0.9995 and 1.0008 (UR10 A and B);
+# an unknown tool or base shifts it a little (base: not at all).  Metres give 1/1000, inches
+# 1/25.4, cm 1/10, micrometres 1000; the band leaves a factor of 2 to cm and 20 to µm, for a
+# tool the robot file does not have.
+SPREAD_RATIO_BAND = (0.2, 50.0)
+# The model must move this much (RMS, mm) over the poses for the ratio to mean anything.
+SPREAD_JUDGED_MM = 10.0
+LENGTH_UNITS = {"metres": 1e-3, "inches": 1 / 25.4, "cm": 0.1, "micrometres": 1e3}
+# The flange of an industrial robot reaches hundreds of mm from its base; a model that stays
+# within this over every pose has its lengths in metres.
+SMALLEST_REACH_MM = 10.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,26 +124,103 @@ class Observations:
                        placement=take(self.placement), socket=take(self.socket), rows=self.rows[index])
 
 
-def observations(chain, data: Measurements, fixture: Fixture | None = None) -> Observations:
+def observations(chain, data: Measurements, fixture: Fixture | None = None, *, beyond_limits=False) -> Observations:
     """``data`` (file units) as :class:`Observations` of ``chain`` (internal units).
 
     ``fixture`` is required for ball-in-socket data and refused for instrument data.
+    InputError, naming the file rows, for joint values beyond the robot's limits (by more than
+    LIMIT_TOLERANCE_DEG / _MM; ``beyond_limits=True`` accepts them), for measured positions
+    whose spread does not fit the robot's (another length unit), and for a robot whose
+    lengths look like metres.
     """
     if fixture is not None and data.fixture is None:
         raise InputError(f"{data.path or 'the data'} has no fixture and socket columns: a fixture "
                          "(--fixture) applies to ball-in-socket data only")
+    joints = chain.joints_from_file(data.joints)
+    if not beyond_limits:
+        _check_limits(chain, data, joints)
+    _check_robot_size(chain, joints)
+    if data.positions is not None:
+        _check_length_unit(chain, data, joints)
     return Observations(
-        path=data.path, joints=chain.joints_from_file(data.joints), positions=data.positions,
+        path=data.path, joints=joints, positions=data.positions,
         rotations=None if data.orientations is None else rpy_to_matrix(np.radians(data.orientations)),
         sigmas=data.sigmas, placement=data.fixture, socket=data.socket, fixture=fixture,
         rows=data.rows, kind=data.kind)
 
 
-def read_observations(path, chain, fixture_path=None) -> Observations:
-    """Read a measurement CSV (and a fixture file for ball-in-socket data) for ``chain``."""
+def read_observations(path, chain, fixture_path=None, *, beyond_limits=False) -> Observations:
+    """Read a measurement CSV (and a fixture file for ball-in-socket data) for ``chain``;
+    ``beyond_limits`` as in :func:`observations`."""
     data = read_measurements(path, n_joints=chain.n_joints)
     fixture = None if fixture_path is None else read_fixture(fixture_path)
-    return observations(chain, data, fixture)
+    return observations(chain, data, fixture, beyond_limits=beyond_limits)
+
+
+def _check_limits(chain, data: Measurements, joints):
+    """InputError naming the rows whose joint values lie beyond the robot's limits."""
+    tolerance = np.where(chain.revolute, np.radians(LIMIT_TOLERANCE_DEG), LIMIT_TOLERANCE_MM)
+    beyond = (joints < chain.lower - tolerance) | (joints > chain.upper + tolerance)
+    if not beyond.any():
+        return
+    rows = np.flatnonzero(beyond.any(axis=1))
+    first = rows[0]
+    joint = int(np.flatnonzero(beyond[first])[0])
+    unit = "deg" if chain.revolute[joint] else "mm"
+    low, high = chain.joints_to_file(np.vstack([chain.lower, chain.upper]))[:, joint]
+    lines = [str(int(line)) for line in np.asarray(data.rows)[rows[:5]]]
+    if len(rows) > 5:
+        named = f"rows {', '.join(lines)} and {len(rows) - 5} more"
+    else:
+        named = f"row {lines[0]}" if len(lines) == 1 else f"rows {', '.join(lines[:-1])} and {lines[-1]}"
+    others = " (and others)" if len(rows) > 1 or beyond[first].sum() > 1 else ""
+    fix = "those rows" if len(rows) > 1 else "the row"
+    raise InputError(
+        f"{data.path or 'the data'} {named}: q{joint + 1} = {data.joints[first, joint]:.6g} {unit}{others} lies "
+        f"beyond joint {joint + 1}'s limits {low:.6g} to {high:.6g} {unit} of the robot '{chain.name}': fix {fix} "
+        "or the robot file's min and max, or accept values beyond the limits (beyond_limits=True)")
+
+
+def _spread(points):
+    """RMS distance (mm) of the points from their centroid."""
+    return float(np.sqrt(np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))
+
+
+def _check_robot_size(chain, joints):
+    """InputError when the robot's flange stays within SMALLEST_REACH_MM of its base."""
+    if len(joints) == 0:
+        return
+    rigid = chain.rigid
+    reach = float(np.linalg.norm(rigid.replace(base=np.eye(4), tool=np.eye(4)).fk_positions(joints), axis=1).max())
+    if reach < SMALLEST_REACH_MM:
+        raise InputError(
+            f"the robot '{chain.name}' reaches at most {reach:.3g} from its base over these poses, where an "
+            "industrial robot reaches hundreds of mm: its robot file looks like metres; give its lengths in mm")
+
+
+def _check_length_unit(chain, data: Measurements, joints):
+    """InputError when the measured positions spread over the poses by another scale than the
+    robot's model at the same joints: they are in another unit than mm."""
+    if len(joints) < 2:
+        return
+    model = _spread(chain.rigid.fk_positions(joints))
+    if model < SPREAD_JUDGED_MM:
+        return
+    measured = _spread(np.asarray(data.positions, dtype=float))
+    ratio = measured / model
+    low, high = SPREAD_RATIO_BAND
+    if low <= ratio <= high:
+        return
+    unit = min(LENGTH_UNITS, key=lambda name: abs(np.log(max(ratio, 1e-300) / LENGTH_UNITS[name])))
+    if measured == 0.0:
+        looks = "every row gives the same position"
+    elif abs(np.log(ratio / LENGTH_UNITS[unit])) > np.log(2.0):
+        looks = f"they are not in mm for this robot (1 mm of the model is {ratio:.3g} in the file)"
+    else:
+        looks = f"they look like {unit}"
+    raise InputError(
+        f"the measured positions of {data.path or 'the data'} spread {measured:.3g} over these poses where the "
+        f"model of '{chain.name}' spreads {model:.0f} mm: {looks}; give x, y, z in mm (or check the robot file)")
 
 
 @dataclass(frozen=True, eq=False)
