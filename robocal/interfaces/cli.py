@@ -33,11 +33,10 @@ from ..kinematics.chain import CONVENTIONS
 from ..methods import DEFAULT_METHOD, get_method, make_method, method_names
 from ..methods.ann import BASE_MODELS, REFINERS, TRAINERS
 from ..methods.base import REGISTER_CHOICES
-from .jobs import (DATASETS, EXPORT_FORMATS, calibrate_job, compensate_job, dataset_job, evaluate_job, export_job,
+from .jobs import (DATASETS, EXPORT_FORMATS, SAMPLINGS, calibrate_job, compensate_job, dataset_job, evaluate_job, export_job,
                    simulate_job, validate_job)
 
 # The sampling plans simulate_job draws (it owns no list of them to import).
-SAMPLINGS = ("joint", "lhs", "grid", "sockets")
 
 # typer.BadParameter is click's; its bases are the errors click raises while parsing.
 UsageError = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
@@ -370,16 +369,21 @@ def _print_result(result, as_json, title):
     out.print(table)
 
 
-def _print_calibration(calibration):
-    """Identified parameters with standard errors, and what could not be identified
-    (a :class:`~robocal.methods.CalibrationRecord`)."""
+def _print_calibration(calibration, chain):
+    """Identified parameters with standard errors and units, and what could not be identified
+    (a :class:`~robocal.methods.CalibrationRecord`; ``chain``, the calibrated model, names the
+    units)."""
+    from .tables import parameter_notes, parameter_rows
+
     ident = calibration.identifiability
-    table = Table(title=f"identified parameters ({ident.rank}; {calibration.units})")
-    for col in ("parameter", "deviation", "std. error"):
+    table = Table(title=f"identified parameters ({ident.rank})")
+    for col in ("parameter", "deviation", "std. error", "unit"):
         table.add_column(col, justify="right")
-    for name, value in calibration.parameters.items():
-        table.add_row(name, f"{value.deviation:.6g}", f"{value.std_error:.2g}")
+    for row in parameter_rows(calibration, chain):
+        table.add_row(*row)
     out.print(table)
+    for note in parameter_notes(calibration, chain):
+        out.print(f"{note}.")
     out.print(f"condition number {ident.condition_number:.3g}, O1 {ident.o1:.3g}, O3 {ident.o3:.3g}, "
               f"noise amplification {ident.noise_amplification:.3g}")
     for name, reason in ident.fixed.items():
@@ -503,7 +507,7 @@ def calibrate(
         result = calibrate_job(robot, measurements, out_file, method=fitter, fixture=fixture, progress=advance,
                                root=root, tip=tip)
     if not as_json and result.record.calibration is not None:
-        _print_calibration(result.record.calibration)
+        _print_calibration(result.record.calibration, fitter.compensator_.chain)
     _print_result(result.to_dict(), as_json, f"{method} model -> {out_file}")
 
 

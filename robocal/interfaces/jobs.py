@@ -151,6 +151,9 @@ def _true_robot(chain, errors, seed):
     return truth
 
 
+SAMPLINGS = ("joint", "lhs", "grid", "sockets")
+
+
 def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", noise=None, seed=0,
                  truth=None, orientation=False, box=None, rpy=None, hint=None, root=None, tip=None,
                  fixture=None, placements=4, per_socket=10, joint_noise=0.0):
@@ -198,7 +201,7 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
                 per_axis = max(2, int(round((n or 125) ** (1.0 / 3.0))))
                 q = grid(chain, low, high, (per_axis,) * 3, rotation, hint=hint_rad)[0]
     else:
-        raise InputError(f"--sampling {sampling} is not available; use joint, lhs, grid or sockets")
+        raise InputError(f"--sampling {sampling} is not available; use {', '.join(SAMPLINGS)}")
     data = true_robot.measurements(q, rng, orientation=orientation)
     write_measurements(out, data)
     if truth:
