@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from robocal.errors import InputError
-from robocal.estimation.calibration import KinematicCalibration
+from robocal.estimation.calibration import KinematicCalibration, OutlierWarning
 from robocal.io.library import builtin
 from robocal.simulation import uniform_joints
 
@@ -95,7 +95,9 @@ def test_robust_loss_lists_and_resists_outliers():
     measured = truth.fk_positions(q) + rng.normal(size=(300, 3)) * 0.02
     bad = np.array([7, 70, 170])
     measured[bad] += [3.0, -2.0, 4.0]
-    plain = KinematicCalibration().fit(chain, q, measured)
+    with pytest.warns(OutlierWarning) as warned:  # the plain fit goes through, naming the poses far off
+        plain = KinematicCalibration().fit(chain, q, measured)
+    assert set(warned[0].message.poses) == set(bad)
     robust = KinematicCalibration(loss="huber").fit(chain, q, measured)
     assert set(bad) <= set(robust.result_.outliers)
     test = uniform_joints(chain, 300, rng)

@@ -1,8 +1,10 @@
 """The parametric calibration: link parameters, base and tool (with joint compliance and
 joint gains on request) identified by Levenberg–Marquardt; compensated through the
 calibrated model's IK, or directly by exporting the calibrated parameters."""
+import warnings
+
 from ..compensation import Compensator
-from ..estimation.calibration import LOSSES, KinematicCalibration, OutlierError
+from ..estimation.calibration import LOSSES, KinematicCalibration, OutlierError, OutlierWarning
 from ..estimation.metrics import error_stats
 from .base import LOSS, PARAMETERS, PAYLOAD, REGISTER, REGISTER_CHOICES, Method, check_parameters, one_of, \
     require_positions
@@ -31,12 +33,20 @@ class KinematicMethod(Method):
 
     def fit(self, chain, observations, progress=None):
         obs = require_positions(observations, self.name)
+        # The outlying poses a refusal or a warning names, as the lines of the user's file.
         try:
-            calibration = self.calibration().fit(chain, obs.joints, obs.positions, orientations=obs.rotations,
-                                                 sigmas=obs.sigmas)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                calibration = self.calibration().fit(chain, obs.joints, obs.positions, orientations=obs.rotations,
+                                                     sigmas=obs.sigmas)
         except OutlierError as error:
-            # The outlying poses as the lines of the user's file.
             raise error.naming(obs.rows, obs.path) from None
+        finally:
+            for warning in caught:
+                message = warning.message
+                if isinstance(message, OutlierWarning):
+                    message = message.naming(obs.rows, obs.path)
+                warnings.warn_explicit(message, warning.category, warning.filename, warning.lineno)
         result = calibration.result_
         record = CalibrationRecord.from_dict(
             {**result.to_dict(calibration.chain_), "outlier_rows": [int(obs.rows[i]) for i in result.outliers]})
