@@ -55,6 +55,15 @@ def files(tmp_path_factory):
     for name, text in write.items():
         (root / name).write_text(text)
     (root / "binary.csv").write_bytes(b"\xff\xfe\x00\x01garbage")
+    cells = [r.split(",") for r in rows]
+    beyond = [c.copy() for c in cells]
+    # The same pose one turn further: beyond the +-360 deg limits, but what the robot measured.
+    q1 = float(beyond[5][0])
+    beyond[5][0] = repr(q1 + 360.0 if q1 >= 0 else q1 - 360.0)
+    (root / "beyond.csv").write_text("\n".join([header] + [",".join(c) for c in beyond]) + "\n")
+    xyz = [header.split(",").index(k) for k in "xyz"]
+    metres = [[str(float(v) / 1000) if k in xyz else v for k, v in enumerate(c)] for c in cells]
+    (root / "metres.csv").write_text("\n".join([header] + [",".join(c) for c in metres]) + "\n")
     model = json.loads((root / "model.json").read_text())
     model["kinematics"]["joints"][1]["a"] += 0.5
     (root / "edited.json").write_text(json.dumps(model))
@@ -75,6 +84,10 @@ ROWS = [
     ("calibrate ur5 binary.csv --out m.json", ""),
     ("calibrate ur5 few.csv --out m.json", ""),
     ("calibrate ur5 same.csv --out m.json", "distinct"),
+    ("calibrate ur5 beyond.csv --out m.json", "row 7"),
+    ("calibrate ur5 metres.csv --out m.json", "metres"),
+    ("validate ur5 beyond.csv", "--beyond-limits"),
+    ("evaluate model.json metres.csv", "metres"),
     ("calibrate nosuchrobot meas.csv --out m.json", ""),
     ("calibrate no_joints.toml meas.csv --out m.json", ""),
     ("calibrate ur5 meas.csv --out missing_dir/m.json", ""),
@@ -179,6 +192,12 @@ def test_bad_input_is_refused_with_one_line_and_leaves_nothing(files, tmp_path, 
     assert not left, f"left behind: {left}"
     assert not any(name.startswith(".") and name.endswith(".tmp") for name in left)
     assert all(not (tmp_path / out).exists() or out in before for out in OUT)
+
+
+def test_beyond_limits_accepts_the_rows_it_names(files, tmp_path):
+    result = runner.invoke(app, ["calibrate", "ur5", str(files / "beyond.csv"), "--out", str(tmp_path / "m.json"),
+                                 "--beyond-limits"])
+    assert result.exit_code == 0, result.output
 
 
 def test_the_table_is_large_enough():

@@ -445,6 +445,7 @@ def _method_settings(method, *, seed=None, nugget=None, hidden=None, shared_thet
 
 
 METHOD_HELP = "The method; 'robocal methods' describes them and lists their options."
+BEYOND_LIMITS_HELP = "Accept joint values beyond the robot's limits (by more than 0.5 deg) instead of refusing those rows."
 SEED_HELP = "Seed of the Kriging multi-start search and of the network's training (kriging, hybrid, ann)."
 
 
@@ -487,6 +488,7 @@ def calibrate(
     pairs: str = typer.Option(None, help="constraint: all pairs of configurations (default), or spanning (fewer, faster).", **_choice(PAIRINGS)),
     tip: str = typer.Option(None, help="URDF only: the tip link."),
     root: str = typer.Option(None, help="URDF only: the root link."),
+    beyond_limits: bool = typer.Option(False, "--beyond-limits", help=BEYOND_LIMITS_HELP),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Fit a calibration / error model to measurements and save it as a model file.
@@ -505,6 +507,7 @@ def calibrate(
     label = fitter.progress_label if fitter.progress_total() else f"fitting the {method} model"
     with progress(label, fitter.progress_total(), enabled=not as_json) as advance:
         result = calibrate_job(robot, measurements, out_file, method=fitter, fixture=fixture, progress=advance,
+                               beyond_limits=beyond_limits,
                                root=root, tip=tip)
     if not as_json and result.record.calibration is not None:
         _print_calibration(result.record.calibration, fitter.compensator_.chain)
@@ -517,6 +520,7 @@ def evaluate(
     model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
     measurements: str = typer.Argument(..., help="Measurement CSV (use poses the model was not trained on)."),
     fixture: str = typer.Option(None, help="Ball-in-socket data: the fixture TOML (default: the one the model stores)."),
+    beyond_limits: bool = typer.Option(False, "--beyond-limits", help=BEYOND_LIMITS_HELP),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Residual of a model on measured data, beside the nominal robot's.
@@ -526,7 +530,7 @@ def evaluate(
 
     Example: robocal evaluate model.json test.csv --json
     """
-    result = evaluate_job(model, measurements, fixture=fixture)
+    result = evaluate_job(model, measurements, fixture=fixture, beyond_limits=beyond_limits)
     _print_result(result, as_json, f"{result['method']} model on {measurements}")
 
 
@@ -567,6 +571,7 @@ def report(
     pdf: str = typer.Option(None, "--pdf", help="Also write the tables and figures as a PDF."),
     validation: str = typer.Option(None, "--validation",
                                    help="JSON of 'robocal validate --json': adds cross-validation and the learning curve."),
+    beyond_limits: bool = typer.Option(False, "--beyond-limits", help=BEYOND_LIMITS_HELP),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Accuracy report in one HTML file that opens offline: data, parameters, errors, plots.
@@ -579,7 +584,7 @@ def report(
     """
     from .report import report_job
 
-    result = report_job(model, measurements, out_file, validation=validation, pdf=pdf)
+    result = report_job(model, measurements, out_file, validation=validation, pdf=pdf, beyond_limits=beyond_limits)
     _print_result(result, as_json, f"report -> {out_file}")
 
 
@@ -620,6 +625,7 @@ def validate(
     fixture: str = typer.Option(None, help="constraint: the fixture TOML."),
     pairs: str = typer.Option(None, help="constraint: all pairs (default) or spanning.", **_choice(PAIRINGS)),
     payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg.", **_number(at_least=0)),
+    beyond_limits: bool = typer.Option(False, "--beyond-limits", help=BEYOND_LIMITS_HELP),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Held-out accuracy of a method: k-fold cross-validation and an optional learning curve.
@@ -640,6 +646,7 @@ def validate(
     fits = None if by_placement else 2 * folds + 3 * len(size_list or [])
     with progress("fitting", fits, enabled=not as_json) as advance, _options_named({"k": "--folds"}):
         result = validate_job(robot, measurements, method=method, settings=settings, folds=folds, sizes=size_list,
+                              beyond_limits=beyond_limits,
                               seed=seed, fixture=fixture, on_fit=advance)
     if as_json:
         print(json.dumps(result, indent=2))

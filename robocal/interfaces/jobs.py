@@ -32,13 +32,13 @@ class Calibrated:
 
 
 def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=None, fixture=None, progress=None,
-                  root=None, tip=None):
+                  root=None, tip=None, beyond_limits=False):
     """Fit a method (an unfitted :class:`~robocal.methods.Method`, or a registered name with
     its ``settings``) to a measurement file and save the model file.  ``progress(**info)`` is
     called as the method reports its steps."""
     fitter = make_method(method, **(settings or {})) if isinstance(method, str) else method
     chain = load_robot(robot, root=root, tip=tip)
-    observations = read_observations(measurements, chain, fixture)
+    observations = read_observations(measurements, chain, fixture, beyond_limits=beyond_limits)
     fitter.fit(chain, observations, progress=progress)
     training = {"file": str(measurements), "n_poses": observations.n_poses, "kind": observations.kind}
     if fixture is not None:
@@ -53,11 +53,11 @@ def load_fitted(model_path, robot=None):
     return model, fitted_from_model_file(model, model_path)
 
 
-def evaluate_job(model_path, measurements, fixture=None):
+def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False):
     """Residual of a model on measured positions, and of the nominal robot; on ball-in-socket
     data the socket consistency and socket-distance errors."""
     model, fitted = load_fitted(model_path)
-    observations = read_observations(measurements, model.kinematics, fixture)
+    observations = read_observations(measurements, model.kinematics, fixture, beyond_limits=beyond_limits)
     head = {"model": str(model_path), "method": model.method, "file": str(measurements)}
     if observations.positions is None:
         return {**head, **socket_scores(fitted, with_fixture(fitted, observations, model_path))}
@@ -256,11 +256,11 @@ def dataset_job(name, prefix, *, split=None, seed=0):
 
 
 def validate_job(robot, measurements, *, method=DEFAULT_METHOD, settings=None, folds=5, sizes=None, seed=0,
-                 fixture=None, root=None, tip=None, on_fit=None):
+                 fixture=None, root=None, tip=None, on_fit=None, beyond_limits=False):
     """Held-out accuracy of a method beside the registered nominal robot: k-fold
     cross-validation (and a learning curve) on position data, one fixture placement left out
     at a time on ball-in-socket data.  ``on_fit()`` is called after every fit."""
     unfitted = make_method(method, **(settings or {}))
     chain = load_robot(robot, root=root, tip=tip)
-    observations = read_observations(measurements, chain, fixture)
+    observations = read_observations(measurements, chain, fixture, beyond_limits=beyond_limits)
     return cross_validate(unfitted, chain, observations, folds=folds, sizes=sizes, seed=seed, on_fit=on_fit)

@@ -204,7 +204,7 @@ def _accuracy_rows(record, stats, held_out):
     return rows + [_stats_row(f"{where}, nominal", stats["nominal"]), _stats_row(f"{where}, calibrated", stats)]
 
 
-def report_job(model_path, measurements, out, *, validation=None, pdf=None):
+def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyond_limits=False):
     """Write the HTML report (and the PDF when ``pdf`` is a path); returns what was written
     and the numbers it shows."""
     if not str(out).lower().endswith((".html", ".htm")):
@@ -212,7 +212,7 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None):
     if pdf is not None and not str(pdf).lower().endswith(".pdf"):
         raise InputError(f"--pdf needs a .pdf file name, got {pdf}")
     model, fitted = load_fitted(model_path)
-    data = read_observations(measurements, model.kinematics)
+    data = read_observations(measurements, model.kinematics, beyond_limits=beyond_limits)
     scores = _scores(model, fitted, data, model_path)
     cv = _read_validation(validation) if validation else None
     held_out = Path(str(model.training.get("file", ""))).resolve() != Path(str(measurements)).resolve()
