@@ -52,3 +52,14 @@ def test_compensate_fails_when_no_target_is_reachable(tmp_path):
     far = tmp_path / "far.csv"
     far.write_text("x,y,z,rx,ry,rz\n5000,0,0,180,0,0\n0,7000,0,180,0,0\n")
     assert "none of the 2 targets" in _refused(["compensate", model, far, "--out", out], out)
+
+
+def test_terminal_tables_show_no_python_reprs(tmp_path):
+    meas = tmp_path / "m.csv"
+    result = runner.invoke(app, ["simulate", "ur5", "--n", "30", "--out", str(meas)])
+    assert result.exit_code == 0 and "None" not in result.output and "true error" in result.output
+    model = tmp_path / "m.json"
+    assert runner.invoke(app, ["calibrate", "ur5", str(meas), "--out", str(model)]).exit_code == 0
+    result = runner.invoke(app, ["compensate", str(model), str(EXAMPLES / "ur5-targets.csv"), "--out",
+                                 str(tmp_path / "c.csv")])
+    assert result.exit_code == 0 and "[]" not in result.output and "unreachable rows" in result.output

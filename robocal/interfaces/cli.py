@@ -360,13 +360,22 @@ def _print_result(result, as_json, title):
     for key, value in result.items():
         if isinstance(value, dict) and "mean_mm" not in value:
             continue  # nested records are in --json and in the model file
-        if isinstance(value, dict):
-            value = (f"mean {value['mean_mm']:.4f} mm, RMS {value['rms_mm']:.4f} mm, "
-                     f"max {value['max_mm']:.4f} mm (n = {value['n']})")
-        elif isinstance(value, float):
-            value = f"{value:.4f}"
-        table.add_row(key, str(value))
+        table.add_row(key.replace("_", " "), _cell(value))
     out.print(table)
+
+
+def _cell(value):
+    """A value as a person reads it: statistics in a sentence, lists joined, no Python reprs."""
+    if isinstance(value, dict):
+        if not value.get("n"):
+            return "none"
+        return (f"mean {value['mean_mm']:.4f} mm, RMS {value['rms_mm']:.4f} mm, "
+                f"max {value['max_mm']:.4f} mm (n = {value['n']})")
+    if isinstance(value, float):
+        return f"{value:.4f}"
+    if isinstance(value, (list, tuple)):
+        return ", ".join(map(str, value)) or "none"
+    return "-" if value is None else str(value)
 
 
 def _print_calibration(calibration, chain):
