@@ -1,5 +1,6 @@
 """Kriging compensation end to end: model files, the Compensator, the command line."""
 import json
+from pathlib import Path
 from dataclasses import replace
 
 import numpy as np
@@ -18,6 +19,7 @@ from robocal.io.tables import read_measurements, write_measurements
 from robocal.simulation import liu2022_plan, make_true_robot, read_truth, uniform_joints
 
 runner = CliRunner()
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 @pytest.fixture(scope="module")
@@ -215,3 +217,18 @@ def test_corrected_cartesian_targets_make_an_unchanged_controller_command_the_co
     # And the predicted error is the one the uncompensated robot would make.
     assert np.all(np.isfinite(result.predicted_error[ok]))
     assert np.linalg.norm(result.predicted_error[ok], axis=1).mean() > 0.05
+
+
+def test_the_commands_file_says_which_frame_its_cartesian_columns_are_in(tmp_path, liu, fitted):
+    import csv
+
+    from robocal.io.observations import COMMANDS_FRAME
+
+    path = _save(tmp_path, liu, fitted)
+    out = tmp_path / "c.csv"
+    result = runner.invoke(app, ["compensate", str(path), str(EXAMPLES / "kr150-targets.csv"), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    with open(out, newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    assert rows and all(row["frame"] == COMMANDS_FRAME for row in rows)
+    assert "robot base" in COMMANDS_FRAME

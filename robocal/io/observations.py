@@ -242,10 +242,15 @@ def read_target_poses(path, chain) -> TargetPoses:
                        np.asarray(targets.rows))
 
 
+# What the Cartesian columns of a commands file are, said in the file itself.
+COMMANDS_FRAME = "robot base, robot-file tool (controller FK of q)"
+
+
 def write_joint_commands(path, chain, joints, poses, reachable):
     """Write a commands CSV: ``joints`` (N, n) rad (ignored where not ``reachable``), the
-    Cartesian ``poses`` (N, 4, 4) sent, and the ``reachable`` (N,) column; in file units."""
+    Cartesian ``poses`` (N, 4, 4) sent, the ``reachable`` (N,) column and the ``frame``
+    column (COMMANDS_FRAME); in file units."""
     reachable = np.asarray(reachable, dtype=bool)
     xyz, rpy = pose_to_xyz_rpy(poses)
     file_joints = chain.joints_to_file(np.where(reachable[:, None], joints, 0.0))
-    return write_commands(path, file_joints, xyz, np.degrees(rpy), joint_ok=reachable)
+    return write_commands(path, file_joints, xyz, np.degrees(rpy), joint_ok=reachable, frame=COMMANDS_FRAME)

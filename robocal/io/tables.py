@@ -622,6 +622,7 @@ def write_commands(
     orientations: np.ndarray,
     *,
     joint_ok: np.ndarray | None = None,
+    frame: str | None = None,
 ) -> Path:
     """Write a commands CSV file (docs/ARCHITECTURE.md, "File formats"), atomically.
 
@@ -632,6 +633,8 @@ def write_commands(
         joint_ok: optional (N,) bool, False for targets the robot cannot reach.  Adds a
             ``reachable`` column (1/0); unreachable rows get empty joint cells, and empty
             Cartesian cells where those are not finite.
+        frame: optional text naming the frame of x, y, z, rx, ry, rz; adds a ``frame``
+            column that says it on every row (a file read alone still says what it holds).
 
     Raises:
         InputError: shapes that do not match, or non-finite values in a row that is
@@ -657,6 +660,8 @@ def write_commands(
     _add_number_columns(columns, ORIENTATION_COLUMNS, orientations, blank=~reachable)
     if joint_ok is not None:
         columns["reachable"] = reachable.astype(int).astype(str).tolist()
+    if frame is not None:
+        columns["frame"] = [frame] * count
     return _write_csv(path, columns)
 
 
