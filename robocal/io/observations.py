@@ -243,7 +243,7 @@ def read_target_poses(path, chain) -> TargetPoses:
 
 
 # What the Cartesian columns of a commands file are, said in the file itself.
-COMMANDS_FRAME = "robot base, robot-file tool (controller FK of q)"
+COMMANDS_FRAME = "robot base frame; robot-file tool; controller FK of q"
 
 
 def write_joint_commands(path, chain, joints, poses, reachable):
