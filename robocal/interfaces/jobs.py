@@ -7,6 +7,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..estimation.metrics import error_stats
+from ..io.atomic import check_outputs
 from ..io.library import load_robot
 from ..io.model_file import load_model, save_model
 from ..io.observations import read_observations, read_target_poses, write_joint_commands
@@ -37,6 +38,7 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
     its ``settings``) to a measurement file and save the model file.  ``progress(**info)`` is
     called as the method reports its steps."""
     fitter = make_method(method, **(settings or {})) if isinstance(method, str) else method
+    check_outputs([out], [measurements, fixture, robot])
     chain = load_robot(robot, root=root, tip=tip)
     observations = read_observations(measurements, chain, fixture, beyond_limits=beyond_limits)
     fitter.fit(chain, observations, progress=progress)
@@ -66,6 +68,7 @@ def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False):
 
 def compensate_job(model_path, targets_path, out, *, iterate=False):
     """Joint commands and corrected Cartesian targets for a targets file."""
+    check_outputs([out], [model_path, targets_path])
     model, fitted = load_fitted(model_path)
     targets = read_target_poses(targets_path, model.kinematics)
     result = fitted.compensator_.commands(targets.poses, hint=targets.hints, iterate=iterate)
@@ -94,6 +97,7 @@ def export_job(model_path, out, *, fmt="toml", convention=None):
     converters = {"dh": to_dh, "mdh": to_mdh, "poe": to_poe}
     if convention is not None and convention not in converters:
         raise InputError(f"convention must be one of dh, mdh, poe, got {convention!r}")
+    check_outputs([out], [model_path])
     model = load_model(model_path)
     rigid = model.kinematics.rigid
     chain = rigid if convention is None else converters[convention](rigid)
@@ -169,6 +173,7 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
 
     if n is not None and n < 1:
         raise InputError(f"--n is the number of poses to simulate and must be at least 1, got {n}")
+    check_outputs([out, truth], [fixture, robot, errors])
     chain = load_robot(robot, root=root, tip=tip)
     rng = np.random.default_rng(seed)
     true_robot = _true_robot(chain, errors, seed)

@@ -15,7 +15,7 @@ import numpy as np
 from .. import __version__
 from ..errors import FileFormatError, InputError
 from ..estimation.metrics import iso9283_position
-from ..io.atomic import write_bytes_atomic, write_text_atomic
+from ..io.atomic import check_outputs, write_bytes_atomic, write_text_atomic
 from . import plots
 from ..io.observations import read_observations
 from ..methods.evaluation import position_scores, socket_residuals, socket_scores, with_fixture
@@ -211,6 +211,7 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyo
         raise InputError(f"the report is HTML: give --out a .html file name, got {out}")
     if pdf is not None and not str(pdf).lower().endswith(".pdf"):
         raise InputError(f"--pdf needs a .pdf file name, got {pdf}")
+    check_outputs([out, pdf], [model_path, measurements, validation])
     model, fitted = load_fitted(model_path)
     data = read_observations(measurements, model.kinematics, beyond_limits=beyond_limits)
     scores = _scores(model, fitted, data, model_path)

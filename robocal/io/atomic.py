@@ -90,6 +90,30 @@ def _cannot_create(target: Path, directory: Path, error: OSError) -> InputError:
     return InputError(f"cannot write {target}: {error.strerror or error}; choose another --out")
 
 
+def check_outputs(outputs, inputs=()) -> None:
+    """Before a command computes anything: every output (paths, None skipped) can be written
+    (its folder exists, it is not a folder), no two outputs are the same file, and no output
+    is one of the ``inputs`` (a model written over the measurements it was fitted to).
+    Raises InputError naming the path."""
+    outputs = [Path(o) for o in outputs if o is not None]
+    for target in outputs:
+        _check_writable_target(target, target.parent)
+    for k, target in enumerate(outputs):
+        for other in outputs[k + 1:]:
+            if _same_file(target, other):
+                raise InputError(f"{target} is given for two outputs: choose a different name for each")
+        for source in (Path(i) for i in inputs if i is not None):
+            if _same_file(target, source):
+                raise InputError(f"{target} is also an input of this command: writing it would destroy it; "
+                                 "choose another --out")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    if a.exists() and b.exists():
+        return os.path.samefile(a, b)
+    return a.resolve() == b.resolve()
+
+
 def _check_writable_target(target: Path, directory: Path) -> None:
     """Fail with a one-line explanation before anything is created."""
     if not directory.is_dir():
