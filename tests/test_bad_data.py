@@ -176,3 +176,33 @@ def test_a_plain_fit_that_goes_through_warns_about_a_pose_far_off(ur5_split):
         warnings.simplefilter("error")
         KinematicMethod().fit(chain, train)  # the clean data: no warning
         KinematicMethod(loss="huber").fit(chain, data)  # the robust fit lists the pose instead
+
+
+def test_estimator_settings_and_shapes_found_by_the_hostile_pass():
+    """Settings that returned the start unfitted or were taken as truthy, arrays of the wrong
+    shape that raised numpy errors, and a missing fixture: each an InputError naming it."""
+    from robocal.estimation import ConstraintCalibration
+
+    chain = builtin("ur5")
+    q = chain.random_configurations(60, rng=0)
+    p = chain.fk_positions(q)
+    for settings, arrays, message in (({"max_iterations": 0}, {}, "max_iterations"),
+                                      ({"loss": "huber", "f_scale": -1}, {}, "f_scale"),
+                                      ({"register": "maybe"}, {}, "register"),
+                                      ({}, {"orientations": np.zeros((60, 3))}, r"\(N, 3, 3\)"),
+                                      ({}, {"sigmas": np.ones(60)}, "sigmas")):
+        with pytest.raises(InputError, match=message):
+            KinematicCalibration(**settings).fit(chain, q, p, **arrays)
+    with pytest.raises(InputError, match="max_iterations"):
+        ConstraintCalibration(max_iterations=-1).fit(chain, q, ["P"] * 60, ["A"] * 60, None)
+    with pytest.raises(InputError, match="fixture must be a Fixture"):
+        ConstraintCalibration().fit(chain, q, ["P"] * 60, ["A"] * 60, None)
+
+
+def test_read_observations_takes_a_robot_name_and_refuses_what_is_no_robot(tmp_path):
+    chain = builtin("ur5")
+    q = chain.random_configurations(30, rng=1)
+    path = write_measurements(tmp_path / "m.csv", Measurements("", chain.joints_to_file(q), positions=chain.fk_positions(q)))
+    assert read_observations(path, "ur5").n_poses == 30
+    with pytest.raises(InputError, match="must be a Chain"):
+        read_observations(path, None)

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError, RobocalWarning
 from ..kinematics.compliant import with_compliance
 from .identifiability import NEAR_PARALLEL, analyse
-from .identification import (Analysis, FittedCalibration, IdentifiedResult, check_payload,
+from .identification import (Analysis, FittedCalibration, IdentifiedResult, check_iterations, check_payload,
                              identified_parameters, identify, one_of)
 from .least_squares import levenberg_marquardt
 from .least_squares import residual as residual_of
@@ -267,6 +267,11 @@ class KinematicCalibration(FittedCalibration):
             value = getattr(self, setting)
             if not isinstance(value, (int, float)) or not value > 0:
                 raise InputError(f"{setting} must be a number > 0, got {value!r}")
+        if self.f_scale is not None and not (isinstance(self.f_scale, (int, float)) and self.f_scale > 0):
+            raise InputError(f"f_scale must be None or a number > 0, got {self.f_scale!r}")
+        if not isinstance(self.register, (bool, np.bool_)):
+            raise InputError(f"register must be True or False, got {self.register!r}")
+        check_iterations(self.max_iterations)
         return check_payload(self.payload)
 
     # ------------------------------------------------------------------ data
@@ -277,6 +282,11 @@ class KinematicCalibration(FittedCalibration):
             raise InputError(f"joints must be (N, {chain.n_joints}) for {chain.name}, got {q.shape}")
         if p.shape != (len(q), 3):
             raise InputError(f"positions must be (N, 3) with N = {len(q)}, got {p.shape}")
+        if orientations is not None and np.shape(orientations) != (len(q), 3, 3):
+            raise InputError(f"orientations must be (N, 3, 3) rotation matrices with N = {len(q)}, "
+                             f"got {np.shape(orientations)}")
+        if sigmas is not None and np.shape(sigmas) != (len(q), 3):
+            raise InputError(f"sigmas must be (N, 3) mm with N = {len(q)}, got {np.shape(sigmas)}")
         arrays = [q, p] + [np.asarray(a, float) for a in (orientations, sigmas) if a is not None]
         if not all(np.all(np.isfinite(a)) for a in arrays):
             raise InputError("the data contain NaN or infinite values: remove or fix those poses")

@@ -51,6 +51,13 @@ def check_payload(payload):
     return value
 
 
+def check_iterations(value, setting="max_iterations"):
+    """A whole number of iterations >= 1, or InputError (0 would return the start unfitted)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise InputError(f"{setting} must be a whole number >= 1, got {value!r}")
+    return int(value)
+
+
 def one_of(value, choices, setting):
     """InputError naming ``setting`` unless ``value`` is one of ``choices``."""
     if value not in choices:

@@ -13,6 +13,7 @@ lengths look like metres.
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -20,6 +21,7 @@ import numpy as np
 from ..errors import InputError
 from ..spatial import compose_pose, pose_to_xyz_rpy, rpy_to_matrix
 from .fixtures import Fixture, read_fixture
+from .library import load_robot
 from .tables import Measurements, read_measurements, read_targets, write_commands
 
 # Joint readings may pass a limit by a little (limits in data sheets are rounded, encoders
@@ -150,8 +152,13 @@ def observations(chain, data: Measurements, fixture: Fixture | None = None, *, b
 
 
 def read_observations(path, chain, fixture_path=None, *, beyond_limits=False) -> Observations:
-    """Read a measurement CSV (and a fixture file for ball-in-socket data) for ``chain``;
+    """Read a measurement CSV (and a fixture file for ball-in-socket data) for ``chain`` (a
+    Chain, or a built-in name or robot file as :func:`~robocal.io.library.load_robot` takes);
     ``beyond_limits`` as in :func:`observations`."""
+    if isinstance(chain, (str, os.PathLike)):
+        chain = load_robot(chain)
+    if not hasattr(chain, "joints_from_file"):
+        raise InputError(f"the robot must be a Chain, a built-in name or a robot file, got {type(chain).__name__}")
     data = read_measurements(path, n_joints=chain.n_joints)
     fixture = None if fixture_path is None else read_fixture(fixture_path)
     return observations(chain, data, fixture, beyond_limits=beyond_limits)

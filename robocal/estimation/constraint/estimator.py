@@ -38,8 +38,8 @@ from ...kinematics.compliant import with_compliance
 from ...kinematics.parameters import FRAME_KINDS
 from ...spatial import so3_log
 from ..identifiability import analyse
-from ..identification import (BASE, TOOL_POSITION, Analysis, FittedCalibration, IdentifiedResult, check_payload,
-                              identify, one_of)
+from ..identification import (BASE, TOOL_POSITION, Analysis, FittedCalibration, IdentifiedResult, check_iterations,
+                              check_payload, identify, one_of)
 from ..least_squares import damped_least_squares
 from .data import PAIRINGS, check_groups, constraint_pairs, pair_weights, socket_data
 from .metrics import grouped_socket_errors
@@ -210,6 +210,7 @@ class ConstraintCalibration(FittedCalibration):
     def _validate(self):
         """InputError naming the first bad setting; returns the payload (kg or None)."""
         one_of(self.pairs, PAIRINGS, "pairs")
+        check_iterations(self.max_iterations)
         return check_payload(self.payload)
 
     def _pairs(self, data):
@@ -238,6 +239,8 @@ class ConstraintCalibration(FittedCalibration):
         from ...kinematics import to_poe
 
         payload = self._validate()
+        if not hasattr(fixture, "ids"):
+            raise InputError(f"fixture must be a Fixture (robocal.io.fixtures.read_fixture), got {type(fixture).__name__}")
         data = socket_data(chain, joints, fixture_ids, socket_ids, fixture)
         check_groups(data)
         start = to_poe(chain)
