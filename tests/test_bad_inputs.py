@@ -49,6 +49,9 @@ def files(tmp_path_factory):
         "not_toml.toml": "this is [not toml\n",
         "misspelt.toml": 'name = "x"\n[socket]\nA = [0, 0, 0]\nB = [1, 0, 0]\n',
         "no_joints.toml": 'name = "nothing"\nconvention = "dh"\n',
+        "empty_robot.toml": "",
+        "no_convention.toml": 'name = "x"\n[[joints]]\na = 1.0\n',
+        "comment.csv": "# measured 2024\n" + header + "\n" + "\n".join(rows) + "\n",
         "junk.json": "{not json",
         "cv_junk.json": json.dumps({"hello": 1}),
     }
@@ -173,6 +176,12 @@ ROWS = [
     ("dataset nope --out d", ""),
     ("dataset ur5-tsinghua --out d --split 1.5", "--split"),
     ("show nosuchrobot", ""),
+    ("show empty_robot.toml", "empty"),
+    ("show no_convention.toml", "convention"),
+    ("show ur5 --tip tool0", "URDF"),
+    ("calibrate ur5 meas.csv --out m.json --tip tool0", "URDF"),
+    ("calibrate ur5 comment.csv --out m.json", "comment"),
+    ("report model.json meas.csv --out r.html --validation missing.json", "does not exist"),
     ("show no_joints.toml", ""),
 ]
 

@@ -63,6 +63,8 @@ def _png(fig):
 def _read_validation(path):
     import json
 
+    if not Path(path).is_file():
+        raise FileFormatError(f"{path} does not exist: write it with 'robocal validate ... --json > FILE'")
     try:
         doc = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:

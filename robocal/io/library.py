@@ -60,8 +60,12 @@ def load_robot(spec, *, root=None, tip=None) -> Chain:
     if isinstance(spec, Chain):
         return spec
     text = str(spec)
+    if not text.strip():
+        raise InputError("the robot is empty: give a built-in name (robocal robots), a robot .toml or a .urdf file")
     path = Path(text)
     suffix = path.suffix.lower()
+    if suffix != ".urdf" and (root is not None or tip is not None):
+        raise InputError(f"--root and --tip choose links of a URDF file; {text} is not one: leave them out")
     if suffix == ".urdf":
         from .urdf import read_urdf  # XML parsing only when a URDF is asked for
 

@@ -83,8 +83,12 @@ def chain_from_dict(doc, path="<robot>"):
     The checks run in a fixed order (top-level keys, convention, each joint, masses, joint
     map, name, frames), so a document with several faults always reports the same one.
     """
+    if not doc:
+        _fail(path, "the robot file is empty: give its name, convention and one [[joints]] table per joint")
     _check_keys(path, "the robot file", doc, _TOP_KEYS)
     convention = doc.get("convention")
+    if convention is None:
+        _fail(path, "no convention line: add convention = \"dh\", \"mdh\" or \"poe\"")
     if convention not in _LINK_KEYS:
         _fail(path, f"convention must be one of 'dh', 'mdh', 'poe', got {convention!r}")
     joints = doc.get("joints")

@@ -432,6 +432,9 @@ def _read_text(path: str) -> str:
 def _check_header_line(path: str, header: list[str]) -> None:
     if not any(header):
         raise FileFormatError(f"{path} has no header: the first line must name the columns (q1,q2,…,x,y,z)")
+    if header[0].lstrip().startswith("#"):
+        raise FileFormatError(f"{path}: line 1 is a comment ('#'); comment lines are not read: delete them so that "
+                              "the first line names the columns (q1,q2,…,x,y,z)")
     if len(header) == 1 and re.search(r"[;\t]", header[0]):
         raise FileFormatError(
             f"{path} is not comma-separated: export it with ',' between fields and '.' as the decimal point"
