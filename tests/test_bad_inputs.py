@@ -164,6 +164,12 @@ ROWS = [
     ("simulate ur5 --sampling lhs --box 1,2,3 --out s.csv", "--box"),
     ("simulate ur5 --errors liu2022 --out s.csv", ""),
     ("simulate kr150-2 --sampling sockets --out s.csv", "--fixture"),
+    ("simulate ur5 --rpy 1,2,3 --out s.csv", "--rpy does not apply"),
+    ("simulate ur5 --placements 3 --out s.csv", "--placements does not apply"),
+    ("simulate ur5 --fixture {examples}/plate-fixture.toml --out s.csv", "--fixture does not apply"),
+    ("simulate ur5 --sampling grid --joint-noise 0.1 --box 0,1,0,1,0,1 --out s.csv", "--joint-noise does not apply"),
+    ("simulate kr150-2 --sampling sockets --fixture {examples}/plate-fixture.toml --box 1,2,3,4,5,6 --out s.csv",
+     "--box does not apply"),
     ("simulate kr150-2 --sampling sockets --fixture {examples}/plate-fixture.toml --per-socket 1 --out s.csv", ""),
     # an output that is an input, or a second output in a missing folder: refused before anything is written
     ("calibrate ur5 meas.csv --out meas.csv", "also an input"),

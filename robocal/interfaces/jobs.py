@@ -158,9 +158,20 @@ def _true_robot(chain, errors, seed):
 SAMPLINGS = ("joint", "lhs", "grid", "sockets")
 
 
+def _only_what_applies(sampling, socket_options, box_options):
+    """Refuse simulate options the sampling plan would ignore (None: not given)."""
+    given = {"sockets": box_options, "joint": {**socket_options, **box_options}}.get(sampling, socket_options)
+    unused = [name for name, value in given.items() if value is not None]
+    if unused:
+        raise InputError(f"{', '.join(unused)} {'does' if len(unused) == 1 else 'do'} not apply to --sampling "
+                         f"{sampling}: leave {'it' if len(unused) == 1 else 'them'} out, or choose the sampling "
+                         "that uses it (lhs and grid: --box, --rpy, --hint; sockets: --fixture, --placements, "
+                         "--per-socket, --joint-noise)")
+
+
 def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", noise=None, seed=0,
                  truth=None, orientation=False, box=None, rpy=None, hint=None, root=None, tip=None,
-                 fixture=None, placements=4, per_socket=10, joint_noise=0.0):
+                 fixture=None, placements=None, per_socket=None, joint_noise=None):
     """Measurements of a simulated "true" robot, in the order the robot visits the poses.
 
     ``--sampling sockets`` seats a ball (the tool) in the sockets of ``fixture`` at
@@ -173,6 +184,11 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
 
     if n is not None and n < 1:
         raise InputError(f"--n is the number of poses to simulate and must be at least 1, got {n}")
+    _only_what_applies(sampling, {"--fixture": fixture, "--placements": placements, "--per-socket": per_socket,
+                                  "--joint-noise": joint_noise}, {"--box": box, "--rpy": rpy, "--hint": hint})
+    placements = 4 if placements is None else placements
+    per_socket = 10 if per_socket is None else per_socket
+    joint_noise = 0.0 if joint_noise is None else joint_noise
     check_outputs([out, truth], [fixture, robot, errors])
     chain = load_robot(robot, root=root, tip=tip)
     rng = np.random.default_rng(seed)
