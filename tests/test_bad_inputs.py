@@ -2,17 +2,16 @@
 exit, one line that says what is wrong (plus at most the usage hint), no traceback, and no
 output file left behind.  Add a row with every refusal added to robocal."""
 import json
-import shutil
 from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
 
+from refusals import assert_refused, copy_inputs
 from robocal.interfaces.cli import app
 
 runner = CliRunner()
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-OUT = ("m.json", "s.csv", "c.csv", "r.html", "x.toml", "p.pdf", "d.toml", "d.csv", "d_train.csv")
 
 
 @pytest.fixture(scope="module")
@@ -192,28 +191,10 @@ ROWS = [
 ]
 
 
-def _lines(output):
-    return [line for line in output.splitlines() if line.strip()]
-
-
 @pytest.mark.parametrize("command, says", ROWS, ids=[row[0] for row in ROWS])
 def test_bad_input_is_refused_with_one_line_and_leaves_nothing(files, tmp_path, monkeypatch, command, says):
-    for name in files.iterdir():  # a fresh folder per row: nothing written is missed
-        (shutil.copytree if name.is_dir() else shutil.copy)(name, tmp_path / name.name)
-    monkeypatch.chdir(tmp_path)
-    before = set(p.name for p in tmp_path.iterdir())
-    result = runner.invoke(app, command.format(examples=EXAMPLES).split())
-    lines = _lines(result.output)
-    assert result.exit_code != 0, result.output
-    assert "Traceback" not in result.output
-    assert result.exception is None or isinstance(result.exception, SystemExit), repr(result.exception)
-    errors = [line for line in lines if line.lower().lstrip("│ ").startswith("error")]
-    assert len(errors) == 1 and len(lines) <= 2, result.output
-    assert says in errors[0], result.output
-    left = set(p.name for p in tmp_path.iterdir()) - before
-    assert not left, f"left behind: {left}"
-    assert not any(name.startswith(".") and name.endswith(".tmp") for name in left)
-    assert all(not (tmp_path / out).exists() or out in before for out in OUT)
+    before = copy_inputs(files, tmp_path, monkeypatch)  # a fresh folder per row: nothing written is missed
+    assert_refused(command.format(examples=EXAMPLES).split(), says, tmp_path, before)
 
 
 def test_beyond_limits_accepts_the_rows_it_names(files, tmp_path):

@@ -6,7 +6,6 @@ the legitimate variants of the file formats are accepted."""
 import json
 import math
 import re
-import shutil
 import warnings
 from pathlib import Path
 
@@ -15,6 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 from robocal.errors import FileFormatError, InputError, RobocalError
+from refusals import assert_refused, copy_inputs
 from robocal.interfaces.cli import app
 
 runner = CliRunner()
@@ -326,33 +326,10 @@ REFUSED = [
 ]
 
 
-def _lines(output):
-    return [line for line in output.splitlines() if line.strip()]
-
-
-def _fresh(files, tmp_path, monkeypatch):
-    for path in files.iterdir():
-        shutil.copy(path, tmp_path / path.name)
-    monkeypatch.chdir(tmp_path)
-    return {p.name: p.stat().st_mtime_ns for p in tmp_path.iterdir()}
-
-
 @pytest.mark.parametrize("command, says", REFUSED, ids=[row[0] for row in REFUSED])
 def test_hostile_command_is_refused_in_one_line(files, tmp_path, monkeypatch, command, says):
-    before = _fresh(files, tmp_path, monkeypatch)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # warnings are the CLI's business, not this table's
-        result = runner.invoke(app, command.format(examples=EXAMPLES, plate=PLATE).split())
-    lines = _lines(result.output)
-    assert result.exit_code != 0, result.output
-    assert "Traceback" not in result.output
-    assert result.exception is None or isinstance(result.exception, SystemExit), repr(result.exception)
-    errors = [line for line in lines if line.lower().lstrip("│ ").startswith("error")]
-    assert len(errors) == 1 and len(lines) <= 2, result.output
-    assert says in errors[0], result.output
-    after = {p.name: p.stat().st_mtime_ns for p in tmp_path.iterdir()}
-    assert set(after) == set(before), f"left behind: {set(after) - set(before)}"
-    assert after == before, "an input file was rewritten"
+    before = copy_inputs(files, tmp_path, monkeypatch)
+    assert_refused(command.format(examples=EXAMPLES, plate=PLATE).split(), says, tmp_path, before)
 
 
 ACCEPTED = [
@@ -374,7 +351,7 @@ ACCEPTED = [
 
 @pytest.mark.parametrize("command", ACCEPTED)
 def test_legitimate_variant_is_accepted(files, tmp_path, monkeypatch, command):
-    _fresh(files, tmp_path, monkeypatch)
+    copy_inputs(files, tmp_path, monkeypatch)
     result = runner.invoke(app, command.format(examples=EXAMPLES).split())
     assert result.exit_code == 0, result.output
     assert not any(line.startswith("error:") for line in result.output.splitlines()), result.output
@@ -382,7 +359,7 @@ def test_legitimate_variant_is_accepted(files, tmp_path, monkeypatch, command):
 
 def test_the_same_fit_from_a_reformatted_file(files, tmp_path, monkeypatch):
     """spaces after commas, quotes, CRLF, a BOM and blank lines change nothing in the fit."""
-    _fresh(files, tmp_path, monkeypatch)
+    copy_inputs(files, tmp_path, monkeypatch)
     models = {}
     for name in ("meas", "spaces", "quoted", "crlf", "bom", "blank_lines"):
         _ok("calibrate", "ur5", f"{name}.csv", "--out", f"{name}.json")
