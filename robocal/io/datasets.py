@@ -133,7 +133,13 @@ def ipa_ur10(series="B", root=None):
         sigmas = np.maximum(sigmas, 1e-4)  # a reported 0 would mean infinite weight
     chain = builtin("ur10").replace(name=f"UR10 (ipa series {series})",
                                     tool=compose_pose([0.0, 0.3, 93.0], np.zeros(3)))
-    data = Measurements(path=str(path), joints=joints, positions=xyz, orientations=rpy, sigmas=sigmas)
+    # The acquisition time (YYYYMMDDhhmmss) orders the rows for a split that holds out the
+    # last poses measured.  Series B's were rounded to 6 digits by a spreadsheet (2,02011E+13):
+    # its rows are in acquisition order, but its stamps say nothing and are left out.
+    stamps = _columns(path, header, rows, ["Timestamp"], decimal_comma=True)[:, 0] if "Timestamp" in header else None
+    distinct = stamps is not None and len(np.unique(stamps)) > len(stamps) // 2
+    extra = {"timestamp": np.asarray([f"{t:.0f}" for t in stamps])} if distinct else {}
+    data = Measurements(path=str(path), joints=joints, positions=xyz, orientations=rpy, sigmas=sigmas, extra=extra)
     return chain, data
 
 

@@ -67,6 +67,9 @@ class Observations:
         The line of each row in its file (header = line 1), for messages.
     kind : str
         "pose", "position" or "constraint", as :attr:`Measurements.kind`.
+    times : (N,) array or None
+        When each row was measured (seconds, or any increasing number), from a ``timestamp``
+        or ``time`` column; None when the file has neither.
     """
 
     path: str
@@ -79,6 +82,7 @@ class Observations:
     fixture: Fixture | None
     rows: np.ndarray
     kind: str
+    times: np.ndarray | None = None
 
     @classmethod
     def of(cls, joints, positions=None, *, rotations=None, sigmas=None, placement=None, socket=None,
@@ -123,7 +127,8 @@ class Observations:
 
         return replace(self, joints=self.joints[index], positions=take(self.positions),
                        rotations=take(self.rotations), sigmas=take(self.sigmas),
-                       placement=take(self.placement), socket=take(self.socket), rows=self.rows[index])
+                       placement=take(self.placement), socket=take(self.socket), rows=self.rows[index],
+                       times=take(self.times))
 
 
 def observations(chain, data: Measurements, fixture: Fixture | None = None, *, beyond_limits=False) -> Observations:
@@ -148,7 +153,37 @@ def observations(chain, data: Measurements, fixture: Fixture | None = None, *, b
         path=data.path, joints=joints, positions=data.positions,
         rotations=None if data.orientations is None else rpy_to_matrix(np.radians(data.orientations)),
         sigmas=data.sigmas, placement=data.fixture, socket=data.socket, fixture=fixture,
-        rows=data.rows, kind=data.kind)
+        rows=data.rows, kind=data.kind, times=_times(data))
+
+
+# Columns that say when a row was measured (the measurement file keeps other columns as text).
+TIME_COLUMNS = ("timestamp", "time")
+
+
+def _times(data: Measurements):
+    """The rows' measurement times from the first TIME_COLUMNS column present, as numbers;
+    an InputError naming the row of a value that is not one."""
+    for name in TIME_COLUMNS:
+        if name in data.extra:
+            values = np.asarray(data.extra[name])
+            try:
+                times = values.astype(float)
+            except ValueError:
+                times = None
+            if times is None or not np.isfinite(times).all():
+                bad = next(i for i, v in enumerate(values) if not _is_number(v))
+                raise InputError(f"{data.path or 'the data'} row {int(data.rows[bad])}: {name} = '{values[bad]}' is "
+                                 f"not a number; give the {name} column as numbers (e.g. seconds or "
+                                 "YYYYMMDDhhmmss), or remove it")
+            return times
+    return None
+
+
+def _is_number(text):
+    try:
+        return np.isfinite(float(text))
+    except ValueError:
+        return False
 
 
 def read_observations(path, chain, fixture_path=None, *, beyond_limits=False) -> Observations:
