@@ -138,7 +138,7 @@ class RegisteredNominal(Method):
     name = "nominal-test"
     description = "nominal geometry registered in the measurement frame"
 
-    def fit(self, chain, observations, progress=None):
+    def _fit(self, chain, observations, progress):
         registered = registered_nominal(chain, observations.joints, observations.positions)
         stats = error_stats(observations.positions - registered.fk_positions(observations.joints))
         self.compensator_ = Compensator(registered, nominal=chain)

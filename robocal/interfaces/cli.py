@@ -32,7 +32,7 @@ from ..estimation.kriging import CORRELATIONS, REGRESSIONS
 from ..kinematics.chain import CONVENTIONS
 from ..methods import DEFAULT_METHOD, get_method, make_method, method_names
 from ..methods.ann import BASE_MODELS, REFINERS, TRAINERS
-from ..methods.base import REGISTER_CHOICES
+from ..methods.base import ERROR_MODEL_INPUTS, REGISTER_CHOICES
 from .jobs import (DATASETS, EXPORT_FORMATS, SAMPLINGS, calibrate_job, compensate_job, dataset_job, evaluate_job, export_job,
                    simulate_job, validate_job)
 
@@ -484,6 +484,7 @@ def calibrate(
     correlation: str = typer.Option(None, help="kriging/hybrid: the correlation function (default gaussian).", **_choice(CORRELATIONS)),
     nugget: str = typer.Option(None, parser=_nugget, metavar="<estimate|float>", help="kriging/hybrid: nugget, 'estimate' (default) or a number >= 0."),
     shared_theta: bool = typer.Option(False, "--shared-theta", help="kriging/hybrid: one theta for the three outputs."),
+    inputs: str = typer.Option(None, help="kriging/hybrid: what the error is modelled over: position (the TCP position, default), joints, or sincos (the sines and cosines of the joints).", **_choice(ERROR_MODEL_INPUTS)),
     parameters: str = typer.Option(None, help="kinematic/hybrid/constraint (ann with --base-model kinematic): parameter set, offsets, full (default), full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains.", **_choice(PARAMETER_SETS)),
     loss: str = typer.Option(None, help="kinematic/hybrid: the loss (default linear; the others are robust to outliers).", **_choice(LOSSES)),
     payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (default: 0 if the robot file gives link masses, else the rated payload of a robot of that size).", **_number(at_least=0)),
@@ -511,7 +512,7 @@ def calibrate(
 
     fitter = make_method(method, **_method_settings(
         method, seed=seed, nugget=nugget, hidden=hidden, shared_theta=shared_theta, register=register, trend=trend,
-        correlation=correlation, parameters=parameters, loss=loss, payload=payload, generations=generations,
+        correlation=correlation, inputs=inputs, parameters=parameters, loss=loss, payload=payload, generations=generations,
         trainer=trainer, refine=refine, base_model=base_model, pairs=pairs))
     label = fitter.progress_label if fitter.progress_total() else f"fitting the {method} model"
     with progress(label, fitter.progress_total(), enabled=not as_json) as advance:

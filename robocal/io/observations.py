@@ -288,11 +288,12 @@ def read_target_poses(path, chain) -> TargetPoses:
 COMMANDS_FRAME = "robot base frame; robot-file tool; controller FK of q"
 
 
-def write_joint_commands(path, chain, joints, poses, reachable):
+def write_joint_commands(path, chain, joints, poses, reachable, extra=None):
     """Write a commands CSV: ``joints`` (N, n) rad (ignored where not ``reachable``), the
-    Cartesian ``poses`` (N, 4, 4) sent, the ``reachable`` (N,) column and the ``frame``
-    column (COMMANDS_FRAME); in file units."""
+    Cartesian ``poses`` (N, 4, 4) sent, the ``reachable`` (N,) column, the ``frame`` column
+    (COMMANDS_FRAME) and the ``extra`` columns ({name: N cells}); in file units."""
     reachable = np.asarray(reachable, dtype=bool)
     xyz, rpy = pose_to_xyz_rpy(poses)
     file_joints = chain.joints_to_file(np.where(reachable[:, None], joints, 0.0))
-    return write_commands(path, file_joints, xyz, np.degrees(rpy), joint_ok=reachable, frame=COMMANDS_FRAME)
+    return write_commands(path, file_joints, xyz, np.degrees(rpy), joint_ok=reachable, frame=COMMANDS_FRAME,
+                          extra=extra)

@@ -626,6 +626,7 @@ def write_commands(
     *,
     joint_ok: np.ndarray | None = None,
     frame: str | None = None,
+    extra: dict[str, list[str]] | None = None,
 ) -> Path:
     """Write a commands CSV file (docs/ARCHITECTURE.md, "File formats"), atomically.
 
@@ -638,6 +639,8 @@ def write_commands(
             Cartesian cells where those are not finite.
         frame: optional text naming the frame of x, y, z, rx, ry, rz; adds a ``frame``
             column that says it on every row (a file read alone still says what it holds).
+        extra: optional further columns, by name, each N cells of text (e.g. whether a
+            target lies in the model's domain of validity).
 
     Raises:
         InputError: shapes that do not match, or non-finite values in a row that is
@@ -665,6 +668,10 @@ def write_commands(
         columns["reachable"] = reachable.astype(int).astype(str).tolist()
     if frame is not None:
         columns["frame"] = [frame] * count
+    for name, cells in (extra or {}).items():
+        if name in columns or len(cells) != count:
+            raise InputError(f"extra column {name!r} clashes with a command column or does not have {count} cells")
+        columns[name] = [str(cell) for cell in cells]
     return _write_csv(path, columns)
 
 

@@ -50,7 +50,7 @@ class NetworkMethod(Method):
                                  refine=None if self.refine == "none" else self.refine,
                                  generations=self.generations, random_state=self.random_state)
 
-    def fit(self, chain, observations, progress=None):
+    def _fit(self, chain, observations, progress):
         obs = require_distinct(require_positions(observations, self.name), self.name)
         one_of(self.base_model, BASE_MODELS, "base_model")
         unused = [s.option for s in (PARAMETERS, LOSS, PAYLOAD) if getattr(self, s.name) != s.default]

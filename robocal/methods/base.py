@@ -30,6 +30,9 @@ from ..io.model_file import ModelFile
 from .records import FitRecord
 
 REGISTER_CHOICES = ("auto", "yes", "no")
+# What an error model of the position error takes as input: the TCP position (Cartesian, as
+# Liu et al. 2022), the joint vector, or the sines and cosines of the joints.
+ERROR_MODEL_INPUTS = ("position", "joints", "sincos")
 
 
 @dataclass(frozen=True)
@@ -88,7 +91,13 @@ class Method:
     # ------------------------------------------------------------------ fitting
     def fit(self, chain, observations, progress=None):
         """Fit to ``observations`` (:class:`~robocal.io.observations.Observations`) of ``chain``;
-        returns self with ``compensator_``, ``reference_`` and ``record_``."""
+        returns self with ``compensator_``, ``reference_`` and ``record_``.  ``progress(**info)``
+        is called as the fit reports its steps (see :meth:`progress_total`)."""
+        self._fit(chain, observations, progress)
+        return self
+
+    def _fit(self, chain, observations, progress):
+        """What the method does to fit: set ``compensator_``, ``reference_`` and ``record_``."""
         raise NotImplementedError
 
     def predict(self, joints):
@@ -96,6 +105,12 @@ class Method:
         measurement frame (for ball-in-socket data, the ball centre in the robot's frame)."""
         self._check_fitted()
         return self.compensator_.predict_positions(np.asarray(joints, dtype=float))
+
+    def uncertainty(self, joints):
+        """The standard deviation (N,) mm of :meth:`predict` at ``joints`` (N, n) rad, as the
+        error model predicts it; None for a method without such an estimate."""
+        self._check_fitted()
+        return None
 
     def _check_fitted(self):
         if not hasattr(self, "compensator_"):

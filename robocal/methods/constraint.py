@@ -48,7 +48,7 @@ class ConstraintMethod(Method):
         return ConstraintCalibration(pairs=self.pairs, compliance="compliance" in terms, gains="gains" in terms,
                                      payload=self.payload)
 
-    def fit(self, chain, observations, progress=None):
+    def _fit(self, chain, observations, progress):
         obs = require_sockets(observations)
         calibration = self.calibration().fit(chain, obs.joints, obs.placement, obs.socket, obs.fixture)
         result = calibration.result_

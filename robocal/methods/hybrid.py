@@ -14,7 +14,7 @@ class HybridMethod(KrigingResidual, Method):
     description = "parametric calibration, then Kriging of the residual error"
     settings = KinematicMethod.settings + KRIGING_SETTINGS
 
-    def fit(self, chain, observations, progress=None):
+    def _fit(self, chain, observations, progress):
         kinematic_settings = {s.name: getattr(self, s.name) for s in KinematicMethod.settings}
         base = KinematicMethod(**kinematic_settings).fit(chain, observations)
         calibrated = base.compensator_.chain

@@ -31,7 +31,7 @@ class KinematicMethod(Method):
         return KinematicCalibration(parameters=self.parameters, loss=self.loss, register=self.register != "no",
                                     payload=self.payload)
 
-    def fit(self, chain, observations, progress=None):
+    def _fit(self, chain, observations, progress):
         obs = require_positions(observations, self.name)
         # The outlying poses a refusal or a warning names, as the lines of the user's file.
         try:

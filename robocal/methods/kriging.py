@@ -63,7 +63,7 @@ class KrigingMethod(KrigingResidual, Method):
     description = "Kriging of the position error over the TCP position, targets moved against it"
     settings = (REGISTER,) + KRIGING_SETTINGS
 
-    def fit(self, chain, observations, progress=None):
+    def _fit(self, chain, observations, progress):
         obs = require_distinct(require_positions(observations, self.name), self.name)
         frame, record = measurement_frame(chain, obs.joints, obs.positions, self.register)
         nominal_positions = frame.fk_positions(obs.joints)
