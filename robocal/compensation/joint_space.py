@@ -42,7 +42,8 @@ def damped_pseudo_inverse_solve(A, b, damping):
 def correct_joints(chain, error_model, q, *, iterations=1, damping=0.01):
     """Joint commands q′ (N, n) that make the real robot reach FK(q) of commands q (N, n).
 
-    chain: the kinematic model the commands q were computed with (nominal or calibrated).
+    chain: the kinematic model the commands q were computed with (nominal or calibrated,
+        rigid or compliant).
     error_model: anything with predict(q) → (N, 3) mm, the position error Δp = p′ − p it
         makes at joint vector q (e.g. :class:`~robocal.estimation.network.NetworkErrorModel`).
     q: (N, n) or (n,) joints (rad, mm) — typically from IK of the targets.
@@ -66,8 +67,10 @@ def correct_joints(chain, error_model, q, *, iterations=1, damping=0.01):
     target = chain.fk_positions(q2)
     command = q2.copy()
     for _ in range(int(iterations)):
-        tcp, jacobian = chain.fk_jacobian(command)
+        # A compliant model's Jacobian is its rigid chain's: the gravity deflection changes the
+        # TCP by a fraction of a mm, its derivative far less, and the step stays exact in FK.
+        jacobian = chain.rigid.fk_jacobian(command)[1]
         predicted = np.asarray(error_model.predict(command), dtype=float).reshape(len(command), 3)
-        miss = tcp[:, :3, 3] + predicted - target
+        miss = chain.fk_positions(command) + predicted - target
         command = command - damped_pseudo_inverse_solve(jacobian[:, :3, :], miss, float(damping))
     return command[0] if single else command
