@@ -10,6 +10,7 @@ Layout (schema 1)::
      "reference": {robot document},         # nominal geometry in the measurement frame
      "error_model": {...} or null,          # e.g. Kriging.to_dict()
      "training": {...}, "options": {...},
+     "domain": {...} or absent,             # the training data's domain of validity (deg, mm)
      "checksum": "sha256 of everything above"}
 
 Robot documents are the robot-TOML structure (mm, deg) as JSON.  Loading validates all of it
@@ -54,6 +55,9 @@ class ModelFile:
     reference: object = None  # Chain: nominal geometry in the measurement frame ("before")
     training: dict = field(default_factory=dict)
     options: dict = field(default_factory=dict)
+    # The domain of validity (robocal.methods.domain.Domain.to_dict: deg, mm); None in files
+    # written before robocal recorded it.
+    domain: dict | None = None
     created: str = ""
     software_version: str = __version__
 
@@ -74,6 +78,8 @@ class ModelFile:
         }
         if isinstance(self.kinematics, CompliantChain):
             doc["joint_compliance"] = self.kinematics.compliance_document()
+        if self.domain is not None:
+            doc["domain"] = self.domain
         doc["checksum"] = hashlib.sha256(_canonical(doc).encode()).hexdigest()
         return doc
 
@@ -137,8 +143,11 @@ def load_model(path, robot=None) -> ModelFile:
     error_model = doc.get("error_model")
     if error_model is not None and not isinstance(error_model, dict):
         raise FileFormatError(f"{path}: 'error_model' has the wrong type; regenerate the file")
+    domain = doc.get("domain")
+    if domain is not None and not isinstance(domain, dict):
+        raise FileFormatError(f"{path}: 'domain' has the wrong type; regenerate the file")
     return ModelFile(
         method=method, nominal=nominal, kinematics=kinematics, error_model=error_model, reference=reference,
-        training=doc.get("training") or {}, options=doc.get("options") or {},
+        training=doc.get("training") or {}, options=doc.get("options") or {}, domain=domain,
         created=doc.get("created", ""), software_version=doc.get("software_version", ""),
     )

@@ -27,6 +27,7 @@ from ..compensation import Compensator
 from ..errors import FileFormatError, InputError
 from ..estimation.calibration import PARAMETER_SETS, check_payload, parameter_terms
 from ..io.model_file import ModelFile
+from .domain import Domain
 from .records import FitRecord
 
 REGISTER_CHOICES = ("auto", "yes", "no")
@@ -91,9 +92,11 @@ class Method:
     # ------------------------------------------------------------------ fitting
     def fit(self, chain, observations, progress=None):
         """Fit to ``observations`` (:class:`~robocal.io.observations.Observations`) of ``chain``;
-        returns self with ``compensator_``, ``reference_`` and ``record_``.  ``progress(**info)``
-        is called as the fit reports its steps (see :meth:`progress_total`)."""
+        returns self with ``compensator_``, ``reference_``, ``record_`` and ``domain_`` (the
+        training data's :class:`~robocal.methods.domain.Domain`).  ``progress(**info)`` is
+        called as the fit reports its steps (see :meth:`progress_total`)."""
         self._fit(chain, observations, progress)
+        self.domain_ = Domain.of(chain, observations)
         return self
 
     def _fit(self, chain, observations, progress):
@@ -135,7 +138,8 @@ class Method:
         self._check_fitted()
         return ModelFile(method=self.name, nominal=nominal, kinematics=self.compensator_.chain,
                          reference=self.reference_, error_model=self.error_model_document(),
-                         training={**(training or {}), **self.record_.to_dict()}, options=self.get_settings())
+                         training={**(training or {}), **self.record_.to_dict()}, options=self.get_settings(),
+                         domain=None if getattr(self, "domain_", None) is None else self.domain_.to_dict())
 
     @classmethod
     def from_model_file(cls, model, path):
@@ -153,6 +157,8 @@ class Method:
                                           error_input=error_input, controller=model.nominal, reference=model.reference)
         method.reference_ = model.reference
         method.record_ = FitRecord.from_dict(model.training)
+        # Files written before the domain was recorded have none: the verbs say so.
+        method.domain_ = None if model.domain is None else Domain.from_dict(model.domain, model.nominal, path)
         return method
 
     # ------------------------------------------------------------------ report
