@@ -90,13 +90,13 @@ class Observations:
         """Observations made in memory (a simulation, a script), already in internal units:
         joints (N, n) rad; positions (N, 3) mm; rotations (N, 3, 3); sigmas (N, 3) mm;
         placement and socket (N,) ids with their ``fixture`` for ball-in-socket data."""
-        joints = np.atleast_2d(np.asarray(joints, dtype=float))
+        joints = np.atleast_2d(cls._numbers(joints, "joints", "(N, n) rad (mm for prismatic joints)"))
         count = len(joints)
 
         def array(values, shape, name, dtype=float):
             if values is None:
                 return None
-            values = np.asarray(values, dtype=dtype)
+            values = np.asarray(values, dtype=dtype) if dtype is str else cls._numbers(values, name, f"{shape}")
             if values.shape != shape:
                 raise InputError(f"{name} must have shape {shape} for {count} poses, got {values.shape}")
             return values
@@ -110,6 +110,15 @@ class Observations:
                    rotations=array(rotations, (count, 3, 3), "rotations"), sigmas=array(sigmas, (count, 3), "sigmas"),
                    placement=placement, socket=array(socket, (count,), "socket", str), fixture=fixture,
                    rows=np.arange(2, count + 2), kind=kind)
+
+    @staticmethod
+    def _numbers(values, name, shape):
+        """``values`` as a float array, or an InputError saying what they must be."""
+        try:
+            return np.asarray(values, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"{name} must be numbers, {shape}; got {type(values).__name__} with "
+                             "values that are not numbers") from None
 
     @property
     def n_poses(self) -> int:

@@ -31,7 +31,8 @@ else:  # pragma: no cover - exercised on Python 3.10 only
 
 _LINK_KEYS = {"dh": ("a", "alpha", "d", "theta"), "mdh": ("a", "alpha", "d", "theta"),
               "poe": ("axis", "point", "theta")}
-_OPTIONAL_JOINT_KEYS = ("min", "max", "type", "sign", "beta", "name", "mass")
+# beta (Hayati) belongs to DH/MDH joints only: a POE axis already takes any direction.
+_OPTIONAL_JOINT_KEYS = ("min", "max", "type", "sign", "name", "mass")
 _TOP_KEYS = ("name", "convention", "description", "joints", "tool", "base", "flange", "home",
              "joint_map", "notes")
 
@@ -126,6 +127,9 @@ def _read_joints(path, joints, convention):
     types, signs = [], []
     for j, joint in enumerate(joints, start=1):
         where = f"joint {j}"
+        if convention == "poe" and "beta" in joint:
+            _fail(path, f"{where} has beta, the Hayati angle of DH/MDH joints: a POE joint's axis already takes "
+                        "any direction; remove beta or tilt the axis")
         _check_keys(path, where, joint, allowed)
         missing = [k for k in required if k not in joint]
         if missing:

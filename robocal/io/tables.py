@@ -38,6 +38,11 @@ _RADIAN_BOUND = 6.3
 _RADIAN_MIN_ROWS = 5
 _RADIAN_MIN_SPREAD = 0.5
 
+# No measured or commanded value of a robot comes near this (mm for positions and prismatic
+# joints, degrees for joints and orientations: a kilometre, ~2800 turns); beyond it a cell is
+# a slip (an exponent, a pasted id) and would only show up later as a meaningless spread.
+_LARGEST_VALUE = 1e6
+
 # How many groups of identical rows a warning spells out before summarising the rest.
 _DUPLICATES_SHOWN = 3
 
@@ -347,6 +352,13 @@ class _Table:
             raise FileFormatError(
                 f"{self.where(row, name)}: '{cells[row].strip()}' is not a finite number: "
                 f"replace it with a measured value or delete the row"
+            )
+        absurd = np.flatnonzero(np.abs(values) > _LARGEST_VALUE)
+        if absurd.size:
+            row = absurd[0]
+            raise FileFormatError(
+                f"{self.where(row, name)}: {cells[row].strip()} is beyond ±{_LARGEST_VALUE:.0e}, more than any "
+                f"robot measures (mm, degrees): fix the cell or delete the row"
             )
         return values
 

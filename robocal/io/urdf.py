@@ -188,6 +188,11 @@ class _LinkTree:
         self.child_joints = {}  # parent link -> the joints hanging from it
         for joint in robot.findall("joint"):
             parent, child = (self._joint_link(joint, role) for role in ("parent", "child"))
+            if parent == child:
+                raise FileFormatError(
+                    f"{path}: joint {_name(joint)!r} has link {child!r} as both its parent and its child: "
+                    "a joint connects two different links; fix its <parent> or <child>"
+                )
             if child in self.parent_joint:
                 raise FileFormatError(
                     f"{path}: link {child!r} is the child of two joints "
@@ -196,6 +201,25 @@ class _LinkTree:
                 )
             self.parent_joint[child] = joint
             self.child_joints.setdefault(parent, []).append(joint)
+        self._check_no_loop()
+
+    def _check_no_loop(self) -> None:
+        """FileFormatError naming the links of the first loop of joints (each link has one
+        parent here, so going up from any link either ends at a root or comes round)."""
+        done = set()  # links known to lead up to a root
+        for start in sorted(self.parent_joint):
+            seen, link = [], start
+            while link in self.parent_joint and link not in done:
+                if link in seen:
+                    loop = seen[seen.index(link):]
+                    joints = [_name(self.parent_joint[item]) for item in loop]
+                    raise FileFormatError(
+                        f"{self.file}: the joints {_listing(map(repr, joints))} form a loop through the links "
+                        f"{_listing(map(repr, loop))}: a URDF must be a tree; remove one of those joints"
+                    )
+                seen.append(link)
+                link = self.parent_joint[link].find("parent").get("link")
+            done.update(seen)
 
     def _joint_link(self, joint: ET.Element, role: str) -> str:
         element = joint.find(role)
@@ -229,13 +253,9 @@ class _LinkTree:
 
     def default_root(self) -> str:
         roots = self.links - set(self.parent_joint)
+        # Not empty: without a loop (refused when the tree was read) some link has no parent.
         if len(roots) == 1:
             return roots.pop()
-        if not roots:
-            raise FileFormatError(
-                f"{self.file}: every link has a parent joint, so the joints form a loop: a URDF "
-                "must be a tree"
-            )
         raise InputError(
             f"{self.file} describes {len(roots)} separate link trees (roots: {_listing(roots)}): "
             "choose the root link with --root (root= in Python)"

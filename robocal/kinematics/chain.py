@@ -190,14 +190,30 @@ class Chain:
         """Controller joint values -> the model variables of the link transforms."""
         return np.atleast_2d(np.asarray(q, dtype=float)) @ self.joint_map.T
 
-    def _check_q(self, q):
-        q = np.asarray(q, dtype=float)
+    def _check_q(self, q, finite=False):
+        """``q`` as ((N, n) float array, whether one configuration (n,) was given); InputError
+        for text or another width, and with ``finite`` for a row with some NaN or an infinite
+        value (a missing reading would otherwise pass on as a NaN pose).  A row of NaN only is
+        robocal's "no configuration" (the IK's answer for a target it cannot reach) and gives
+        a NaN pose, as the IK solvers rely on."""
+        try:
+            q = np.asarray(q, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"joint values for the robot {self.name!r} must be numbers (rad; mm for prismatic "
+                             f"joints), one configuration (n,) or a batch (N, n) with n = {self.n_joints}") from None
         single = q.ndim == 1
         q2 = np.atleast_2d(q)
         if q2.ndim != 2 or q2.shape[1] != self.n_joints:
             raise InputError(
                 f"robot {self.name!r} has {self.n_joints} joints; got joint values of shape {q.shape}"
             )
+        if finite and not np.isfinite(q2).all():
+            missing = np.isnan(q2)
+            bad = np.flatnonzero((missing.any(axis=1) & ~missing.all(axis=1)) | np.isinf(q2).any(axis=1))
+            if bad.size:
+                raise InputError(
+                    f"joint values for the robot {self.name!r} are NaN or infinite in configuration {int(bad[0])} "
+                    f"({q2[bad[0]].tolist()}): give finite joint values (rad; mm for prismatic joints)")
         return q2, single
 
     # ------------------------------------------------------------ compiled program
@@ -318,13 +334,13 @@ class Chain:
     # ---------------------------------------------------------- forward kinematics
     def fk(self, q):
         """Pose of the TCP in the world frame: (N, n) -> (N, 4, 4), or (n,) -> (4, 4)."""
-        q2, single = self._check_q(q)
+        q2, single = self._check_q(q, finite=True)
         out = program.forward(self._compiled[0], self.model_joints(q2))
         return out[0] if single else out
 
     def fk_positions(self, q):
         """TCP positions only: (N, n) -> (N, 3), or (n,) -> (3,).  Faster than :meth:`fk`."""
-        q2, single = self._check_q(q)
+        q2, single = self._check_q(q, finite=True)
         out = program.positions(self._compiled[0], self.model_joints(q2))
         return out[0] if single else out
 
