@@ -55,19 +55,52 @@ def load_fitted(model_path, robot=None):
     return model, fitted_from_model_file(model, model_path)
 
 
+# What evaluate and compensate say of a model file written before domains were recorded.
+NO_DOMAIN = "this model file records no domain of validity"
+
+
+def _uncertainty(fitted, joints, known):
+    """The error model's predicted standard deviation (N,) mm where ``known`` (NaN elsewhere),
+    or None for a method without one."""
+    sigma = fitted.uncertainty(joints[known])
+    if sigma is None:
+        return None
+    out = np.full(len(joints), np.nan)
+    out[known] = sigma
+    return out
+
+
 def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False):
     """Residual of a model on measured positions, and of the nominal robot; on ball-in-socket
-    data the socket consistency and socket-distance errors."""
+    data the socket consistency and socket-distance errors.  Each pose is checked against the
+    model's domain of validity: ``outside_domain`` counts those outside, ``domain_summary``
+    says why in one line, and on position data ``in_domain`` / ``out_of_domain`` are the
+    error statistics of each part."""
     model, fitted = load_fitted(model_path)
     observations = read_observations(measurements, model.kinematics, fixture, beyond_limits=beyond_limits)
     head = {"model": str(model_path), "method": model.method, "file": str(measurements)}
     if observations.positions is None:
-        return {**head, **socket_scores(fitted, with_fixture(fitted, observations, model_path))}
-    return {**head, **position_scores(fitted, observations, model.nominal.name)[-1]}
+        scores = socket_scores(fitted, with_fixture(fitted, observations, model_path))
+        after = None
+    else:
+        _, after, scores = position_scores(fitted, observations, model.nominal.name)
+    if fitted.domain_ is None:
+        return {**head, **scores, "outside_domain": None, "domain_summary": NO_DOMAIN}
+    q = observations.joints
+    check = fitted.domain_.check(q, observations.positions, observations.placement,
+                                 _uncertainty(fitted, q, np.ones(len(q), dtype=bool)), what="poses")
+    result = {**head, **scores, "outside_domain": check.n_outside, "domain_summary": check.summary}
+    if after is not None:
+        result.update(in_domain=error_stats(after[check.inside]), out_of_domain=error_stats(after[~check.inside]))
+    return result
 
 
 def compensate_job(model_path, targets_path, out, *, iterate=False):
-    """Joint commands and corrected Cartesian targets for a targets file."""
+    """Joint commands and corrected Cartesian targets for a targets file.  The commands CSV
+    says of each reachable target whether it lies in the model's domain of validity
+    (``in_domain`` 1/0, ``domain_note`` why not) and, for a method with an error model that
+    predicts one, ``uncertainty_mm``; the result counts ``outside_domain`` and sums them up in
+    ``domain_summary``."""
     check_outputs([out], [model_path, targets_path])
     model, fitted = load_fitted(model_path)
     targets = read_target_poses(targets_path, model.kinematics)
@@ -75,10 +108,25 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
     if not result.success.any():
         raise InputError(f"none of the {len(targets.poses)} targets in {targets_path} can be reached by the calibrated "
                          f"robot: are they in the measurement frame, in mm and degrees? nothing was written")
-    write_joint_commands(out, model.kinematics, result.q, result.corrected, result.success)
-    return {"targets": int(len(targets.poses)), "reachable": int(result.success.sum()),
-            "unreachable_rows": [int(r) for r in targets.rows[~result.success]], "out": str(out),
-            "predicted_error": error_stats(result.predicted_error[np.isfinite(result.predicted_error).all(axis=1)])}
+    reached = result.success
+    sigma = _uncertainty(fitted, result.q, reached)
+    extra = {}
+    if fitted.domain_ is None:
+        outside, summary = None, NO_DOMAIN
+    else:
+        # Unreachable targets have no configuration to judge: NaN rows count as neither.
+        q = np.where(reached[:, None], result.q, np.nan)
+        check = fitted.domain_.check(q, targets.poses[:, :3, 3], uncertainty=sigma)
+        extra["in_domain"] = [("1" if inside else "0") if ok else "" for inside, ok in zip(check.inside, reached)]
+        extra["domain_note"] = list(check.reasons)
+        outside, summary = check.n_outside, check.summary
+    if sigma is not None:
+        extra["uncertainty_mm"] = [f"{s:.4f}" if ok else "" for s, ok in zip(sigma, reached)]
+    write_joint_commands(out, model.kinematics, result.q, result.corrected, reached, extra=extra)
+    return {"targets": int(len(targets.poses)), "reachable": int(reached.sum()),
+            "unreachable_rows": [int(r) for r in targets.rows[~reached]], "out": str(out),
+            "predicted_error": error_stats(result.predicted_error[np.isfinite(result.predicted_error).all(axis=1)]),
+            "outside_domain": outside, "domain_summary": summary}
 
 
 EXPORT_FORMATS = ("toml", "urdf")

@@ -170,3 +170,49 @@ def learning_curve(curve, nominal=None):
     ax.legend()
     fig.tight_layout()
     return fig
+
+
+OUTSIDE = "#d62728"
+TRAINING = "#7f7f7f"
+
+
+def domain_coverage(training, low, high, margin, joints, inside, units):
+    """Training coverage against the evaluated configurations, one panel per joint.
+
+    training: (M, n) training configurations (deg; mm for prismatic joints), drawn as a grey
+    histogram; low, high, margin: (n,) each joint's training range and the margin that still
+    counts as inside (shaded band, dashed edges); joints: (N, n) the evaluated configurations,
+    with ``inside`` (N,) bool: those inside the domain as a blue outline, those flagged as red
+    bars (all on the same bins); units: (n,) "deg" or "mm".
+    ``Domain.coverage`` gives these arguments.
+    """
+    plt = _pyplot()
+    training, joints = np.asarray(training, dtype=float), np.asarray(joints, dtype=float)
+    inside = np.asarray(inside, dtype=bool)
+    n = training.shape[1]
+    cols = min(n, 3)
+    rows = int(np.ceil(n / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 2.6 * rows), squeeze=False)
+    finite = np.all(np.isfinite(joints), axis=1)
+    for k, ax in enumerate(axes.flat):
+        if k >= n:
+            ax.axis("off")
+            continue
+        values = np.concatenate([training[:, k], joints[finite, k]])
+        lo, hi = float(values.min()), float(values.max())
+        if hi - lo < CONSTANT_JOINT_DEG:
+            # A joint held still everywhere: one bin around it instead of rounding noise.
+            lo, hi = lo - 1.0, hi + 1.0
+        bins = np.linspace(lo, hi, 31)
+        ax.axvspan(low[k] - margin[k], high[k] + margin[k], color=TRAINING, alpha=0.12, lw=0)
+        for edge in (low[k], high[k]):
+            ax.axvline(edge, color=TRAINING, ls="--", lw=0.8)
+        ax.hist(training[:, k], bins=bins, color=TRAINING, alpha=0.5, label="training")
+        ax.hist(joints[finite & inside, k], bins=bins, histtype="step", lw=1.4, color=AFTER,
+                label="evaluated, inside")
+        ax.hist(joints[finite & ~inside, k], bins=bins, color=OUTSIDE, alpha=0.75, label="evaluated, outside")
+        ax.set_xlabel(f"q{k + 1} ({units[k]})")
+        ax.set_ylabel("poses")
+    axes.flat[0].legend(fontsize=7)
+    fig.tight_layout()
+    return fig

@@ -8,7 +8,8 @@ outside them.  :class:`Domain` records, from the training data:
 * the arm branches seen (shoulder, elbow, wrist flip), as the closed-form inverse kinematics
   of 6R arms numbers them (:func:`robocal.kinematics.ik.ik_all`), when the robot has one;
 * the box of the measured TCP positions (mm, measurement frame), for position data;
-* the fixture placements, for ball-in-socket data;
+* the fixture placements, for ball-in-socket data (reported, not judged: an id names a
+  place in one session only);
 * the training configurations themselves, scaled by each joint's range, so that a
   configuration far from all of them is caught although each joint lies inside its range.
 
@@ -234,7 +235,8 @@ class Domain:
         positions : (N, 3) array, optional
             TCP positions (mm, measurement frame) to check against the training box.
         placement : (N,) array of str, optional
-            Fixture placements of ball-in-socket data.
+            Fixture placements of ball-in-socket data; those the training did not have are
+            named in the summary, not flagged (see the comment below).
         uncertainty : (N,) array, optional
             The error model's predicted standard deviation (mm), quoted in the summary.
         what : str
@@ -283,10 +285,6 @@ class Domain:
                 flag(beyond, f"{axis} beyond the training box",
                      lambda i, a=a, axis=axis: (f"{axis} = {p[i, a]:.1f} mm beyond the training box "
                                                 f"{self.box_min[a]:.1f}..{self.box_max[a]:.1f} mm"))
-        if placement is not None and self.placements is not None:
-            placement = np.asarray(placement).astype(str)
-            flag(~np.isin(placement, self.placements), "another fixture placement",
-                 lambda i: f"fixture placement {placement[i]!r}: training saw {', '.join(self.placements)}")
         if self.neighbours is not None:
             # Only where nothing else was found: the gap is then the one reason left to give.
             unexplained = np.array([not r for r in reasons]) & known
@@ -297,8 +295,29 @@ class Domain:
                             "times the training poses' spacing)"))
         inside = np.array([not r for r in reasons])
         counts = dict(Counter(c for cs in categories for c in cs).most_common())
+        summary = self._summary(inside, known, counts, uncertainty, what)
+        if placement is not None and self.placements is not None:
+            # A placement id names where a fixture stood in one session only: the same id in
+            # another file may be another place, and another id the same one.  Where the ball
+            # went is what the joint criteria judge; the ids are only reported.
+            new = sorted(set(np.asarray(placement).astype(str)) - set(self.placements))
+            if new:
+                summary += (f"; fixture placements not in the training data: {', '.join(new)} "
+                            "(judged by their joint configurations)")
         return DomainCheck(inside=inside, reasons=tuple("; ".join(r) for r in reasons), counts=counts,
-                           summary=self._summary(inside, known, counts, uncertainty, what))
+                           summary=summary)
+
+    def coverage(self, joints, positions=None):
+        """The arguments of :func:`robocal.interfaces.plots.domain_coverage` for the
+        configurations ``joints`` (N, n) rad / mm (and their TCP ``positions``, (N, 3) mm, if
+        known), in file units: the training configurations kept, each joint's range and
+        margin, the evaluated joints and which of them lie inside."""
+        to_file = self.chain.joints_to_file
+        training = self.neighbours if self.neighbours is not None else np.vstack([self.joint_min, self.joint_max])
+        return {"training": to_file(training), "low": to_file(self.joint_min), "high": to_file(self.joint_max),
+                "margin": to_file(self.joint_margin), "joints": to_file(joints),
+                "inside": self.check(joints, positions).inside,
+                "units": ["deg" if r else "mm" for r in self.chain.revolute]}
 
     @staticmethod
     def _summary(inside, known, counts, uncertainty, what):
