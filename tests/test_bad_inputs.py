@@ -171,10 +171,10 @@ ROWS = [
      "--box does not apply"),
     ("simulate kr150-2 --sampling sockets --fixture {examples}/plate-fixture.toml --per-socket 1 --out s.csv", ""),
     # an output that is an input, or a second output in a missing folder: refused before anything is written
-    ("calibrate ur5 meas.csv --out meas.csv", "also an input"),
-    ("compensate model.json {examples}/ur5-targets.csv --out model.json", "also an input"),
+    ("calibrate ur5 meas.csv --out meas.csv", "name it meas.json"),  # refused by its name first
+    ("compensate model.json meas.csv --out meas.csv", "also an input"),
     ("export model.json --out model.json", "also an input"),
-    ("simulate ur5 --n 10 --out s.csv --truth s.csv", "two outputs"),
+    ("simulate ur5 --n 10 --out s --truth s", "two outputs"),
     ("simulate ur5 --n 10 --out s.csv --truth missing_dir/t.json", "does not exist"),
     ("report model.json meas.csv --out r.html --pdf missing_dir/p.pdf", "does not exist"),
     # dataset, show

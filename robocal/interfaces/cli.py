@@ -16,6 +16,7 @@ import re
 import signal
 import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import typer
@@ -155,9 +156,20 @@ def _choice(choices, *, or_file=None):
     return {"parser": parse, "metavar": f"<{metavar}>"}
 
 
-def _number(*, whole=False, at_least=None, between=None):
-    """Parser of a number option: a whole number, ``>= at_least``, or strictly ``between``."""
+# A whole number beyond this is a typo (a count, a size, a seed), and beyond 64 bits it would
+# reach NumPy as an object it cannot take.
+LARGEST_WHOLE = 10**9
+# simulate --n: beyond this a file is no measurement series anyone makes, and the run would
+# take minutes and gigabytes.
+MOST_SIMULATED_POSES = 1_000_000
+
+
+def _number(*, whole=False, at_least=None, between=None, at_most=None):
+    """Parser of a number option: a whole number, ``>= at_least``, ``<= at_most`` (whole
+    numbers: LARGEST_WHOLE unless told), or strictly ``between``."""
     kind = "a whole number" if whole else "a number"
+    if whole and at_most is None:
+        at_most = LARGEST_WHOLE
     if at_least is not None:
         kind += f" >= {at_least}"
     if between is not None:
@@ -169,6 +181,8 @@ def _number(*, whole=False, at_least=None, between=None):
             number = int(text) if whole else float(text)
         except ValueError:
             raise _Refused(f"must be {kind}, got {value!r}") from None
+        if at_most is not None and number > at_most:
+            raise _Refused(f"must be {kind} and <= {at_most:,}, got {value!r}")
         if (not math.isfinite(number) or (at_least is not None and number < at_least)
                 or (between is not None and not between[0] < number < between[1])):
             raise _Refused(f"must be {kind}, got {value!r}")
@@ -191,12 +205,43 @@ def _numbers(*, count=0, whole=False, at_least=None, at_least_count=0, example="
             values = [(int if whole else float)(v.strip()) for v in value.split(",")]
         except ValueError:
             raise _Refused(f"must be {how_many}{hint}, got {value!r}") from None
+        if whole and max(values, default=0) > LARGEST_WHOLE:
+            raise _Refused(f"must be {how_many} <= {LARGEST_WHOLE:,}{hint}, got {value!r}")
         if ((count and len(values) != count) or len(values) < at_least_count
                 or not all(math.isfinite(v) and (at_least is None or v >= at_least) for v in values)):
             raise _Refused(f"must be {how_many}{hint}, got {value!r}")
         return values
 
     return {"parser": parse, "metavar": "<" + ",".join(["x"] * count) + ">" if count else "<x,y,...>"}
+
+
+# Files robocal writes, by suffix: an --out whose suffix names another of them would hold
+# something else than its name says (calibrate --out m.csv would write JSON).
+OUTPUT_KINDS = {".json": "JSON", ".csv": "CSV", ".toml": "robot TOML", ".urdf": "URDF", ".html": "HTML",
+                ".pdf": "PDF"}
+
+
+def _output(suffix):
+    """Parser of an output path: refuses a name whose suffix is another kind robocal writes."""
+
+    def parse(value):
+        given = Path(str(value)).suffix.lower()
+        if given in OUTPUT_KINDS and given != suffix:
+            name = Path(str(value))
+            raise _Refused(f"writes {OUTPUT_KINDS[suffix]}, but {value!r} names a {OUTPUT_KINDS[given]} file: "
+                           f"name it {name.with_suffix(suffix)}")
+        return value
+
+    return {"parser": parse, "metavar": f"<FILE{suffix}>"}
+
+
+def _prefix(value):
+    """--out of dataset: a prefix, to which robocal adds .toml, .csv, _train.csv ..."""
+    given = Path(str(value)).suffix.lower()
+    if given in OUTPUT_KINDS:
+        raise _Refused(f"is a prefix (PREFIX.toml and PREFIX.csv are written): give "
+                       f"{str(Path(str(value)).with_suffix(''))!r}, not {value!r}")
+    return value
 
 
 def _nugget(value):
@@ -407,13 +452,13 @@ def _print_calibration(calibration, chain):
 @user_errors
 def simulate(
     robot: str = typer.Argument(..., help="Built-in name or robot file."),
-    out_file: str = typer.Option(..., "--out", help="Measurement CSV to write."),
-    n: int = typer.Option(None, "--n", help="Number of poses (default 200; liu2022: 150).", **_number(whole=True, at_least=1)),
+    out_file: str = typer.Option(..., "--out", help="Measurement CSV to write.", **_output(".csv")),
+    n: int = typer.Option(None, "--n", help="Number of poses (default 200; liu2022: 150).", **_number(whole=True, at_least=1, at_most=MOST_SIMULATED_POSES)),
     sampling: str = typer.Option("joint", help="joint (uniform in the limits), lhs (Latin hypercube in --box), grid (n^(1/3) per axis in --box) or sockets (ball in the sockets of --fixture, joint angles only).", **_choice(SAMPLINGS)),
     errors: str = typer.Option("typical", parser=_errors_preset, help="none, typical, liu2022 (KR150-2 only), or a truth file (JSON, as --truth writes it) whose deviations you edit, e.g. joint gains in ppm."),
     noise: float = typer.Option(None, help="Measurement noise sigma in mm (overrides the preset); sockets: the ball's seating error.", **_number(at_least=0)),
     seed: int = typer.Option(0, help="Random seed.", **_number(whole=True, at_least=0)),
-    truth: str = typer.Option(None, help="Also write the hidden truth (JSON) here."),
+    truth: str = typer.Option(None, help="Also write the hidden truth (JSON) here.", **_output(".json")),
     orientation: bool = typer.Option(False, "--orientation", help="Also write measured rx, ry, rz."),
     box: str = typer.Option(None, help="lhs box: xmin,xmax,ymin,ymax,zmin,zmax in mm.", **_numbers(count=6)),
     rpy: str = typer.Option(None, help="lhs tool orientation rx,ry,rz in deg (default 180,0,0).", **_numbers(count=3)),
@@ -477,7 +522,7 @@ def methods():
 def calibrate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
-    out_file: str = typer.Option(..., "--out", help="Model file (JSON) to write."),
+    out_file: str = typer.Option(..., "--out", help="Model file (JSON) to write.", **_output(".json")),
     method: str = typer.Option(DEFAULT_METHOD, help=METHOD_HELP, **_choice(method_names())),
     register: str = typer.Option(None, help="Register base and tool first (default auto: when the data are not in the robot base frame).", **_choice(REGISTER_CHOICES)),
     trend: str = typer.Option(None, help="kriging/hybrid: the trend (default constant).", **_choice(REGRESSIONS)),
@@ -549,7 +594,7 @@ def evaluate(
 def compensate(
     model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
     targets: str = typer.Argument(..., help="Targets CSV: x, y, z, rx, ry, rz (+ optional q1..qN hint)."),
-    out_file: str = typer.Option(..., "--out", help="Commands CSV to write."),
+    out_file: str = typer.Option(..., "--out", help="Commands CSV to write.", **_output(".csv")),
     iterate: bool = typer.Option(False, "--iterate", help="Solve c = P - e(c) to a fixed point."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
@@ -577,8 +622,8 @@ def compensate(
 def report(
     model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
     measurements: str = typer.Argument(..., help="Measurement CSV to score (held-out poses, ideally)."),
-    out_file: str = typer.Option(..., "--out", help="HTML report to write (one self-contained file)."),
-    pdf: str = typer.Option(None, "--pdf", help="Also write the tables and figures as a PDF."),
+    out_file: str = typer.Option(..., "--out", help="HTML report to write (one self-contained file).", **_output(".html")),
+    pdf: str = typer.Option(None, "--pdf", help="Also write the tables and figures as a PDF.", **_output(".pdf")),
     validation: str = typer.Option(None, "--validation",
                                    help="JSON of 'robocal validate --json': adds cross-validation and the learning curve."),
     beyond_limits: bool = typer.Option(False, "--beyond-limits", help=BEYOND_LIMITS_HELP),
@@ -602,8 +647,8 @@ def report(
 @user_errors
 def export(
     model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
-    fmt: str = typer.Option("toml", "--format", help="toml (robot file) or urdf.", **_choice(EXPORT_FORMATS)),
-    out_file: str = typer.Option(..., "--out", help="Robot file to write."),
+    fmt: str = typer.Option(None, "--format", help="toml (robot file) or urdf (default: as --out ends, else toml).", **_choice(EXPORT_FORMATS)),
+    out_file: str = typer.Option(..., "--out", help="Robot file to write (.toml or .urdf)."),
     convention: str = typer.Option(None, help="Convert first, exactly (default: as calibrated).", **_choice(CONVENTIONS)),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
@@ -614,6 +659,13 @@ def export(
 
     Example: robocal export model.json --format urdf --out calibrated.urdf
     """
+    suffix = Path(out_file).suffix.lower().lstrip(".")
+    if fmt is None:
+        fmt = suffix if suffix in EXPORT_FORMATS else "toml"
+    elif "." + suffix in OUTPUT_KINDS and suffix != fmt:
+        raise InputError(f"--format {fmt} writes a {OUTPUT_KINDS['.' + fmt]} file, but --out {out_file} names a "
+                         f"{OUTPUT_KINDS['.' + suffix]} file: name it {Path(out_file).with_suffix('.' + fmt)} "
+                         f"or drop --format")
     result = export_job(model, out_file, fmt=fmt, convention=convention)
     for what in result["left_out"]:
         _say("note", "yellow", f"left out of the {result['format'].upper()} file: {what}")
@@ -687,7 +739,7 @@ def validate(
 def dataset(
     dataset: str = typer.Argument(..., parser=_choice(DATASETS)["parser"], help="ur5-tsinghua, ipa-ur10-a, ipa-ur10-b (laser tracker) or mukca-panda-1/2/3 "
                                          "(ball in sockets; split by fixture placement)."),
-    prefix: str = typer.Option(..., "--out", help="Prefix of the files to write (PREFIX.toml, PREFIX*.csv)."),
+    prefix: str = typer.Option(..., "--out", parser=_prefix, metavar="<PREFIX>", help="Prefix of the files to write (PREFIX.toml, PREFIX*.csv)."),
     split: float = typer.Option(None, help="Training fraction of a random train/test split, e.g. 0.5.", **_number(between=(0, 1))),
     seed: int = typer.Option(0, help="Seed of the split.", **_number(whole=True, at_least=0)),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
