@@ -87,6 +87,11 @@ def files(tmp_path_factory):
         # ball-in-socket data
         "sock_unknown.csv": csv(sockets[0], [sockets[1].replace(",A", ",Z")] + sockets[2:]),
         "sock_empty_id.csv": csv(sockets[0], [sockets[1].rsplit(",", 1)[0] + ","] + sockets[2:]),
+        # one socket in each placement: no distance between sockets
+        "sock_one.csv": csv(sockets[0], [r for r in sockets[1:] if r.endswith(",A")]),
+        # absurd magnitudes
+        "huge.csv": csv(head, [",".join(first[:6] + ["1e300"] + first[7:])] + rows[1:]),
+        "t_huge.csv": csv(targets[0], [",".join(targets[1].split(",")[:4] + ["-5e9"] + targets[1].split(",")[5:])] + targets[2:]),
         # targets
         "t_nan.csv": csv(targets[0], ["nan" + targets[1][targets[1].index(","):]] + targets[2:]),
         "t_text.csv": csv(targets[0], ["abc" + targets[1][targets[1].index(","):]] + targets[2:]),
@@ -117,6 +122,8 @@ def files(tmp_path_factory):
         "u_notxml.urdf": "hello world",
         "u_text.urdf": re.sub(r'xyz="[^"]*"', 'xyz="a b c"', urdf, count=2),
         "u_nojoints.urdf": '<robot name="x"><link name="a"/></robot>',
+        "u_loop.urdf": re.sub(r'(<joint name="joint_1".*?<parent link=")[^"]*(")', r"\g<1>link_6\g<2>", urdf, count=1,
+                              flags=re.S),
         # fixture TOML
         "fx_text.toml": 'name = "x"\n[sockets]\nA = [0, 0, 0]\nB = ["a", 0, 0]\n',
         "fx_two.toml": 'name = "x"\n[sockets]\nA = [0, 0, 0]\nB = [100, 0]\n',
@@ -129,6 +136,9 @@ def files(tmp_path_factory):
         "m_empty.json": "",
         "m_reformat.json": json.dumps(model, indent=8),
         "val_bad.json": '{"schema": "robocal.validation"}',
+        "val_kriging.json": json.dumps({"method": "kriging", "file": "meas.csv", "poses": 60, "folds": 5,
+                                        "cross_validation": {"pooled": {"mean_mm": 0.1}},
+                                        "nominal_cross_validation": {"pooled": {"mean_mm": 2.0}}}),
     }
     for key, change in {"m_version.json": ("schema_version", 99), "m_schema.json": ("schema", "other"),
                         "m_method.json": ("method", "magic"), "m_created.json": ("created", "yesterday")}.items():
@@ -204,6 +214,9 @@ REFUSED = [
     ("calibrate u_notxml.urdf meas.csv --out m.json", "not well-formed XML"),
     ("calibrate u_text.urdf meas.csv --out m.json", "not three numbers"),
     ("calibrate u_nojoints.urdf meas.csv --out m.json", "no movable joint"),
+    ("calibrate u_loop.urdf meas.csv --out m.json", "form a loop through the links"),
+    ("calibrate ur5 huge.csv --out m.json", "row 2, column 'x': 1e300 is beyond"),
+    ("calibrate kr150-2 sock_one.csv --out m.json --method constraint --fixture {plate}", "distances between sockets"),
     # calibrate: fixture TOML and ball-in-socket data
     ("calibrate kr150-2 sockets.csv --out m.json --method constraint --fixture fx_text.toml", "socket B"),
     ("calibrate kr150-2 sockets.csv --out m.json --method constraint --fixture fx_two.toml", "socket B"),
@@ -235,6 +248,7 @@ REFUSED = [
     ("evaluate cmodel.json meas.csv", "limits"),
     # compensate
     ("compensate model.json t_nan.csv --out c.csv", "not a finite number"),
+    ("compensate model.json t_huge.csv --out c.csv", "column 'ry': -5e9 is beyond"),
     ("compensate model.json t_text.csv --out c.csv", "'abc' is not a number"),
     ("compensate model.json t_inf.csv --out c.csv", "not a finite number"),
     ("compensate model.json t_empty.csv --out c.csv", "is empty"),
@@ -256,6 +270,7 @@ REFUSED = [
     ("report model.json no_q1.csv --out r.html", "no q1"),
     ("report model.json meas.csv --out r.html --validation val_bad.json", "cross_validation"),
     ("report model.json meas.csv --out r.html --validation meas.csv", "robocal validate --json"),
+    ("report model.json meas.csv --out r.html --validation val_kriging.json", "the model is 'kinematic'"),
     # export
     ("export model.json --out nodir/x.toml", "nodir"),
     ("export m_version.json --out x.toml", "upgrade robocal"),
@@ -296,6 +311,8 @@ REFUSED = [
     ("simulate ur5 --out nodir/s.csv", "nodir"),
     ("simulate iiwa14 --errors liu2022 --out s.csv", "kr150-2"),
     ("simulate u_text.urdf --out s.csv", "not three numbers"),
+    ("simulate r_metres.toml --n 10 --out s.csv", "looks like metres"),
+    ("simulate r_metres.toml --sampling sockets --fixture {plate} --out s.csv", "looks like metres"),
     ("simulate kr150-2 --sampling sockets --fixture {plate} --placements 0 --out s.csv", "--placements"),
     ("simulate kr150-2 --sampling sockets --fixture {plate} --placements -1 --out s.csv", "--placements"),
     ("simulate kr150-2 --sampling sockets --fixture fx_text.toml --out s.csv", "socket B"),

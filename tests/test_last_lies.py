@@ -121,3 +121,128 @@ def test_a_urdf_that_is_not_a_tree_names_the_links(tmp_path, links, joints, says
 
     with pytest.raises(FileFormatError, match=says):
         read_urdf(_urdf(tmp_path, links, joints))
+
+
+# ---------------------------------------------------------------- a robot file in metres, simulated
+def test_simulating_a_robot_in_metres_is_refused():
+    from robocal.simulation import TrueRobot, make_true_robot
+
+    metres = UR5.replace(d=UR5.d / 1000, a=UR5.a / 1000)
+    for make in (lambda: make_true_robot(metres, "typical"), lambda: TrueRobot(metres)):
+        with pytest.raises(InputError, match="looks like metres"):
+            make()
+    assert TrueRobot(UR5).nominal is UR5  # the same robot in mm passes
+
+
+# ---------------------------------------------------------------- target orientations in radians
+def _targets(tmp_path, orientation):
+    path = tmp_path / "t.csv"
+    path.write_text("x,y,z,rx,ry,rz\n" + "".join(f"{400 + 10 * k},0,300,{orientation}\n" for k in range(3)))
+    return path
+
+
+@pytest.mark.parametrize("orientation", ["3.14159,0,1.57", "-3.1416,0,0", "1.5708,0,0", "2.5,0.3,-1.2",
+                                         "0,0.785398,0"])
+def test_target_orientations_in_radians_are_warned_about(tmp_path, orientation):
+    from robocal.io.tables import read_targets
+
+    with pytest.warns(RobocalWarning, match="look like radians"):
+        read_targets(_targets(tmp_path, orientation))
+
+
+@pytest.mark.parametrize("orientation", ["180,0,0", "-180,0,0", "0,0,0", "1.5,-2,0.5", "0,0,3", "179.9,0.1,-90",
+                                         "0,90,0", "0,0,0.5"])
+def test_degree_targets_raise_no_false_alarm(tmp_path, orientation):
+    from robocal.io.tables import read_targets
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_targets(_targets(tmp_path, orientation))
+        for example in ("ur5-targets.csv", "kr150-targets.csv"):
+            read_targets(EXAMPLES / example)
+
+
+# ---------------------------------------------------------------- one robot's model on another's sockets
+@pytest.fixture(scope="module")
+def socket_files(tmp_path_factory):
+    from typer.testing import CliRunner
+
+    from robocal.interfaces.cli import app
+
+    root = tmp_path_factory.mktemp("sockets")
+    plate = str(EXAMPLES / "plate-fixture.toml")
+    runner = CliRunner()
+    for args in (["simulate", "kr150-2", "--sampling", "sockets", "--fixture", plate, "--placements", "3",
+                  "--per-socket", "6", "--out", root / "kr.csv"],
+                 ["calibrate", "kr150-2", root / "kr.csv", "--method", "constraint", "--fixture", plate,
+                  "--out", root / "kr.json"],
+                 ["simulate", "ur5", "--sampling", "sockets", "--fixture", plate, "--placements", "3",
+                  "--per-socket", "6", "--out", root / "ur5.csv"]):
+        result = runner.invoke(app, [str(a) for a in args])
+        assert result.exit_code == 0, result.output
+    return root
+
+
+def test_another_robots_socket_data_are_warned_about(socket_files):
+    from robocal.io.observations import read_observations
+    from robocal.io.model_file import load_model
+    from robocal.methods import fitted_from_model_file
+    from robocal.methods.evaluation import socket_scores, with_fixture
+
+    path = socket_files / "kr.json"
+    model = load_model(path)
+    fitted = fitted_from_model_file(model, path)
+    own = with_fixture(fitted, read_observations(socket_files / "kr.csv", model.kinematics), path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert socket_scores(fitted, own)["mean_mm"] < 1.0
+    other = with_fixture(fitted, read_observations(socket_files / "ur5.csv", model.kinematics, beyond_limits=True), path)
+    with pytest.warns(RobocalWarning, match="from robot 'KUKA KR 150-2'"):
+        socket_scores(fitted, other)
+
+
+# ---------------------------------------------------------------- balls in one socket of each placement
+def test_constraint_calibration_needs_a_distance_between_sockets():
+    from robocal.estimation.constraint.estimator import ConstraintCalibration
+    from robocal.io.fixtures import read_fixture
+    from robocal.simulation import make_true_robot
+    from robocal.simulation.sampling import socket_plan
+
+    chain = builtin("kr150-2")
+    plate = read_fixture(EXAMPLES / "plate-fixture.toml")
+    plan = socket_plan(make_true_robot(chain, "typical", seed=3), plate, 2, 12, rng=1)
+    one = plan.socket_ids == "A"
+    args = (chain, plan.joints[one], plan.fixture_ids[one], plan.socket_ids[one], plate)
+    with pytest.raises(InputError, match="2 placements, one socket each.*distances between sockets are needed"):
+        ConstraintCalibration().fit(*args)
+    # Asked for explicitly, the shape alone is still fitted, its scale said to be unobservable.
+    assert "scale" in ConstraintCalibration(distance=False).fit(*args).result_.unobservable
+
+
+# ---------------------------------------------------------------- a validation of another model in a report
+def test_a_validation_of_other_data_is_warned_about_in_the_report(tmp_path, monkeypatch):
+    import json
+
+    from typer.testing import CliRunner
+
+    from robocal.interfaces.cli import app
+
+    monkeypatch.chdir(tmp_path)
+    runner = CliRunner()
+    for args in (["simulate", "ur5", "--n", "40", "--out", "meas.csv"], ["calibrate", "ur5", "meas.csv", "--out", "m.json"]):
+        assert runner.invoke(app, args).exit_code == 0
+
+    def validation(name, file, poses):
+        Path(name).write_text(json.dumps({"method": "kinematic", "file": file, "poses": poses, "folds": 5,
+                                          "cross_validation": {"pooled": {"mean_mm": 0.1}},
+                                          "nominal_cross_validation": {"pooled": {"mean_mm": 2.0}}}))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = runner.invoke(app, ["report", "m.json", "meas.csv", "--out", "r.html", "--validation", name])
+        assert result.exit_code == 0, result.output
+        return [str(w.message) for w in caught if issubclass(w.category, RobocalWarning)]
+
+    assert not validation("same.json", "meas.csv", 40)
+    for name, file, poses in (("other.json", "other.csv", 40), ("edited.json", "meas.csv", 80)):
+        said = validation(name, file, poses)
+        assert len(said) == 1 and "but the model was trained on meas.csv (40 poses)" in said[0], said

@@ -7,13 +7,14 @@ import base64
 import datetime as _dt
 import html
 import io
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .. import __version__
-from ..errors import FileFormatError, InputError
+from ..errors import FileFormatError, InputError, RobocalWarning
 from ..estimation.metrics import iso9283_position
 from ..io.atomic import check_outputs, write_bytes_atomic, write_text_atomic
 from . import plots
@@ -72,6 +73,26 @@ def _read_validation(path):
     if not isinstance(doc, dict) or "cross_validation" not in doc:
         raise FileFormatError(f"{path}: no 'cross_validation' in it: write it with 'robocal validate ... --json > FILE'")
     return doc
+
+
+def _check_validation_matches(cv, model, path):
+    """A cross-validation of another method or robot describes another model: InputError.
+    One of another data file (or the same name with another number of poses) may be a
+    deliberate choice (the whole file, where the model saw a training split): RobocalWarning."""
+    if cv.get("method") != model.method:
+        raise InputError(f"{path} cross-validates the {cv.get('method')!r} method but the model is {model.method!r}: "
+                         f"run 'robocal validate ... --method {model.method} --json > FILE' for this report, or "
+                         "leave out --validation")
+    if "robot" in cv and cv["robot"] != model.nominal.name:
+        raise InputError(f"{path} cross-validates the robot {cv['robot']!r} but the model is of "
+                         f"{model.nominal.name!r}: validate this robot's data, or leave out --validation")
+    trained, validated = str(model.training.get("file", "")), str(cv.get("file", ""))
+    same_file = trained == validated or Path(trained).resolve() == Path(validated).resolve()
+    if not same_file or cv.get("poses", model.training.get("n_poses")) != model.training.get("n_poses"):
+        warnings.warn(RobocalWarning(
+            f"{path} cross-validates {validated} ({cv.get('poses', '?')} poses) but the model was trained on "
+            f"{trained} ({model.training.get('n_poses', '?')} poses): the report shows it as it is; validate the "
+            "training file if it should describe this model"))
 
 
 def _figures(fitted, observations, positions, before, after, validation):
@@ -215,9 +236,11 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyo
         raise InputError(f"--pdf needs a .pdf file name, got {pdf}")
     check_outputs([out, pdf], [model_path, measurements, validation])
     model, fitted = load_fitted(model_path)
+    cv = _read_validation(validation) if validation else None
+    if cv is not None:
+        _check_validation_matches(cv, model, validation)
     data = read_observations(measurements, model.kinematics, beyond_limits=beyond_limits)
     scores = _scores(model, fitted, data, model_path)
-    cv = _read_validation(validation) if validation else None
     held_out = Path(str(model.training.get("file", ""))).resolve() != Path(str(measurements)).resolve()
     label = "held-out poses" if held_out else "training poses (not held out: scores what the model has seen)"
     figures = _figures(fitted, data, scores.positions, scores.before, scores.after, cv)

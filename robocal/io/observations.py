@@ -41,6 +41,8 @@ LENGTH_UNITS = {"metres": 1e-3, "inches": 1 / 25.4, "cm": 0.1, "micrometres": 1e
 # The flange of an industrial robot reaches hundreds of mm from its base; a model that stays
 # within this over every pose has its lengths in metres.
 SMALLEST_REACH_MM = 10.0
+# Configurations over the joint range that judge a robot without data (simulation).
+SIZE_SAMPLE = 64
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,7 +157,7 @@ def observations(chain, data: Measurements, fixture: Fixture | None = None, *, b
     joints = chain.joints_from_file(data.joints)
     if not beyond_limits:
         _check_limits(chain, data, joints)
-    _check_robot_size(chain, joints)
+    check_robot_in_mm(chain, joints)
     if data.positions is not None:
         _check_length_unit(chain, data, joints)
     return Observations(
@@ -237,15 +239,21 @@ def _spread(points):
     return float(np.sqrt(np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))
 
 
-def _check_robot_size(chain, joints):
-    """InputError when the robot's flange stays within SMALLEST_REACH_MM of its base."""
+def check_robot_in_mm(chain, joints=None):
+    """InputError when the robot's flange stays within SMALLEST_REACH_MM of its base over
+    ``joints`` (N, n) rad, or over its joint range when None: its file gives lengths in
+    metres.  Wherever a robot meets data (reading measurements, simulating them)."""
+    where = "over these poses"
+    if joints is None:
+        # Seeded: the same robot is judged the same way every time.
+        joints, where = chain.random_configurations(SIZE_SAMPLE, rng=0), "over its joint range"
     if len(joints) == 0:
         return
     rigid = chain.rigid
     reach = float(np.linalg.norm(rigid.replace(base=np.eye(4), tool=np.eye(4)).fk_positions(joints), axis=1).max())
     if reach < SMALLEST_REACH_MM:
         raise InputError(
-            f"the robot '{chain.name}' reaches at most {reach:.3g} from its base over these poses, where an "
+            f"the robot '{chain.name}' reaches at most {reach:.3g} from its base {where}, where an "
             "industrial robot reaches hundreds of mm: its robot file looks like metres; give its lengths in mm")
 
 

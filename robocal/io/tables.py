@@ -43,6 +43,15 @@ _RADIAN_MIN_SPREAD = 0.5
 # a slip (an exponent, a pasted id) and would only show up later as a meaningless spread.
 _LARGEST_VALUE = 1e6
 
+# Target orientations in radians: every rx, ry, rz within one half-turn in radians, and one
+# that a degree file would hardly hold within that bound — either a fraction beyond
+# RADIAN_TARGET_LARGE (a tool within 3 deg of the base's axes, tilted 2.x deg), or within
+# RADIAN_TARGET_SNAP of a non-zero multiple of 45 deg in radians (pi, pi/2: the tool down or
+# sideways, as radians write it).  Degree targets (rx = 180; small tilts near zero) pass.
+_RADIAN_TARGET_BOUND = np.pi + 1e-3
+_RADIAN_TARGET_LARGE = 2.0
+_RADIAN_TARGET_SNAP = 2e-3
+
 # How many groups of identical rows a warning spells out before summarising the rest.
 _DUPLICATES_SHOWN = 3
 
@@ -281,6 +290,9 @@ def read_targets(path: str | os.PathLike, n_joints: int | None = None) -> Target
 
     Raises:
         FileFormatError: as for :func:`read_measurements`.
+
+    Warns:
+        RobocalWarning: orientations that look like radians.
     """
     table = _read_table(path)
     joint_names = _check_header(table, n_joints, joints_required=False)
@@ -290,13 +302,15 @@ def read_targets(path: str | os.PathLike, n_joints: int | None = None) -> Target
             f"{table.path} lacks column{'s' if len(missing) > 1 else ''} {', '.join(missing)}: "
             f"a targets file needs x, y, z (mm) and rx, ry, rz (deg) for every target"
         )
-    return Targets(
+    targets = Targets(
         path=table.path,
         positions=table.numbers(POSITION_COLUMNS),
         orientations=table.numbers(ORIENTATION_COLUMNS),
         hints=table.numbers(joint_names) if joint_names else None,
         rows=table.lines,
     )
+    _warn_if_radian_orientations(targets)
+    return targets
 
 
 @dataclass(frozen=True)
@@ -559,6 +573,25 @@ def _warn_if_radians(measurements: Measurements) -> None:
             RobocalWarning(
                 f"all joint values of {measurements.path} lie within ±{_RADIAN_BOUND}: they look like radians, "
                 f"but robocal expects degrees; convert with numpy.degrees() or check the export"
+            ),
+            stacklevel=3,
+        )
+
+
+def _warn_if_radian_orientations(targets: Targets) -> None:
+    """RobocalWarning when rx, ry, rz look like radians (see _RADIAN_TARGET_BOUND)."""
+    angles = np.abs(targets.orientations)
+    if angles.max() > _RADIAN_TARGET_BOUND:
+        return
+    eighths = angles / (np.pi / 4)
+    snapped = (np.round(eighths) >= 1) & (np.abs(eighths - np.round(eighths)) * (np.pi / 4) <= _RADIAN_TARGET_SNAP)
+    # Hand-written degree tilts are whole numbers; radians (other than 0) almost never are.
+    large = (angles > _RADIAN_TARGET_LARGE) & (angles != np.round(angles))
+    if large.any() or snapped.any():
+        warnings.warn(
+            RobocalWarning(
+                f"all rx, ry, rz of {targets.path} lie within ±3.1416 and look like radians (largest "
+                f"{angles.max():.6g}), but robocal expects degrees: convert with numpy.degrees() or check the export"
             ),
             stacklevel=3,
         )

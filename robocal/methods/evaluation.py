@@ -51,11 +51,21 @@ def with_fixture(fitted, observations, model_path):
 
 def socket_scores(fitted, observations):
     """Socket consistency and socket-distance errors (:func:`socket_errors`) of the fitted
-    model's kinematics, with the nominal robot's under ``nominal``."""
+    model's kinematics, with the nominal robot's under ``nominal``; warns, as
+    :func:`position_scores` does, when they are too large to be this robot's data."""
     obs = observations
     args = (obs.joints, obs.placement, obs.socket, obs.fixture)
-    return {"metric": SOCKET_METRIC, **socket_errors(fitted.compensator_.chain, *args),
-            "nominal": socket_errors(fitted.reference_, *args)}
+    after = socket_errors(fitted.compensator_.chain, *args)
+    # Either figure gives the wrong robot away: the ball centres of one socket scatter, or
+    # the sockets come out at other distances than the fixture's.
+    worst = max(after.get("mean_mm", 0.0), after["socket_distance"].get("mean_mm", 0.0))
+    if worst > SUSPICIOUS_RESIDUAL_MM:
+        warnings.warn(RobocalWarning(
+            f"the socket consistency is {after.get('mean_mm', 0.0):.1f} mm mean (socket distances off by "
+            f"{after['socket_distance'].get('mean_mm', 0.0):.1f} mm) after calibration: is {obs.path or 'the data'} "
+            f"from robot '{fitted.reference_.name}', with joint values in degrees, and is the fixture "
+            f"'{obs.fixture.name}' the one it was measured on?"))
+    return {"metric": SOCKET_METRIC, **after, "nominal": socket_errors(fitted.reference_, *args)}
 
 
 def socket_residuals(fitted, observations):

@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import FileFormatError, InputError
 from ..io.atomic import write_text_atomic
 from ..io.robot_file import chain_from_dict, robot_to_toml, tomllib
-from ..io.observations import Observations
+from ..io.observations import Observations, check_robot_in_mm
 from ..io.tables import Measurements
 from ..kinematics import Chain
 from ..spatial import matrix_to_rpy, so3_exp
@@ -73,6 +73,8 @@ class TrueRobot:
     def __post_init__(self):
         set_ = object.__setattr__
         chain = self.nominal
+        # Simulated data of a robot file in metres would look fine and be 1000x off.
+        check_robot_in_mm(chain)
         deviations = {str(k): float(v) for k, v in dict(self.deviations).items()}
         set_(self, "deviations", MappingProxyType(deviations))
         set_(self, "actual", chain.perturbed(

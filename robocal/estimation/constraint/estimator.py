@@ -170,8 +170,9 @@ class ConstraintCalibration(FittedCalibration):
         'all' (every pair; the most equations) or 'spanning' (each configuration in about two
         pairs; far fewer rows).
     distance : bool
-        Use distance constraints when the data have them (False: position constraints only,
-        scale then unidentifiable).
+        Use distance constraints; the data must then have two sockets of one placement
+        somewhere (else InputError: the robot's size would be the nominal's guess behind a
+        perfect-looking fit).  False: position constraints only, scale unidentifiable.
     compliance : bool
         Also identify one compliance per joint gravity loads (see
         :class:`~robocal.kinematics.compliant.CompliantChain`), with ``payload`` kg at the TCP
@@ -246,6 +247,16 @@ class ConstraintCalibration(FittedCalibration):
         start = to_poe(chain)
         pairs, spanning = self._pairs(data)
         _check_equations(spanning, start, bool(len(pairs.distance)))
+        if self.distance and not len(pairs.distance):
+            # Position constraints alone fit any size of robot: the result would look perfect
+            # (every socket consistent) with the lengths only the nominal's guess.
+            raise InputError(
+                "no placement has the ball in two different sockets ("
+                + ("one placement, one socket" if len(data.placements) == 1 else
+                   f"{len(data.placements)} placements, one socket each") + "): distances "
+                "between sockets are needed to fix the robot's size; record at least two sockets of one placement "
+                "(better all sockets of several); to fit the shape alone, with the nominal's size, use "
+                "ConstraintCalibration(distance=False) in Python")
         before = _check_distances(start, data, bool(len(pairs.distance)))
         candidates = candidate_parameters(start, self.gains)
         if self.compliance and len(data.placements) == 1:
