@@ -137,11 +137,15 @@ class ReframedErrorModel:
 
     def to_dict(self, inner_document, revolute=None):
         """The model file's ``error_model`` entry: {"type": "reframed", "frame": 4x4 (mm),
-        "input", "error_model": ``inner_document`` (the wrapped model's own entry)}, plus
-        "joint_shift" in file units (deg for revolute joints, mm for prismatic ones, as
-        ``revolute`` (n,) bool says) and "joint_units" when there is a joint shift."""
-        doc = {"type": DOCUMENT_TYPE, "frame": self.frame.tolist(), "input": self.error_input,
+        "error_input" ('position' or 'joints'), "error_model": ``inner_document`` (the wrapped
+        model's own entry)}; "input" repeats the inner entry's, so that a reader checking what
+        a model is over finds it where it always was; "joint_shift" in file units (deg for
+        revolute joints, mm for prismatic ones, as ``revolute`` (n,) bool says) and
+        "joint_units" when there is a joint shift."""
+        doc = {"type": DOCUMENT_TYPE, "frame": self.frame.tolist(), "error_input": self.error_input,
                "error_model": inner_document}
+        if isinstance(inner_document, dict) and "input" in inner_document:
+            doc["input"] = inner_document["input"]
         if self.joint_shift is not None:
             revolute = np.ones(len(self.joint_shift), bool) if revolute is None else np.asarray(revolute, bool)
             doc["joint_shift"] = np.where(revolute, np.degrees(self.joint_shift), self.joint_shift).tolist()
@@ -158,8 +162,8 @@ class ReframedErrorModel:
                                   "regenerate the file")
         try:
             inner, error_input = inner_loader(document["error_model"])
-            if document.get("input", error_input) != error_input:
-                raise ValueError(f"input {document['input']!r} but the wrapped model takes {error_input!r}")
+            if document["error_input"] != error_input:
+                raise ValueError(f"error_input {document['error_input']!r} but the wrapped model takes {error_input!r}")
             shift = None
             if "joint_shift" in document:
                 values = np.asarray(document["joint_shift"], dtype=float)
