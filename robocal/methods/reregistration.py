@@ -214,7 +214,8 @@ class ReregistrationRecord:
     → new (4x4, mm); tracker_shift_mm, tracker_turn_deg: its translation and rotation angle;
     base, tool: the new frames as {"xyz": mm, "rpy": deg}; tool_change_mm: new minus old TCP
     position in the flange frame; offset_changes: {name: change} of the joint offsets
-    identified (deg; mm for a prismatic joint); std_errors: {name: standard error} of the identified parameters (mm, deg);
+    identified (deg; mm for a prismatic joint); std_errors: {name: standard error} of the
+    identified parameters (mm, deg);
     identifiability: the :class:`IdentifiabilityReport` (rank, condition number, and in
     ``fixed`` what could not be identified and why); residual_before: the model as it stood
     on these poses; residual_after: the re-registered model; residual_reference: the nominal
@@ -529,7 +530,8 @@ def _warnings(old, chain, q, names, rms, training_rms):
                      "set-up")
     offsets = [n for n in names if old.parameters[n].group == "link"]
     moved = chain.parameter_values(offsets) - old.parameter_values(offsets)
-    far = [f"{n} by {np.degrees(v):.1f} deg" for n, v in zip(offsets, moved) if abs(v) > np.radians(IMPLAUSIBLE_ANGLE_DEG)]
+    limit = np.radians(IMPLAUSIBLE_ANGLE_DEG)
+    far = [f"{n} by {np.degrees(v):.1f} deg" for n, v in zip(offsets, moved) if abs(v) > limit]
     if far:
         notes.append(f"the joint offsets moved ({', '.join(far)}): a re-mastering does not move them that far; "
                      "check the joint readings")
