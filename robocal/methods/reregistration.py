@@ -25,6 +25,7 @@ little but leaves the residual they minimise exact.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import warnings
 from dataclasses import dataclass, field
 
@@ -434,6 +435,9 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
     new.compensator_ = Compensator(chain, error_model, nominal=reference, error_input=compensator.error_input,
                                    controller=compensator.controller, reference=reference)
     new.reference_ = reference
+    domain = getattr(fitted, "domain_", None)
+    if domain is not None and getattr(domain, "box_min", None) is not None:
+        new.domain_ = _moved_box(domain, problem.frame(chain))
     after = error_stats(positions - new.predict(q))
     if after["rms_mm"] > WRONG_ROBOT_RMS_MM:
         raise InputError(f"the re-registered model still misses {observations.path or 'the poses'} by "
@@ -447,6 +451,14 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
                                   before, after, error_stats(positions - reference.fk_positions(q)),
                                   training_rms, notes)
     return new
+
+
+def _moved_box(domain, frame):
+    """The domain with its training box (axis-aligned, old measurement frame) carried to the new
+    frame: the box around its eight corners moved, which holds every training position."""
+    corners = np.array(np.meshgrid(*zip(domain.box_min, domain.box_max), indexing="ij")).reshape(3, -1).T
+    moved = corners @ frame[:3, :3].T + frame[:3, 3]
+    return dataclasses.replace(domain, box_min=moved.min(axis=0), box_max=moved.max(axis=0))
 
 
 def _check_model(fitted, robot):
