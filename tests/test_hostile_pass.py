@@ -136,6 +136,8 @@ def files(tmp_path_factory):
         "m_empty.json": "",
         "m_reformat.json": json.dumps(model, indent=8),
         "val_bad.json": '{"schema": "robocal.validation"}',
+        "val_no_pool.json": json.dumps({"method": "kinematic", "file": "meas.csv", "poses": 60, "folds": 5,
+                                        "cross_validation": {}}),
         "val_kriging.json": json.dumps({"method": "kriging", "file": "meas.csv", "poses": 60, "folds": 5,
                                         "cross_validation": {"pooled": {"mean_mm": 0.1}},
                                         "nominal_cross_validation": {"pooled": {"mean_mm": 2.0}}}),
@@ -271,6 +273,8 @@ REFUSED = [
     ("report model.json meas.csv --out r.html --validation val_bad.json", "cross_validation"),
     ("report model.json meas.csv --out r.html --validation meas.csv", "robocal validate --json"),
     ("report model.json meas.csv --out r.html --validation val_kriging.json", "the model is 'kinematic'"),
+    ("report model.json meas.csv --out r.html --validation val_no_pool.json", "cross_validation.pooled.mean_mm"),
+    ("simulate kr150-2 --sampling sockets --fixture {plate} --per-socket 100000 --out s.csv", "10,000"),
     # export
     ("export model.json --out nodir/x.toml", "nodir"),
     ("export m_version.json --out x.toml", "upgrade robocal"),

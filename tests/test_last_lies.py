@@ -150,7 +150,7 @@ def test_target_orientations_in_radians_are_warned_about(tmp_path, orientation):
         read_targets(_targets(tmp_path, orientation))
 
 
-@pytest.mark.parametrize("orientation", ["180,0,0", "-180,0,0", "0,0,0", "1.5,-2,0.5", "0,0,3", "179.9,0.1,-90",
+@pytest.mark.parametrize("orientation", ["180,0,0", "-180,0,0", "0,0,0", "0.5,-0.8,0.2", "0,0,3", "2,-1,0", "179.9,0.1,-90",
                                          "0,90,0", "0,0,0.5"])
 def test_degree_targets_raise_no_false_alarm(tmp_path, orientation):
     from robocal.io.tables import read_targets
@@ -246,3 +246,43 @@ def test_a_validation_of_other_data_is_warned_about_in_the_report(tmp_path, monk
     for name, file, poses in (("other.json", "other.csv", 40), ("edited.json", "meas.csv", 80)):
         said = validation(name, file, poses)
         assert len(said) == 1 and "but the model was trained on meas.csv (40 poses)" in said[0], said
+
+
+def test_the_example_targets_converted_to_radians_are_warned_about(tmp_path):
+    from robocal.io.tables import read_targets
+
+    lines = (EXAMPLES / "ur5-targets.csv").read_text().splitlines()
+    rows = [[float(v) for v in line.split(",")] for line in lines[1:]]
+    converted = [r[:3] + list(np.radians(r[3:6])) + r[6:] for r in rows]
+    path = tmp_path / "t.csv"
+    path.write_text("\n".join([lines[0]] + [",".join(str(float(v)) for v in r) for r in converted]) + "\n")
+    with pytest.warns(RobocalWarning, match="look like radians"):
+        read_targets(path)
+
+
+# ---------------------------------------------------------------- found by the third hostile pass
+@pytest.mark.parametrize("call, says", [
+    (lambda: UR5.fk(np.zeros(6) + 1j), "must be numbers"),
+    (lambda: UR5.perturbed({"a2": np.nan}), "deviation of 'a2' is nan"),
+    (lambda: Observations.of(np.zeros((2, 2, 6)), np.zeros((2, 3))), r"joints must be \(N, n\)"),
+], ids=["complex joints", "NaN deviation", "3-D joints"])
+def test_chain_and_observations_refuse_what_numpy_lets_through(call, says):
+    with pytest.raises(InputError, match=says):
+        call()
+
+
+def test_simulation_refuses_text_joints_a_text_seed_and_an_absurd_plan():
+    from robocal.estimation.constraint.estimator import ConstraintCalibration
+    from robocal.io.fixtures import read_fixture
+    from robocal.simulation import TrueRobot, make_true_robot
+    from robocal.simulation.sampling import socket_plan
+
+    plate = read_fixture(EXAMPLES / "plate-fixture.toml")
+    with pytest.raises(InputError, match="must be numbers"):
+        TrueRobot(UR5).measurements([["a"] * 6], np.random.default_rng(0))
+    with pytest.raises(InputError, match="seed must be a whole number"):
+        make_true_robot(UR5, "typical", seed="x")
+    with pytest.raises(InputError, match="more than the 10,000"):
+        socket_plan(builtin("kr150-2"), plate, 3, 100_000, rng=0)
+    with pytest.raises(InputError, match="joints must be numbers"):
+        ConstraintCalibration().fit(UR5, [["a"] * 6] * 30, ["P"] * 30, ["A", "B", "C"] * 10, plate)

@@ -72,6 +72,16 @@ def _read_validation(path):
         raise FileFormatError(f"{path}: not the JSON 'robocal validate --json' prints ({exc})") from None
     if not isinstance(doc, dict) or "cross_validation" not in doc:
         raise FileFormatError(f"{path}: no 'cross_validation' in it: write it with 'robocal validate ... --json > FILE'")
+    # What the report reads from it, so that a hand-edited file fails here in one line.
+    for key in ("cross_validation", "nominal_cross_validation"):
+        pooled = doc.get(key)
+        mean = pooled.get("pooled") if isinstance(pooled, dict) else None
+        if not isinstance(mean, dict) or not isinstance(mean.get("mean_mm"), (int, float)):
+            raise FileFormatError(f"{path}: no {key}.pooled.mean_mm in it: write it afresh with "
+                                  "'robocal validate ... --json > FILE'")
+    for key in ("method", "file", "folds"):
+        if key not in doc:
+            raise FileFormatError(f"{path}: no '{key}' in it: write it afresh with 'robocal validate ... --json > FILE'")
     return doc
 
 

@@ -93,6 +93,9 @@ class Observations:
         joints (N, n) rad; positions (N, 3) mm; rotations (N, 3, 3); sigmas (N, 3) mm;
         placement and socket (N,) ids with their ``fixture`` for ball-in-socket data."""
         joints = np.atleast_2d(cls._numbers(joints, "joints", "(N, n) rad (mm for prismatic joints)"))
+        if joints.ndim != 2:
+            raise InputError(f"joints must be (N, n): one row of joint values (rad; mm for prismatic joints) per "
+                             f"pose, got shape {joints.shape}")
         count = len(joints)
 
         def array(values, shape, name, dtype=float):

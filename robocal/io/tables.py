@@ -45,11 +45,11 @@ _LARGEST_VALUE = 1e6
 
 # Target orientations in radians: every rx, ry, rz within one half-turn in radians, and one
 # that a degree file would hardly hold within that bound — either a fraction beyond
-# RADIAN_TARGET_LARGE (a tool within 3 deg of the base's axes, tilted 2.x deg), or within
+# RADIAN_TARGET_LARGE (a tool within 3 deg of the base's axes, tilted 1.x deg or more), or within
 # RADIAN_TARGET_SNAP of a non-zero multiple of 45 deg in radians (pi, pi/2: the tool down or
 # sideways, as radians write it).  Degree targets (rx = 180; small tilts near zero) pass.
 _RADIAN_TARGET_BOUND = np.pi + 1e-3
-_RADIAN_TARGET_LARGE = 2.0
+_RADIAN_TARGET_LARGE = 1.0
 _RADIAN_TARGET_SNAP = 2e-3
 
 # How many groups of identical rows a warning spells out before summarising the rest.

@@ -197,6 +197,8 @@ class Chain:
         robocal's "no configuration" (the IK's answer for a target it cannot reach) and gives
         a NaN pose, as the IK solvers rely on."""
         try:
+            if np.iscomplexobj(q):  # numpy would drop the imaginary part with a mere warning
+                raise TypeError
             q = np.asarray(q, dtype=float)
         except (TypeError, ValueError):
             raise InputError(f"joint values for the robot {self.name!r} must be numbers (rad; mm for prismatic "
@@ -484,6 +486,10 @@ class Chain:
             if len(names) != deviations.size:
                 raise InputError(f"{len(names)} parameter names but {deviations.size} deviations")
             items = dict(zip(names, deviations))
+        bad = [name for name, value in items.items() if not np.isfinite(value)]
+        if bad:
+            raise InputError(f"the deviation of {bad[0]!r} is {items[bad[0]]}: deviations must be finite numbers "
+                             "(rad, mm)")
         link = {k: np.array(getattr(self, k), dtype=float) for k in ("theta", "d", "a", "alpha", "beta")
                 if getattr(self, k) is not None}
         frame_dev = {"base": np.zeros(6), "tool": np.zeros(6), "home": np.zeros(6)}

@@ -44,6 +44,8 @@ def make_true_robot(chain, preset, seed=0):
     preset: ``none`` (the nominal robot itself, exact), ``typical`` or ``liu2022`` (only
     for the KUKA KR 150-2).  seed: draws the ``typical`` deviations.
     """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"seed must be a whole number >= 0, got {seed!r}")
     if preset == "none":
         return TrueRobot(nominal=chain, preset="none")
     if preset == "typical":

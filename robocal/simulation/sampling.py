@@ -212,6 +212,11 @@ class SocketPlan:
                             fixture=self.fixture_ids, socket=self.socket_ids)
 
 
+# Each configuration is chosen from a pool of candidate postures (~100 kB of work arrays
+# apiece), so a plan this size already needs about a gigabyte.
+MAX_SOCKET_CONFIGURATIONS = 10_000
+
+
 def socket_plan(robot, fixture, placements, per_socket, rng=None, *, max_tilt_deg=30.0,
                 joint_noise_deg=0.0, seating_mm=0.0):
     """Place ``fixture`` ``placements`` times in front of the robot and seat the ball (the
@@ -231,6 +236,11 @@ def socket_plan(robot, fixture, placements, per_socket, rng=None, *, max_tilt_de
     truth = robot if isinstance(robot, TrueRobot) else None
     chain = robot.actual if truth is not None else robot
     placements, per_socket = _count(placements), _count(per_socket)
+    total = placements * per_socket * len(fixture.ids)
+    if total > MAX_SOCKET_CONFIGURATIONS:
+        raise InputError(f"{placements} placements x {len(fixture.ids)} sockets x {per_socket} per socket is {total:,} "
+                         f"configurations, more than the {MAX_SOCKET_CONFIGURATIONS:,} a plan is made for (a real "
+                         "session records tens per socket): ask for fewer placements or configurations per socket")
     options = {"max_tilt_deg": max_tilt_deg, "joint_noise_deg": joint_noise_deg, "seating_mm": seating_mm}
     for name, value in options.items():
         if not np.isfinite(value) or value < 0:

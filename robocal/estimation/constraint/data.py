@@ -31,7 +31,11 @@ class SocketData:
 
 def socket_data(chain, joints, fixture_ids, socket_ids, fixture):
     """Check and group constraint data (joints in rad); raises InputError on bad input."""
-    q = np.asarray(joints, dtype=float)
+    try:
+        q = np.asarray(joints, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"joints must be numbers, (N, {chain.n_joints}) rad (mm for prismatic joints), for "
+                         f"{chain.name}") from None
     if q.ndim != 2 or q.shape[1] != chain.n_joints:
         raise InputError(f"joints must be (N, {chain.n_joints}) for {chain.name}, got shape {q.shape}")
     placements_raw = np.asarray(fixture_ids).astype(str).reshape(-1)
