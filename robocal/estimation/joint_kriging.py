@@ -153,6 +153,18 @@ class JointKriging:
         self.diagnostics_ = model.diagnostics_ + self._dropped_note()
         return self
 
+    def conditioned_on(self, chain, q, errors):
+        """A new JointKriging over the same features with this model's Kriging hyperparameters,
+        conditioned on other data (see :meth:`Kriging.conditioned_on`)."""
+        if not hasattr(self, "kriging_"):
+            raise InputError("this JointKriging is not fitted: fit it before conditioning it on other data")
+        q = as_matrix(q, "joints")
+        model = JointKriging(self.kind, self.kriging)
+        model.features_ = self.features_
+        model.kriging_ = self.kriging_.conditioned_on(self.features_.transform(q), errors)
+        model.diagnostics_ = model.kriging_.diagnostics_ + model._dropped_note()
+        return model
+
     def _dropped_note(self):
         left = sorted(set(range(self.features_.n_joints)) - set(self.features_.joints.tolist()))
         if not left:

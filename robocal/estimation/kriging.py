@@ -345,10 +345,31 @@ class Kriging:
 
         rng = np.random.default_rng(self.random_state)
         groups = self._groups(Y.shape[1])
-        states = [self._optimise(data.problem, data.Ys[:, cols], rng) for cols in groups]
+        fixed = getattr(self, "_fixed_states", None)  # see conditioned_on
+        if fixed is not None and len(fixed) != len(groups):
+            raise InputError(f"the hyperparameters are of {len(fixed)} outputs, the data have {Y.shape[1]}")
+        states = ([data.problem.condition(theta, nugget, data.Ys[:, cols]) for cols, (theta, nugget) in zip(groups, fixed)]
+                  if fixed is not None else [self._optimise(data.problem, data.Ys[:, cols], rng) for cols in groups])
         self._install(data, y_is_vector, groups, states, diagnostics)
         self._report(groups, states)
         return self
+
+    def conditioned_on(self, X, Y):
+        """A new Kriging with this fitted model's θ and nugget, conditioned on other training
+        data (X, Y) as in :meth:`fit` but without the likelihood search: cross-validation
+        of a method chooses the hyperparameters once and refits each fold in a fraction of
+        the time (a Cholesky factorisation per output instead of dozens).  θ is in
+        standardised-input units, so the new data's own scaling applies it."""
+        if not hasattr(self, "theta_"):
+            raise InputError("this Kriging is not fitted: fit it before conditioning its hyperparameters on other data")
+        settings = {name: getattr(self, name) for name in ("regression", "correlation", "theta_bounds",
+                                                          "shared_theta", "random_state")}
+        # (the nugget setting only decides whether repeated inputs are allowed; the fitted
+        # nugget of each output comes with its θ)
+        model = Kriging(**settings, nugget=float(np.max(self.nugget_)))
+        model._fixed_states = [(np.atleast_2d(self.theta_)[0] if self.shared_theta else self.theta_[cols[0]],
+                                float(self.nugget_[cols[0]])) for cols in self._groups]  # the fitted groups
+        return model.fit(X, Y)
 
     def _check_settings(self):
         """Raise an InputError naming the first invalid setting and the values it may take."""

@@ -34,7 +34,7 @@ from ..kinematics.chain import CONVENTIONS
 from ..methods import DEFAULT_METHOD, get_method, make_method, method_names
 from ..methods.ann import BASE_MODELS, REFINERS, TRAINERS
 from ..methods.base import ERROR_MODEL_INPUTS, REGISTER_CHOICES
-from .jobs import (DATASETS, EXPORT_FORMATS, SAMPLINGS, calibrate_job, compensate_job, dataset_job, evaluate_job, export_job,
+from .jobs import (AUTO, DATASETS, EXPORT_FORMATS, SAMPLINGS, calibrate_job, compare_job, compensate_job, dataset_job, evaluate_job, export_job,
                    simulate_job, validate_job)
 
 # The sampling plans simulate_job draws (it owns no list of them to import).
@@ -523,7 +523,7 @@ def calibrate(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
     out_file: str = typer.Option(..., "--out", help="Model file (JSON) to write.", **_output(".json")),
-    method: str = typer.Option(DEFAULT_METHOD, help=METHOD_HELP, **_choice(method_names())),
+    method: str = typer.Option(DEFAULT_METHOD, help=METHOD_HELP + " auto: the model 'robocal compare' recommends, with the comparison kept in the model file.", **_choice(method_names() + (AUTO,))),
     register: str = typer.Option(None, help="Register base and tool first (default auto: when the data are not in the robot base frame).", **_choice(REGISTER_CHOICES)),
     trend: str = typer.Option(None, help="kriging/hybrid: the trend (default constant).", **_choice(REGRESSIONS)),
     correlation: str = typer.Option(None, help="kriging/hybrid: the correlation function (default gaussian).", **_choice(CORRELATIONS)),
@@ -555,18 +555,25 @@ def calibrate(
     """
     from .progress import progress
 
-    fitter = make_method(method, **_method_settings(
+    settings = _method_settings(
         method, seed=seed, nugget=nugget, hidden=hidden, shared_theta=shared_theta, register=register, trend=trend,
         correlation=correlation, inputs=inputs, parameters=parameters, loss=loss, payload=payload, generations=generations,
-        trainer=trainer, refine=refine, base_model=base_model, pairs=pairs))
-    label = fitter.progress_label if fitter.progress_total() else f"fitting the {method} model"
-    with progress(label, fitter.progress_total(), enabled=not as_json) as advance:
-        result = calibrate_job(robot, measurements, out_file, method=fitter, fixture=fixture, progress=advance,
-                               beyond_limits=beyond_limits,
-                               root=root, tip=tip)
+        trainer=trainer, refine=refine, base_model=base_model, pairs=pairs)
+    if method == AUTO:
+        fitter, label, total = AUTO, "comparing the methods, fit", None
+    else:
+        fitter = make_method(method, **settings)
+        label = fitter.progress_label if fitter.progress_total() else f"fitting the {method} model"
+        total = fitter.progress_total()
+    with progress(label, total, enabled=not as_json) as advance:
+        result = calibrate_job(robot, measurements, out_file, method=fitter, settings=settings if method == AUTO else None,
+                               fixture=fixture, progress=advance, beyond_limits=beyond_limits, root=root, tip=tip)
+    if method == AUTO and not as_json:
+        _print_comparison(result.data["comparison"])
     if not as_json and result.record.calibration is not None:
-        _print_calibration(result.record.calibration, fitter.compensator_.chain)
-    _print_result(result.to_dict(), as_json, f"{method} model -> {out_file}")
+        _print_calibration(result.record.calibration, result.kinematics)
+    shown = {k: v for k, v in result.to_dict().items() if k != "comparison"}
+    _print_result(result.to_dict() if as_json else shown, as_json, f"{result.method} model -> {out_file}")
 
 
 @command()
@@ -670,6 +677,65 @@ def export(
     for what in result["left_out"]:
         _say("note", "yellow", f"left out of the {result['format'].upper()} file: {what}")
     _print_result(result, as_json, f"{result['convention']} robot -> {out_file}")
+
+
+def _print_comparison(comparison):
+    """The tables of a comparison (its JSON form): held-out error of every model on each
+    split, then the recommendation and why."""
+    for split in comparison["splits"]:
+        kind = "a region left out at a time" if split["kind"] == "region" else "poses left out at random"
+        table = Table(title=f"held-out error on {split['name']} ({kind}), mm")
+        for col in ("model", "mean", "RMS", "max", "95 %", "fit s"):
+            table.add_column(col, justify="left" if col == "model" else "right")
+        best = min(m["scores"][split["name"]]["pooled"]["mean_mm"] for m in comparison["models"])
+        for model in comparison["models"]:
+            score = model["scores"][split["name"]]
+            stats = score["pooled"]
+            mark = " *" if model["label"] == comparison["recommended"]["label"] else ""
+            table.add_row(model["label"] + mark, f"{stats['mean_mm']:.4f}" + ("<" if stats["mean_mm"] == best else " "),
+                          f"{stats['rms_mm']:.4f}", f"{stats['max_mm']:.4f}", f"{stats['p95_mm']:.4f}",
+                          f"{score['fit_seconds']:.2f}")
+        out.print(table)
+    out.print(f"recommended (*): {comparison['recommended']['label']}  (< marks the lowest mean of each split)")
+    for line in comparison["reasons"] + comparison["dropped"] + comparison["notes"]:
+        out.print(f"  {line}")
+
+
+@command()
+@user_errors
+def compare(
+    robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
+    measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...), or ball-in-socket data with --fixture."),
+    folds: int = typer.Option(5, help="Folds of each split (random folds, and regions of joint space).", **_number(whole=True, at_least=2, at_most=20)),
+    seed: int = typer.Option(0, help="Seed of the random folds and of the regions' clustering.", **_number(whole=True, at_least=0)),
+    network: bool = typer.Option(None, "--network/--no-network", help="Include the ann method (default: when the training folds hold 500 poses or more)."),
+    fixture: str = typer.Option(None, help="Ball-in-socket data: the fixture TOML."),
+    tip: str = typer.Option(None, help="URDF only: the tip link."),
+    root: str = typer.Option(None, help="URDF only: the root link."),
+    beyond_limits: bool = typer.Option(False, "--beyond-limits", help=BEYOND_LIMITS_HELP),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+):
+    """Which model to trust: every method and parameter set scored on poses it never saw.
+
+    Two kinds of split: random folds, and regions of configuration space left out whole
+    (clusters of joint configurations; one side of an arm branch when both were measured;
+    the last 20 % in time when the file has a timestamp column; one fixture placement for
+    ball-in-socket data).  The recommendation is conservative: the simplest model, unless a
+    richer one is better on the held-out regions by more than its fold-to-fold spread.
+    'calibrate --method auto' fits it.
+
+    Example: robocal compare ur5 meas.csv
+    """
+    from .progress import progress
+
+    with progress("comparing the methods, fit", None, enabled=not as_json) as advance:
+        comparison = compare_job(robot, measurements, folds=folds, seed=seed, fixture=fixture, network=network,
+                                 root=root, tip=tip, on_fit=advance, beyond_limits=beyond_limits)
+    result = comparison.to_dict()
+    if as_json:
+        print(json.dumps(result, indent=2))
+        return
+    _print_comparison(result)
 
 
 @command()

@@ -14,19 +14,26 @@ from ..io.observations import read_observations, read_target_poses, write_joint_
 from ..io.tables import write_measurements
 from ..methods import DEFAULT_METHOD, fitted_from_model_file, make_method
 from ..methods.evaluation import position_scores, socket_scores, with_fixture
+from ..methods.base import option_of
+from ..methods.selection import choose, compare
 from ..methods.validation import cross_validate
+
+# calibrate --method auto: the method compare recommends (robocal.methods.selection).
+AUTO = "auto"
 
 
 @dataclass(frozen=True)
 class Calibrated:
     """What ``calibrate`` did: the method, the robot, the model file written, the training
-    data (``file``, ``n_poses``, ``kind``, ``fixture_file``) and the fit's record."""
+    data (``file``, ``n_poses``, ``kind``, ``fixture_file``, ``comparison`` with --method
+    auto), the fit's record and the fitted kinematics."""
 
     method: str
     robot: str
     out: str
     data: dict
     record: object  # robocal.methods.FitRecord
+    kinematics: object = None  # the fitted method's Chain
 
     def to_dict(self):
         return {"method": self.method, "robot": self.robot, "out": self.out, **self.data, **self.record.to_dict()}
@@ -37,16 +44,24 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
     """Fit a method (an unfitted :class:`~robocal.methods.Method`, or a registered name with
     its ``settings``) to a measurement file and save the model file.  ``progress(**info)`` is
     called as the method reports its steps."""
-    fitter = make_method(method, **(settings or {})) if isinstance(method, str) else method
+    auto = method == AUTO
+    if auto and settings:
+        raise InputError(f"--method auto chooses the method and its settings by comparing them: leave out "
+                         f"{', '.join(option_of(name) for name in settings)}, or name a method")
+    fitter = None if auto else make_method(method, **(settings or {})) if isinstance(method, str) else method
     check_outputs([out], [measurements, fixture, robot])
     chain = load_robot(robot, root=root, tip=tip)
     observations = read_observations(measurements, chain, fixture, beyond_limits=beyond_limits)
-    fitter.fit(chain, observations, progress=progress)
     training = {"file": str(measurements), "n_poses": observations.n_poses, "kind": observations.kind}
     if fixture is not None:
         training["fixture_file"] = str(fixture)
+    if auto:
+        fitter, comparison = choose(chain, observations, on_fit=progress)
+        training["comparison"] = comparison.to_dict()
+    else:
+        fitter.fit(chain, observations, progress=progress)
     save_model(fitter.to_model_file(chain, training), out)
-    return Calibrated(fitter.name, chain.name, str(out), training, fitter.record_)
+    return Calibrated(fitter.name, chain.name, str(out), training, fitter.record_, fitter.compensator_.chain)
 
 
 def load_fitted(model_path, robot=None):
@@ -333,3 +348,12 @@ def validate_job(robot, measurements, *, method=DEFAULT_METHOD, settings=None, f
     chain = load_robot(robot, root=root, tip=tip)
     observations = read_observations(measurements, chain, fixture, beyond_limits=beyond_limits)
     return cross_validate(unfitted, chain, observations, folds=folds, sizes=sizes, seed=seed, on_fit=on_fit)
+
+
+def compare_job(robot, measurements, *, folds=5, seed=0, fixture=None, network=None, root=None, tip=None,
+                on_fit=None, beyond_limits=False):
+    """Every applicable method scored on held-out poses, split at random and by region, beside
+    the registered nominal; the recommended model and why (:mod:`robocal.methods.selection`)."""
+    chain = load_robot(robot, root=root, tip=tip)
+    observations = read_observations(measurements, chain, fixture, beyond_limits=beyond_limits)
+    return compare(chain, observations, folds=folds, seed=seed, network=network, on_fit=on_fit)

@@ -15,13 +15,21 @@ class HybridMethod(KrigingResidual, Method):
     description = "parametric calibration, then Kriging of the residual error (over the TCP position or the joints)"
     settings = KinematicMethod.settings + KRIGING_SETTINGS
 
+    def kinematic(self):
+        """The unfitted :class:`KinematicMethod` of these settings (the hybrid's base)."""
+        return KinematicMethod(**{s.name: getattr(self, s.name) for s in KinematicMethod.settings})
+
     def _fit(self, chain, observations, progress):
+        return self._fit_error_model_on(chain, observations)
+
+    def _fit_error_model_on(self, chain, observations, like=None, base=None):
+        """The residual's Kriging on ``base`` (the kinematic calibration of these settings,
+        fitted here when not given), searching its hyperparameters or keeping ``like``'s."""
         self._check_inputs()
-        kinematic_settings = {s.name: getattr(self, s.name) for s in KinematicMethod.settings}
-        base = KinematicMethod(**kinematic_settings).fit(chain, observations)
+        base = self.kinematic().fit(chain, observations) if base is None else base
         calibrated = base.compensator_.chain
         residual = observations.positions - calibrated.fk_positions(observations.joints)
-        model, error_input, fitted = fit_error_model(self, calibrated, observations.joints, residual)
+        model, error_input, fitted = fit_error_model(self, calibrated, observations.joints, residual, like)
         self.compensator_ = Compensator(calibrated, model, nominal=chain, error_input=error_input, controller=chain,
                                         reference=base.reference_)
         self.reference_ = base.reference_

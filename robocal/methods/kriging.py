@@ -32,14 +32,17 @@ def kriging_of(method):
                    shared_theta=method.shared_theta, random_state=method.random_state)
 
 
-def fit_error_model(method, chain, joints, errors):
+def fit_error_model(method, chain, joints, errors, like=None):
     """The method's Kriging fitted to the position ``errors`` (N, 3) mm of ``chain`` at
-    ``joints`` (N, n) rad: (model, the Compensator's error input, its fit of ``errors``)."""
+    ``joints`` (N, n) rad: (model, the Compensator's error input, its fit of ``errors``).
+    ``like``: a fitted error model of the same settings whose hyperparameters are kept
+    (conditioned on these data without a likelihood search; see :meth:`KrigingResidual.refit`)."""
     if method.inputs == "position":
         positions = chain.fk_positions(joints)
-        model = kriging_of(method).fit(positions, errors)
+        model = kriging_of(method).fit(positions, errors) if like is None else like.conditioned_on(positions, errors)
         return model, "position", model.predict(positions)
-    model = JointKriging(method.inputs, kriging_of(method)).fit(chain, joints, errors)
+    model = (JointKriging(method.inputs, kriging_of(method)).fit(chain, joints, errors) if like is None
+             else like.conditioned_on(chain, joints, errors))
     return model, "joints", model.predict(joints)
 
 
@@ -151,6 +154,16 @@ class KrigingResidual:
     def report_figures(self, joints):
         return [uncertainty_figure(self, joints)]
 
+    def refit(self, chain, observations, base=None):
+        """A new method of these settings fitted to other ``observations``, keeping this fit's
+        Kriging hyperparameters (θ, nugget) instead of searching for them again: what
+        cross-validation of many folds needs to stay fast (robocal.methods.selection).  The
+        hyperparameters have then seen this fit's data; the fold's predictions have not.
+        ``base``: for the hybrid, its kinematic calibration already fitted to ``observations``."""
+        self._check_fitted()
+        new = type(self)(**{s.name: getattr(self, s.name) for s in self.settings})
+        return new._fit_error_model_on(chain, observations, like=self.compensator_.error_model, base=base)
+
 
 class KrigingMethod(KrigingResidual, Method):
     """Kriging of the position error of the nominal robot (registered in the measurement
@@ -164,11 +177,14 @@ class KrigingMethod(KrigingResidual, Method):
     settings = (REGISTER,) + KRIGING_SETTINGS
 
     def _fit(self, chain, observations, progress):
+        return self._fit_error_model_on(chain, observations)
+
+    def _fit_error_model_on(self, chain, observations, like=None, base=None):
         self._check_inputs()
         obs = require_distinct(require_positions(observations, self.name), self.name)
         frame, record = measurement_frame(chain, obs.joints, obs.positions, self.register)
         errors = obs.positions - frame.fk_positions(obs.joints)
-        model, error_input, fitted = fit_error_model(self, frame, obs.joints, errors)
+        model, error_input, fitted = fit_error_model(self, frame, obs.joints, errors, like)
         self.compensator_ = Compensator(frame, model, nominal=frame, error_input=error_input, controller=chain,
                                         reference=frame)
         self.reference_ = frame

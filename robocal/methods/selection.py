@@ -1,0 +1,455 @@
+"""Choosing a model by what it does where it was not trained: ``robocal compare`` and
+``calibrate --method auto``.
+
+Every applicable method and parameter set (:func:`candidates`) is scored by two kinds of
+held-out split of the data it is given (:func:`splits`):
+
+* **random**: k-fold cross-validation, poses assigned to folds at random; what a random
+  train/test split of one measurement series says;
+* **region**: a part of configuration space left out as a whole: clusters of the joint
+  configurations (always), one side of an arm branch (when both sides were measured), one
+  fixture placement (ball-in-socket data), the last poses in time (when the file has a
+  timestamp column).  This is what users meet: a program that sends the robot where the
+  calibration poses were not.
+
+The recommendation (:func:`recommend`) is conservative, because on real robots the richer
+models rarely hold outside their training configurations: the simplest model stays chosen
+unless a richer one is better on the region split by more than the spread of that gain from
+fold to fold, and no worse on the random split.  A residual model (hybrid, network) that does
+not beat its own base model on the region split is dropped, with a line that says so.
+
+Scores are of the position error |measured - predicted| (mm) on held-out poses; on
+ball-in-socket data, the socket consistency on the placement left out.  The registered
+nominal robot, scored the same way, is the baseline of every table.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+from ..estimation.constraint import socket_deviations
+from ..estimation.metrics import error_stats
+from . import make_method
+from .frames import registered_nominal
+
+# The parameter sets compared, simplest first (the order of the conservative rule).
+PARAMETER_SETS = ("full", "full+gains", "full+compliance", "full+compliance+gains")
+# Error models of a residual are compared over the joints' sines and cosines (what holds on
+# another arm branch) and, for Kriging alone, over the TCP position (the paper's form).
+RESIDUAL_INPUTS = "sincos"
+# Folds of each split.  Five clusters of a 6-axis arm's configurations leave out regions of
+# about a fifth of the workspace each: far enough to be another region, near enough that the
+# training part still surrounds part of it.
+FOLDS = 5
+# The network's 16-16 hidden layers have 435 weights; with fewer training poses than this
+# (each gives three equations) it fits noise rather than the robot's error.
+NETWORK_MIN_POSES = 500
+# A region split whose smallest training part is below this many poses cannot fit the full
+# parameter set with any margin; the split is left out (and said so).
+MIN_TRAINING_POSES = 30
+# The share of the poses, last in time, that the time-tail split holds out.
+TIME_TAIL = 0.2
+# A side of an arm branch must hold this share of the poses to be left out as a region.
+BRANCH_MIN_SHARE = 0.15
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One model compared: its ``label`` in tables, the registered ``method`` and its
+    ``settings``, and the ``base`` label a residual model must beat (None for the others)."""
+
+    label: str
+    method: str
+    settings: dict
+    base: str | None = None
+
+    def unfitted(self):
+        """The unfitted method."""
+        return make_method(self.method, **self.settings)
+
+
+
+def candidates(observations, *, network=None):
+    """The models :func:`compare` scores on ``observations``, simplest first.
+
+    Position data: the kinematic calibration with each parameter set; the hybrid on each
+    (its residual over the joints' sines and cosines); Kriging over the TCP position and over
+    the joints; the network when there are NETWORK_MIN_POSES poses or more (``network``
+    True/False forces it in or out).  Ball-in-socket data: the constraint calibration with
+    each parameter set.
+    """
+    if observations.positions is None:
+        return [Candidate(f"constraint {p}", "constraint", {"parameters": p}) for p in PARAMETER_SETS]
+    out = [Candidate(f"kinematic {p}", "kinematic", {"parameters": p}) for p in PARAMETER_SETS]
+    out += [Candidate(f"hybrid {p}", "hybrid", {"parameters": p, "inputs": RESIDUAL_INPUTS},
+                      base=f"kinematic {p}") for p in PARAMETER_SETS]
+    out += [Candidate("kriging (position)", "kriging", {"inputs": "position"}),
+            Candidate(f"kriging ({RESIDUAL_INPUTS})", "kriging", {"inputs": RESIDUAL_INPUTS})]
+    if network if network is not None else observations.n_poses * (FOLDS - 1) / FOLDS >= NETWORK_MIN_POSES:
+        out.append(Candidate("ann", "ann", {}))
+    return out
+
+
+# ---------------------------------------------------------------------------- splits
+@dataclass(frozen=True)
+class Split:
+    """A way of holding poses out: ``name``, ``kind`` ('random' or 'region'), the held-out
+    index arrays ``tests`` (one per fold; every fit sees the poses of the others) and what
+    the folds are (``fold_names``)."""
+
+    name: str
+    kind: str
+    tests: tuple
+    fold_names: tuple
+
+
+def random_split(n, folds=FOLDS, seed=0):
+    """k-fold: the poses in ``folds`` random folds (sizes differing by one at most)."""
+    order = np.random.default_rng(seed).permutation(n)
+    tests = tuple(np.sort(part) for part in np.array_split(order, folds))
+    return Split(f"random {folds}-fold", "random", tests, tuple(f"fold {k + 1}" for k in range(folds)))
+
+
+def joint_features(chain, joints):
+    """Joint configurations as points where distance means "another region": sines and cosines
+    of the revolute joints (±180 deg is one place), prismatic joints scaled by their range."""
+    q = np.asarray(joints, dtype=float)
+    revolute = np.asarray(chain.revolute, dtype=bool)
+    parts = [np.sin(q[:, revolute]), np.cos(q[:, revolute])]
+    if (~revolute).any():
+        span = np.maximum(np.ptp(q[:, ~revolute], axis=0), 1e-9)
+        parts.append((q[:, ~revolute] - q[:, ~revolute].min(axis=0)) / span)
+    return np.hstack(parts)
+
+
+def cluster_split(chain, joints, folds=FOLDS, seed=0):
+    """Leave one cluster of joint configurations out at a time (k-means in
+    :func:`joint_features`, seeded k-means++ starts, best of several)."""
+    from scipy.cluster.vq import kmeans2
+
+    features = joint_features(chain, joints)
+    rng = np.random.default_rng(seed)
+    best, best_inertia = None, np.inf
+    for _ in range(5):
+        centres, labels = kmeans2(features, folds, minit="++", seed=rng, missing="raise")
+        inertia = float(np.sum((features - centres[labels]) ** 2))
+        if inertia < best_inertia and len(np.unique(labels)) == folds:
+            best, best_inertia = labels, inertia
+    if best is None:
+        raise InputError(f"the joint configurations do not form {folds} regions: measure poses spread over the "
+                         "workspace, or compare with fewer folds")
+    # Clusters in order of their first pose, so that the fold names are reproducible.
+    order = np.argsort([np.flatnonzero(best == c)[0] for c in range(folds)])
+    tests = tuple(np.flatnonzero(best == c) for c in order)
+    return Split("joint-space regions", "region", tests, tuple(f"region {k + 1}" for k in range(folds)))
+
+
+def branch_split(chain, joints):
+    """Leave one side of an arm branch (shoulder, elbow or wrist) out, then the other: the
+    most balanced choice whose both sides hold BRANCH_MIN_SHARE of the poses; None if none
+    does (or the robot has no closed form that defines branches)."""
+    from .domain import arm_branches
+
+    found = arm_branches(chain, joints)
+    if found is None:
+        return None
+    _, sides = found
+    n = len(joints)
+    best = None
+    for name, side in sides.items():
+        shares = [np.mean(side == s) for s in (0, 1)]
+        if min(shares) >= BRANCH_MIN_SHARE and (best is None or min(shares) > best[0]):
+            best = (min(shares), name, side)
+    if best is None:
+        return None
+    _, name, side = best
+    tests = tuple(np.flatnonzero(side == s) for s in (0, 1))
+    # Poses too near the singularity to tell their side are trained on in both folds.
+    return Split(f"{name} branch", "region", tests, (f"{name} side 0 ({len(tests[0])} of {n})",
+                                                     f"{name} side 1 ({len(tests[1])} of {n})"))
+
+
+def time_split(times):
+    """Hold out the last TIME_TAIL of the poses in time order (one fold)."""
+    order = np.argsort(np.asarray(times, dtype=float), kind="stable")
+    tail = order[int(round(len(order) * (1.0 - TIME_TAIL))):]
+    return Split(f"last {TIME_TAIL:.0%} in time", "region", (np.sort(tail),), ("time tail",))
+
+
+def placement_split(placements):
+    """Ball-in-socket data: leave one fixture placement out at a time."""
+    names = sorted(set(placements.tolist()))
+    return Split("fixture placements", "region", tuple(np.flatnonzero(placements == p) for p in names),
+                 tuple(f"placement {p}" for p in names))
+
+
+def splits(chain, observations, *, folds=FOLDS, seed=0):
+    """(splits, notes): every split that applies to ``observations``, the one the
+    recommendation judges on first among the region splits; notes say what was left out."""
+    n, notes = observations.n_poses, []
+    if observations.positions is None:
+        if observations.placement is None or len(set(observations.placement.tolist())) < 2:
+            raise InputError(f"{observations.path or 'the data'} has one fixture placement: comparing models on "
+                             "ball-in-socket data leaves a placement out and needs two or more")
+        return [placement_split(observations.placement)], notes
+    if n < 2 * folds or n - n // folds < MIN_TRAINING_POSES:
+        raise InputError(f"{observations.path or 'the data'} holds {n} poses: comparing models with {folds} folds "
+                         f"needs at least {max(2 * folds, MIN_TRAINING_POSES + MIN_TRAINING_POSES // (folds - 1))}; "
+                         "measure more poses")
+    out = [random_split(n, folds, seed), cluster_split(chain, observations.joints, folds, seed)]
+    branch = branch_split(chain, observations.joints)
+    if branch is not None:
+        out.append(branch)
+    else:
+        notes.append("no arm-branch split: the poses lie on one side of every arm branch (or the robot has no "
+                     "closed form that defines them)")
+    if observations.times is not None:
+        out.append(time_split(observations.times))
+    for split in list(out):
+        smallest = min(n - len(test) for test in split.tests)
+        if smallest < MIN_TRAINING_POSES:
+            out.remove(split)
+            notes.append(f"{split.name} left out: a fold would train on {smallest} poses")
+    return out, notes
+
+
+# ---------------------------------------------------------------------------- scoring
+@dataclass
+class Score:
+    """A model on a split: the per-fold mean errors (mm), the pooled statistics of every
+    held-out pose (:func:`error_stats`), and the mean fit time (s)."""
+
+    fold_means: list
+    pooled: dict
+    fit_seconds: float
+
+    def to_dict(self):
+        return {"fold_means_mm": self.fold_means, "pooled": self.pooled, "fit_seconds": self.fit_seconds}
+
+
+def _held_out_errors(fitted, observations, test):
+    """(len(test), 3) held-out errors in mm: the position error, or on ball-in-socket data each
+    ball centre's deviation from its socket group's mean."""
+    held = observations.subset(test)
+    if observations.positions is None:
+        deviations, _ = socket_deviations(fitted.kinematics(), held.joints, held.placement, held.socket,
+                                          held.fixture)
+        return deviations
+    return held.positions - fitted.predict(held.joints)
+
+
+class _Nominal:
+    """The simplest model: the nominal robot registered on the training poses (the nominal
+    itself on ball-in-socket data, whose consistency does not depend on the frame)."""
+
+    def __init__(self, chain):
+        self.chain = chain
+
+    def fit(self, chain, observations):
+        if observations.positions is not None:
+            self.chain = registered_nominal(chain, observations.joints, observations.positions)
+        return self
+
+    def predict(self, joints):
+        return self.chain.fk_positions(joints)
+
+    def kinematics(self):
+        return self.chain
+
+
+class _Fitted:
+    """A fitted method as :func:`score` uses it: its predictions and its kinematics."""
+
+    def __init__(self, method):
+        self.method = method
+
+    def fit(self, chain, observations):
+        self.method.fit(chain, observations)
+        return self
+
+    def predict(self, joints):
+        return self.method.predict(joints)
+
+    def kinematics(self):
+        return self.method.compensator_.chain
+
+
+class _Refits:
+    """The fits of one comparison, made fast without changing what is scored:
+
+    * a hybrid's kinematic calibration on a fold is the kinematic candidate's fit of the same
+      parameter set on the same fold (fitted once);
+    * a Kriging-based model searches its hyperparameters (θ, nugget) on its first fold only
+      and keeps them on the others (:meth:`~robocal.methods.kriging.KrigingResidual.refit`):
+      a Cholesky factorisation instead of dozens of likelihood evaluations per fold.  Those
+      hyperparameters have seen the first fold's training poses, which overlap the other
+      folds' held-out ones; the predictions scored never have.
+    """
+
+    def __init__(self, chain):
+        self.chain = chain
+        self.kinematic = {}  # (parameter set, split, fold) -> fitted KinematicMethod
+        self.template = {}  # candidate label -> its first fit
+
+    def fit(self, candidate, observations, where):
+        if candidate.method == "nominal":
+            return _Nominal(self.chain).fit(self.chain, observations)
+        template = self.template.get(candidate.label)
+        if template is not None and hasattr(template, "refit"):
+            base = self.kinematic.get((candidate.settings.get("parameters"),) + where)
+            return _Fitted(template.refit(self.chain, observations, base=base))
+        fitted = candidate.unfitted().fit(self.chain, observations)
+        self.template.setdefault(candidate.label, fitted)
+        if candidate.method == "kinematic":
+            self.kinematic[(candidate.settings["parameters"],) + where] = fitted
+        return _Fitted(fitted)
+
+
+def score(candidate, observations, split, refits, *, on_fit=None):
+    """:class:`Score` of ``candidate`` fitted on each fold's training poses of ``split`` and
+    scored on its held-out poses (fits made by ``refits``, a :class:`_Refits`)."""
+    n = observations.n_poses
+    errors, fold_means, seconds = [], [], 0.0
+    for fold, test in enumerate(split.tests):
+        train = np.setdiff1d(np.arange(n), test)
+        start = time.perf_counter()
+        fitted = refits.fit(candidate, observations.subset(train), (split.name, fold))
+        seconds += time.perf_counter() - start
+        if on_fit is not None:
+            on_fit()
+        error = _held_out_errors(fitted, observations, test)
+        errors.append(error)
+        fold_means.append(float(np.linalg.norm(error, axis=1).mean()))
+    return Score(fold_means, error_stats(np.concatenate(errors)), seconds / len(split.tests))
+
+
+# ---------------------------------------------------------------------------- the choice
+@dataclass
+class Comparison:
+    """What :func:`compare` measured and recommends.
+
+    Attributes: ``poses``, ``file``; ``splits`` (names and kinds); ``scores``:
+    {label: {split name: Score}} with the registered nominal under "nominal (registered)";
+    ``candidates`` (the :class:`Candidate` list); ``recommended`` (a Candidate); ``reasons``:
+    lines that say why; ``dropped``: lines naming the residual models that did not beat their
+    base; ``notes``: splits left out; ``seconds``: {label: total s}.
+    """
+
+    poses: int
+    file: str
+    splits: list
+    scores: dict
+    candidates: list
+    recommended: Candidate
+    reasons: list
+    dropped: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
+    seconds: dict = field(default_factory=dict)
+
+    def to_dict(self):
+        return {"file": self.file, "poses": self.poses,
+                "splits": [{"name": s.name, "kind": s.kind, "folds": list(s.fold_names)} for s in self.splits],
+                "models": [{"label": label, **({"method": c.method, "settings": c.settings} if c else {}),
+                            "scores": {name: score.to_dict() for name, score in by_split.items()},
+                            "seconds": self.seconds.get(label)}
+                           for label, by_split in self.scores.items()
+                           for c in [next((c for c in self.candidates if c.label == label), None)]],
+                "recommended": {"label": self.recommended.label, "method": self.recommended.method,
+                                "settings": self.recommended.settings},
+                "reasons": self.reasons, "dropped": self.dropped, "notes": self.notes}
+
+
+NOMINAL = "nominal (registered)"
+
+
+def _gain(scores, better, worse, split):
+    """Mean and fold-to-fold standard deviation of the per-fold gain (mm) of ``better`` over
+    ``worse`` on ``split`` (paired by fold)."""
+    gain = np.asarray(scores[worse][split.name].fold_means) - np.asarray(scores[better][split.name].fold_means)
+    spread = float(gain.std(ddof=1)) if gain.size > 1 else 0.0
+    return float(gain.mean()), spread
+
+
+def recommend(comparison_scores, candidate_list, split_list):
+    """(chosen Candidate, reasons, dropped): the conservative rule of the module docstring.
+
+    On the first region split: residual models that do not beat their base are dropped; the
+    best of the others is found; the model chosen is the simplest whose gap to the best is
+    within the fold-to-fold spread of that gap (a richer model is taken only when it is
+    better by more than its spread).  A model worse than the simplest one on the random split
+    is never chosen."""
+    region = next(s for s in split_list if s.kind == "region")
+    random = next((s for s in split_list if s.kind == "random"), region)
+    by_label = {c.label: c for c in candidate_list}
+    mean = lambda label, split: comparison_scores[label][split.name].pooled["mean_mm"]  # noqa: E731
+    dropped, eligible = [], []
+    for candidate in candidate_list:
+        base = candidate.base
+        if base is not None and base in comparison_scores and mean(candidate.label, region) >= mean(base, region):
+            dropped.append(f"{candidate.label} dropped: on {region.name} it does not beat its base model {base} "
+                           f"({mean(candidate.label, region):.4f} mm against {mean(base, region):.4f} mm)")
+            continue
+        eligible.append(candidate)
+    simplest = eligible[0]
+    eligible = [c for c in eligible if c is simplest or mean(c.label, random) <= mean(simplest.label, random)]
+    best = min(eligible, key=lambda c: mean(c.label, region))
+    for candidate in eligible:
+        gap, spread = _gain(comparison_scores, best.label, candidate.label, region)
+        if gap <= spread:
+            chosen = candidate
+            break
+    reasons = [f"best on {region.name}: {best.label}, {mean(best.label, region):.4f} mm held out "
+               f"({mean(best.label, random):.4f} mm on {random.name})"]
+    if chosen is best:
+        if best is not simplest:
+            gap, spread = _gain(comparison_scores, best.label, simplest.label, region)
+            reasons.append(f"it beats the simplest model, {simplest.label}, by {gap:.4f} mm per region, more than "
+                           f"the fold-to-fold spread of that gain ({spread:.4f} mm)")
+    else:
+        gap, spread = _gain(comparison_scores, best.label, chosen.label, region)
+        reasons.append(f"{chosen.label} is simpler and within the fold-to-fold spread of it: {gap:.4f} mm behind per "
+                       f"region, spread {spread:.4f} mm; take the simpler")
+    return by_label[chosen.label], reasons, dropped
+
+
+def compare(chain, observations, *, folds=FOLDS, seed=0, network=None, on_fit=None, only=None):
+    """Score every :func:`candidates` model (``only``: a list of labels to keep) on every
+    :func:`splits` split of ``observations`` of ``chain``, beside the registered nominal, and
+    recommend one (:func:`recommend`).  ``on_fit()`` is called after every fit.  Returns a
+    :class:`Comparison`."""
+    if folds < 2:
+        raise InputError(f"--folds must be at least 2, got {folds}")
+    split_list, notes = splits(chain, observations, folds=folds, seed=seed)
+    candidate_list = candidates(observations, network=network)
+    if only is not None:
+        unknown = sorted(set(only) - {c.label for c in candidate_list})
+        if unknown:
+            raise InputError(f"no candidate model is called {', '.join(unknown)}; the candidates are "
+                             f"{', '.join(c.label for c in candidate_list)}")
+        candidate_list = [c for c in candidate_list if c.label in only]
+    scores, seconds, refits = {}, {}, _Refits(chain)
+    for candidate in [Candidate(NOMINAL, "nominal", {})] + candidate_list:
+        start = time.perf_counter()
+        scores[candidate.label] = {split.name: score(candidate, observations, split, refits, on_fit=on_fit)
+                                   for split in split_list}
+        seconds[candidate.label] = time.perf_counter() - start
+    chosen, reasons, dropped = recommend(scores, candidate_list, split_list)
+    return Comparison(observations.n_poses, observations.path, split_list, scores, candidate_list, chosen, reasons,
+                      dropped, notes, seconds)
+
+
+def fit_count(chain, observations, *, folds=FOLDS, seed=0, network=None):
+    """How many fits :func:`compare` makes on ``observations`` (for a progress bar)."""
+    split_list, _ = splits(chain, observations, folds=folds, seed=seed)
+    return (len(candidates(observations, network=network)) + 1) * sum(len(s.tests) for s in split_list)
+
+
+def choose(chain, observations, *, folds=FOLDS, seed=0, network=None, on_fit=None, progress=None):
+    """``calibrate --method auto``: :func:`compare`, then the recommended method fitted on all
+    of ``observations``.  Returns (fitted method, :class:`Comparison`)."""
+    comparison = compare(chain, observations, folds=folds, seed=seed, network=network, on_fit=on_fit)
+    fitted = comparison.recommended.unfitted().fit(chain, observations, progress=progress)
+    return fitted, comparison
