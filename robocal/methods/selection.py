@@ -47,6 +47,10 @@ FOLDS = 5
 # The network's 16-16 hidden layers have 435 weights; with fewer training poses than this
 # (each gives three equations) it fits noise rather than the robot's error.
 NETWORK_MIN_POSES = 500
+# Kriging keeps per input dimension an n x n matrix of squared differences while it searches
+# its hyperparameters (216 MB at 1,500 poses over the 12 sines and cosines of a 6-axis arm):
+# beyond this many training poses the Kriging-based models are left out of a comparison.
+KRIGING_MAX_POSES = 1500
 # A region split whose smallest training part is below this many poses cannot fit the full
 # parameter set with any margin; the split is left out (and said so).
 MIN_TRAINING_POSES = 30
@@ -72,25 +76,35 @@ class Candidate:
 
 
 
-def candidates(observations, *, network=None):
-    """The models :func:`compare` scores on ``observations``, simplest first.
+def candidates(observations, *, network=None, folds=FOLDS):
+    """(models, notes): the models :func:`compare` scores on ``observations``, simplest
+    first, and lines saying which were left out and why.
 
     Position data: the kinematic calibration with each parameter set; the hybrid on each
     (its residual over the joints' sines and cosines); Kriging over the TCP position and over
-    the joints; the network when there are NETWORK_MIN_POSES poses or more (``network``
-    True/False forces it in or out).  Ball-in-socket data: the constraint calibration with
-    each parameter set.
+    the joints' sines and cosines (while the training folds hold at most KRIGING_MAX_POSES);
+    the network when they hold NETWORK_MIN_POSES or more (``network`` True/False forces it in
+    or out).  Ball-in-socket data: the constraint calibration with each parameter set.
     """
     if observations.positions is None:
-        return [Candidate(f"constraint {p}", "constraint", {"parameters": p}) for p in PARAMETER_SETS]
+        return [Candidate(f"constraint {p}", "constraint", {"parameters": p}) for p in PARAMETER_SETS], []
+    training = observations.n_poses * (folds - 1) // folds
+    notes = []
     out = [Candidate(f"kinematic {p}", "kinematic", {"parameters": p}) for p in PARAMETER_SETS]
-    out += [Candidate(f"hybrid {p}", "hybrid", {"parameters": p, "inputs": RESIDUAL_INPUTS},
-                      base=f"kinematic {p}") for p in PARAMETER_SETS]
-    out += [Candidate("kriging (position)", "kriging", {"inputs": "position"}),
-            Candidate(f"kriging ({RESIDUAL_INPUTS})", "kriging", {"inputs": RESIDUAL_INPUTS})]
-    if network if network is not None else observations.n_poses * (FOLDS - 1) / FOLDS >= NETWORK_MIN_POSES:
+    if training <= KRIGING_MAX_POSES:
+        out += [Candidate(f"hybrid {p}", "hybrid", {"parameters": p, "inputs": RESIDUAL_INPUTS},
+                          base=f"kinematic {p}") for p in PARAMETER_SETS]
+        out += [Candidate("kriging (position)", "kriging", {"inputs": "position"}),
+                Candidate(f"kriging ({RESIDUAL_INPUTS})", "kriging", {"inputs": RESIDUAL_INPUTS})]
+    else:
+        notes.append(f"hybrid and kriging left out: the training folds hold {training} poses, more than the "
+                     f"{KRIGING_MAX_POSES} Kriging is fitted on here (compare a random subset of the file to see them)")
+    if network if network is not None else training >= NETWORK_MIN_POSES:
         out.append(Candidate("ann", "ann", {}))
-    return out
+    elif network is None:
+        notes.append(f"ann left out: the training folds hold {training} poses, fewer than the {NETWORK_MIN_POSES} its "
+                     "435 weights need (--network includes it)")
+    return out, notes
 
 
 # ---------------------------------------------------------------------------- splits
@@ -423,7 +437,8 @@ def compare(chain, observations, *, folds=FOLDS, seed=0, network=None, on_fit=No
     if folds < 2:
         raise InputError(f"--folds must be at least 2, got {folds}")
     split_list, notes = splits(chain, observations, folds=folds, seed=seed)
-    candidate_list = candidates(observations, network=network)
+    candidate_list, left_out = candidates(observations, network=network, folds=folds)
+    notes = notes + left_out
     if only is not None:
         unknown = sorted(set(only) - {c.label for c in candidate_list})
         if unknown:
@@ -444,7 +459,7 @@ def compare(chain, observations, *, folds=FOLDS, seed=0, network=None, on_fit=No
 def fit_count(chain, observations, *, folds=FOLDS, seed=0, network=None):
     """How many fits :func:`compare` makes on ``observations`` (for a progress bar)."""
     split_list, _ = splits(chain, observations, folds=folds, seed=seed)
-    return (len(candidates(observations, network=network)) + 1) * sum(len(s.tests) for s in split_list)
+    return (len(candidates(observations, network=network, folds=folds)[0]) + 1) * sum(len(s.tests) for s in split_list)
 
 
 def choose(chain, observations, *, folds=FOLDS, seed=0, network=None, on_fit=None, progress=None):
