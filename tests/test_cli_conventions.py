@@ -66,8 +66,8 @@ def test_main_help_shows_flags_as_flags():
 
 
 @pytest.mark.parametrize("name, choices", [
-    ("calibrate", [method_names(), REGISTER_CHOICES, REGRESSIONS, CORRELATIONS, PARAMETER_SETS, LOSSES, TRAINERS,
-                   REFINERS, BASE_MODELS, PAIRINGS]),
+    ("calibrate", [method_names() + ("auto", "frames"), REGISTER_CHOICES, REGRESSIONS, CORRELATIONS,
+                   PARAMETER_SETS + ("frames", "frames+offsets"), LOSSES, TRAINERS, REFINERS, BASE_MODELS, PAIRINGS]),
     ("validate", [method_names(), REGISTER_CHOICES, PARAMETER_SETS, LOSSES, PAIRINGS]),
     ("export", [EXPORT_FORMATS, CONVENTIONS]),
     ("simulate", [("joint", "lhs", "grid", "sockets")]),

@@ -33,8 +33,9 @@ from ..estimation.kriging import CORRELATIONS, REGRESSIONS
 from ..kinematics.chain import CONVENTIONS
 from ..methods import DEFAULT_METHOD, get_method, make_method, method_names
 from ..methods.ann import BASE_MODELS, REFINERS, TRAINERS
-from ..methods.base import ERROR_MODEL_INPUTS, REGISTER_CHOICES
-from .jobs import (AUTO, DATASETS, EXPORT_FORMATS, SAMPLINGS, calibrate_job, compare_job, compensate_job, dataset_job, evaluate_job, export_job,
+from ..methods.base import ERROR_MODEL_INPUTS, REGISTER_CHOICES, option_of
+from ..methods.reregistration import PARAMETER_CHOICES as FRAME_PARAMETERS
+from .jobs import (AUTO, DATASETS, EXPORT_FORMATS, FRAMES, SAMPLINGS, calibrate_job, compare_job, reregister_job, compensate_job, dataset_job, evaluate_job, export_job,
                    simulate_job, validate_job)
 
 # The sampling plans simulate_job draws (it owns no list of them to import).
@@ -520,17 +521,17 @@ def methods():
 @command()
 @user_errors
 def calibrate(
-    robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
+    robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file (--method frames: a model file)."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...)."),
     out_file: str = typer.Option(..., "--out", help="Model file (JSON) to write.", **_output(".json")),
-    method: str = typer.Option(DEFAULT_METHOD, help=METHOD_HELP + " auto: the model 'robocal compare' recommends, with the comparison kept in the model file.", **_choice(method_names() + (AUTO,))),
+    method: str = typer.Option(DEFAULT_METHOD, help=METHOD_HELP + " auto: the model 'robocal compare' recommends, with the comparison kept in the model file. frames: ROBOT is a model file, re-registered on a new set-up (base and tool; --parameters frames+offsets adds the joint offsets).", **_choice(method_names() + (AUTO, FRAMES))),
     register: str = typer.Option(None, help="Register base and tool first (default auto: when the data are not in the robot base frame).", **_choice(REGISTER_CHOICES)),
     trend: str = typer.Option(None, help="kriging/hybrid: the trend (default constant).", **_choice(REGRESSIONS)),
     correlation: str = typer.Option(None, help="kriging/hybrid: the correlation function (default gaussian).", **_choice(CORRELATIONS)),
     nugget: str = typer.Option(None, parser=_nugget, metavar="<estimate|float>", help="kriging/hybrid: nugget, 'estimate' (default) or a number >= 0."),
     shared_theta: bool = typer.Option(False, "--shared-theta", help="kriging/hybrid: one theta for the three outputs."),
     inputs: str = typer.Option(None, help="kriging/hybrid: what the error is modelled over: position (the TCP position, default), joints, or sincos (the sines and cosines of the joints).", **_choice(ERROR_MODEL_INPUTS)),
-    parameters: str = typer.Option(None, help="kinematic/hybrid/constraint (ann with --base-model kinematic): parameter set, offsets, full (default), full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains.", **_choice(PARAMETER_SETS)),
+    parameters: str = typer.Option(None, help="kinematic/hybrid/constraint (ann with --base-model kinematic): parameter set, offsets, full (default), full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains; frames: frames (default) or frames+offsets.", **_choice(PARAMETER_SETS + FRAME_PARAMETERS)),
     loss: str = typer.Option(None, help="kinematic/hybrid: the loss (default linear; the others are robust to outliers).", **_choice(LOSSES)),
     payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (default: 0 if the robot file gives link masses, else the rated payload of a robot of that size).", **_number(at_least=0)),
     seed: int = typer.Option(None, help=SEED_HELP + " Default 0.", **_number(whole=True, at_least=0)),
@@ -559,6 +560,12 @@ def calibrate(
         method, seed=seed, nugget=nugget, hidden=hidden, shared_theta=shared_theta, register=register, trend=trend,
         correlation=correlation, inputs=inputs, parameters=parameters, loss=loss, payload=payload, generations=generations,
         trainer=trainer, refine=refine, base_model=base_model, pairs=pairs)
+    if method == FRAMES:
+        return _reregister(robot, measurements, out_file, settings, beyond_limits, as_json, root=root, tip=tip,
+                           fixture=fixture)
+    if parameters in FRAME_PARAMETERS:
+        raise InputError(f"--parameters {parameters} re-registers a model file: give --method frames and the model "
+                         "file in place of the robot")
     if method == AUTO:
         fitter, label, total = AUTO, "comparing the methods, fit", None
     else:
@@ -574,6 +581,18 @@ def calibrate(
         _print_calibration(result.record.calibration, result.kinematics)
     shown = {k: v for k, v in result.to_dict().items() if k != "comparison"}
     _print_result(result.to_dict() if as_json else shown, as_json, f"{result.method} model -> {out_file}")
+
+
+def _without_domain(result):
+    """The result without the domain's line, which :func:`_say_domain` prints below the table."""
+    return {key: value for key, value in result.items() if key != "domain_summary"}
+
+
+def _say_domain(result):
+    """The domain of validity's one line: a warning when targets lie outside it."""
+    summary = result.get("domain_summary")
+    if summary:
+        _say("warning" if result.get("outside_domain") else "note", "yellow", summary)
 
 
 @command()
@@ -593,7 +612,9 @@ def evaluate(
     Example: robocal evaluate model.json test.csv --json
     """
     result = evaluate_job(model, measurements, fixture=fixture, beyond_limits=beyond_limits)
-    _print_result(result, as_json, f"{result['method']} model on {measurements}")
+    _print_result(result if as_json else _without_domain(result), as_json, f"{result['method']} model on {measurements}")
+    if not as_json:
+        _say_domain(result)
 
 
 @command()
@@ -621,7 +642,9 @@ def compensate(
         more = " ..." if len(result["unreachable_rows"]) > 10 else ""
         _say("warning", "yellow", f"{len(result['unreachable_rows'])} target(s) cannot be reached "
                   f"(rows {rows}{more}): their joint cells are empty and reachable = 0")
-    _print_result(result, as_json, f"commands -> {out_file}")
+    _print_result(result if as_json else _without_domain(result), as_json, f"commands -> {out_file}")
+    if not as_json:
+        _say_domain(result)
 
 
 @command()
@@ -677,6 +700,41 @@ def export(
     for what in result["left_out"]:
         _say("note", "yellow", f"left out of the {result['format'].upper()} file: {what}")
     _print_result(result, as_json, f"{result['convention']} robot -> {out_file}")
+
+
+def _reregister(model, measurements, out_file, settings, beyond_limits, as_json, **robot_options):
+    """calibrate --method frames: the model file re-registered on the poses of a new set-up."""
+    given = [option for option, value in robot_options.items() if value is not None]
+    others = sorted(set(settings) - {"parameters"})
+    if given or others:
+        options = [option_of(name) for name in others] + ["--" + name for name in given]
+        raise InputError(f"--method frames keeps everything the model file holds and re-identifies its frames: "
+                         f"leave out {', '.join(options)} (--parameters frames or frames+offsets is its one option)")
+    result = reregister_job(model, measurements, out_file, parameters=settings.get("parameters"),
+                            beyond_limits=beyond_limits)
+    if as_json:
+        print(json.dumps(result.to_dict(), indent=2))
+        return
+    record = result.record.reregistration
+    ident = record["identifiability"]
+    table = Table(title=f"{result.method} model re-registered on {record['poses']} poses of {measurements} (mm)",
+                  show_header=True)
+    for col in ("model on these poses", "mean", "RMS", "max"):
+        table.add_column(col, justify="left" if col.startswith("model") else "right")
+    for label, key in (("as it stood", "residual_before"), ("re-registered", "residual_after"),
+                       ("nominal, registered", "residual_reference")):
+        stats = record[key]
+        table.add_row(label, f"{stats['mean_mm']:.4f}", f"{stats['rms_mm']:.4f}", f"{stats['max_mm']:.4f}")
+    out.print(table)
+    out.print(f"tracker moved by {record['tracker_shift_mm']:.1f} mm and turned by {record['tracker_turn_deg']:.3f} deg; "
+              f"tool changed by {np.linalg.norm(record['tool_change_mm']):.3f} mm")
+    for name, change in record["offset_changes"].items():
+        out.print(f"joint offset {name} changed by {change:+.4f}")
+    out.print(f"identified {len(ident['identified'])} parameters (rank {ident['rank']}), condition number "
+              f"{ident['condition_number']:.3g}")
+    for name, reason in ident["fixed"].items():
+        out.print(f"kept {name}: {reason}")
+    out.print(f"-> {out_file}")
 
 
 def _print_comparison(comparison):

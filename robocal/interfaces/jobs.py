@@ -64,6 +64,30 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
     return Calibrated(fitter.name, chain.name, str(out), training, fitter.record_, fitter.compensator_.chain)
 
 
+# calibrate MODEL.json NEW.csv --method frames: re-register a model on a new set-up.
+FRAMES = "frames"
+# What a re-registered model file keeps of the original's training entry (the data it was
+# fitted on), beside the re-registration record.
+KEPT_TRAINING = ("file", "n_poses", "kind", "fixture_file", "comparison")
+
+
+def reregister_job(model_path, measurements, out, *, parameters=None, beyond_limits=False):
+    """A model file carried to a new set-up (robocal.methods.reregistration): its base and
+    tool (and with ``parameters='frames+offsets'`` its joint offsets) identified again from the
+    poses of ``measurements``, everything else kept; saved to ``out``."""
+    from ..methods.reregistration import reregister
+
+    check_outputs([out], [model_path, measurements])
+    model, fitted = load_fitted(model_path)
+    observations = read_observations(measurements, model.nominal, beyond_limits=beyond_limits)
+    moved = reregister(fitted, observations, parameters or "frames", robot=model.nominal)
+    training = {key: model.training[key] for key in KEPT_TRAINING if key in model.training}
+    training.update(reregistered_from=str(model_path), reregistration_file=str(measurements),
+                    reregistration_poses=observations.n_poses)
+    save_model(moved.to_model_file(model.nominal, training), out)
+    return Calibrated(moved.name, model.nominal.name, str(out), training, moved.record_, moved.compensator_.chain)
+
+
 def load_fitted(model_path, robot=None):
     """A model file -> (ModelFile, the fitted method it holds)."""
     model = load_model(model_path, robot=robot)

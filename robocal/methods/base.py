@@ -29,6 +29,7 @@ from ..estimation.calibration import PARAMETER_SETS, check_payload, parameter_te
 from ..io.model_file import ModelFile
 from .domain import Domain
 from .records import FitRecord
+from .reregistration import ReframedErrorModel, is_reframed, reframed_document, reframed_from_document
 
 REGISTER_CHOICES = ("auto", "yes", "no")
 # What an error model of the position error takes as input: the TCP position (Cartesian, as
@@ -136,8 +137,12 @@ class Method:
         """The fitted method as a :class:`ModelFile` of robot ``nominal``; ``training`` adds
         entries about the data (file, number of poses) to the record."""
         self._check_fitted()
+        # A re-registered error model is written as the method writes its own, wrapped with
+        # the frame it was moved by (robocal.methods.reregistration).
+        document = (reframed_document(self) if isinstance(self.compensator_.error_model, ReframedErrorModel)
+                    else self.error_model_document())
         return ModelFile(method=self.name, nominal=nominal, kinematics=self.compensator_.chain,
-                         reference=self.reference_, error_model=self.error_model_document(),
+                         reference=self.reference_, error_model=document,
                          training={**(training or {}), **self.record_.to_dict()}, options=self.get_settings(),
                          domain=None if getattr(self, "domain_", None) is None else self.domain_.to_dict())
 
@@ -147,7 +152,11 @@ class Method:
         names = {s.name for s in cls.settings}
         method = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in model.options.items() if k in names})
         try:
-            error_model, error_input = cls.error_model_from_document(model.error_model, path)
+            if is_reframed(model.error_model):
+                error_model, error_input = reframed_from_document(
+                    model.error_model, lambda document: cls.error_model_from_document(document, path))
+            else:
+                error_model, error_input = cls.error_model_from_document(model.error_model, path)
         except FileFormatError:
             raise
         except (InputError, KeyError, TypeError, ValueError) as exc:

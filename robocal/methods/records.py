@@ -96,7 +96,8 @@ class FitRecord:
     frame, before any registration; iterations: of that registration; calibration: the
     :class:`CalibrationRecord` of a parametric calibration; diagnostics: the error model's
     warnings; base_model and network: a network's base model and training record;
-    fixture: the fixture of ball-in-socket data (``fixture_to_dict``).
+    fixture: the fixture of ball-in-socket data (``fixture_to_dict``); reregistration: what
+    re-registering the model on a new set-up did (``ReregistrationRecord.to_dict``).
     """
 
     residual_before: dict
@@ -109,6 +110,7 @@ class FitRecord:
     base_model: str | None = None
     network: dict | None = None
     fixture: dict | None = None
+    reregistration: dict | None = None
 
     def to_dict(self):
         """JSON-ready, without the entries this method does not have."""

@@ -450,6 +450,7 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
     new.reregistration_ = _record(parameters, observations, use_rotations, problem, old, chain, found,
                                   before, after, error_stats(positions - reference.fk_positions(q)),
                                   training_rms, notes)
+    new.record_ = fitted.record_.replace(reregistration=new.reregistration_.to_dict())
     return new
 
 
