@@ -1,0 +1,307 @@
+"""Model choice (robocal compare, calibrate --method auto): the splits hold out what they say,
+the conservative rule chooses as documented, and a robot whose errors are non-geometric is
+given the parameter set that models them.  Real-data acceptance: bench/model_choice.py."""
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from robocal.errors import InputError
+from robocal.estimation.kriging import Kriging
+from robocal.interfaces.cli import app
+from robocal.io.fixtures import Fixture
+from robocal.io.library import load_robot
+from robocal.io.model_file import load_model
+from robocal.io.observations import Observations
+from robocal.io.tables import write_measurements
+from robocal.methods import selection
+from robocal.methods.domain import arm_branches
+from robocal.methods.selection import Candidate, Score, Split, branch_split, cluster_split, compare, recommend, splits
+from robocal.simulation import make_true_robot
+from robocal.simulation.joint_effects import Compliance
+from robocal.simulation.sampling import uniform_joints
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def ur5():
+    """A UR5 with the typical errors and 120 measured poses uniform in joint space."""
+    chain = load_robot("ur5")
+    truth = make_true_robot(chain, "typical", seed=3)
+    rng = np.random.default_rng(3)
+    q = uniform_joints(chain, 120, rng)
+    return chain, truth, truth.observations(q, rng)
+
+
+def _nominal_observations(chain, q):
+    return Observations.of(q, chain.fk_positions(q))
+
+
+# ---------------------------------------------------------------------------- splits
+def test_random_and_cluster_folds_are_disjoint_and_cover_every_pose(ur5):
+    chain, _, obs = ur5
+    found, _ = splits(chain, obs, folds=5, seed=1)
+    kinds = {split.name: split for split in found}
+    for name in ("random 5-fold", "joint-space regions"):
+        tests = kinds[name].tests
+        assert len(tests) == 5 and all(len(t) > 0 for t in tests)
+        joined = np.concatenate(tests)
+        assert len(joined) == len(np.unique(joined)) == obs.n_poses
+    # A cluster is a region: its poses lie nearer its own centre in joint space than the
+    # poses of the other clusters do, on average.
+    features = selection.joint_features(chain, obs.joints)
+    for test in kinds["joint-space regions"].tests:
+        centre = features[test].mean(axis=0)
+        rest = np.setdiff1d(np.arange(obs.n_poses), test)
+        assert (np.linalg.norm(features[test] - centre, axis=1).mean()
+                < np.linalg.norm(features[rest] - centre, axis=1).mean())
+
+
+def test_cluster_split_is_reproducible_with_its_seed(ur5):
+    chain, _, obs = ur5
+    first = cluster_split(chain, obs.joints, 5, seed=4)
+    again = cluster_split(chain, obs.joints, 5, seed=4)
+    assert first.fold_names == again.fold_names
+    assert all(np.array_equal(a, b) for a, b in zip(first.tests, again.tests))
+
+
+@pytest.fixture(scope="module")
+def ur5_branches():
+    """UR5 configurations within +-180 deg (where the closed form numbers the branches) on
+    shoulder 0 and wrist 0, split by their elbow side."""
+    chain = load_robot("ur5")
+    q = np.angle(np.exp(1j * uniform_joints(chain, 3000, np.random.default_rng(5))))
+    _, sides = arm_branches(chain, q)
+    common = (sides["shoulder"] == 0) & (sides["wrist"] == 0)
+    return chain, q[common & (sides["elbow"] == 0)], q[common & (sides["elbow"] == 1)]
+
+
+def test_branch_split_only_when_both_sides_hold_enough_poses(ur5_branches):
+    chain, one, other = ur5_branches
+    assert len(one) >= 200 and len(other) >= 200
+    assert branch_split(chain, one[:200]) is None
+    _, notes = splits(chain, _nominal_observations(chain, one[:200]))
+    assert any("no arm-branch split" in note for note in notes)
+    # 10 % on the other elbow side: below BRANCH_MIN_SHARE, no split.
+    few = np.vstack([one[:180], other[:20]])
+    assert branch_split(chain, few) is None
+    # 40 %: the elbow split, each side left out in turn, the sides apart.
+    q = np.vstack([one[:120], other[:80]])
+    split = branch_split(chain, q)
+    assert split is not None and split.name == "elbow branch" and split.kind == "region"
+    assert {len(t) for t in split.tests} == {120, 80}
+    assert not set(split.tests[0]) & set(split.tests[1])
+    found, _ = splits(chain, _nominal_observations(chain, q))
+    assert "elbow branch" in [s.name for s in found]
+
+
+def test_time_tail_split_holds_the_last_poses_in_time(ur5):
+    chain, _, obs = ur5
+    times = np.random.default_rng(6).permutation(obs.n_poses).astype(float) * 2.5 + 1000.0
+    found, _ = splits(chain, dataclasses.replace(obs, times=times))
+    tail = next(s for s in found if "in time" in s.name)
+    assert tail.kind == "region" and len(tail.tests) == 1
+    expected = np.sort(np.argsort(times)[-round(selection.TIME_TAIL * obs.n_poses):])
+    assert np.array_equal(tail.tests[0], expected)
+    # Without times, no such split.
+    assert not any("in time" in s.name for s in splits(chain, obs)[0])
+
+
+def _socket_observations(placements):
+    """Ball-in-socket observations of a Panda (joint values arbitrary: splits only need the ids)."""
+    n = len(placements)
+    fixture = Fixture("pair", {"0": [0.0, 0.0, 0.0], "1": [50.0, 0.0, 0.0]})
+    joints = np.random.default_rng(7).uniform(-1.0, 1.0, (n, 7))
+    return Observations.of(joints, placement=placements, socket=np.array(["0", "1"] * (n // 2)), fixture=fixture)
+
+
+def test_socket_data_are_split_by_fixture_placement():
+    placements = np.repeat(["front", "left", "high"], 8)
+    found, _ = splits(load_robot("panda"), _socket_observations(placements))
+    assert [s.name for s in found] == ["fixture placements"] and found[0].kind == "region"
+    for test in found[0].tests:
+        assert len(set(placements[test])) == 1 and len(test) == 8
+    assert sorted(set(placements[t[0]] for t in found[0].tests)) == ["front", "high", "left"]
+    with pytest.raises(InputError) as one_placement:
+        splits(load_robot("panda"), _socket_observations(np.repeat(["front"], 8)))
+    assert "one fixture placement" in str(one_placement.value) and "\n" not in str(one_placement.value)
+
+
+def test_too_few_poses_are_refused_with_one_line(ur5):
+    chain, _, obs = ur5
+    with pytest.raises(InputError) as refused:
+        splits(chain, obs.subset(np.arange(25)), folds=5)
+    message = str(refused.value)
+    assert "25 poses" in message and "\n" not in message
+    with pytest.raises(InputError) as one_fold:
+        compare(chain, obs, folds=1)
+    assert "--folds" in str(one_fold.value)
+
+
+# ---------------------------------------------------------------------------- the rule
+RANDOM = Split("random 5-fold", "random", tuple(np.arange(5)[:, None]), tuple(f"fold {k}" for k in range(5)))
+REGION = Split("joint-space regions", "region", tuple(np.arange(5)[:, None]), tuple(f"region {k}" for k in range(5)))
+SIMPLE = Candidate("kinematic full", "kinematic", {"parameters": "full"})
+RICHER = Candidate("kinematic full+compliance", "kinematic", {"parameters": "full+compliance"})
+HYBRID = Candidate("hybrid full", "hybrid", {"parameters": "full"}, base="kinematic full")
+SIMPLE_REGION = [1.00, 1.20, 0.80, 1.10, 0.90]
+
+
+def _score(fold_means):
+    return Score(list(fold_means), {"mean_mm": float(np.mean(fold_means))}, 0.1)
+
+
+def _table(random, region):
+    """{label: {split: Score}} from per-fold means on the random and the region split."""
+    return {label: {RANDOM.name: _score(random[label]), REGION.name: _score(region[label])} for label in region}
+
+
+def test_rule_keeps_the_simplest_when_the_gain_is_within_its_spread():
+    # The richer model is 0.03 mm better on average, but its gain varies by +-0.07 mm from
+    # region to region.
+    region = {SIMPLE.label: SIMPLE_REGION, RICHER.label: [0.95, 1.25, 0.70, 1.00, 0.95]}
+    random = {SIMPLE.label: [0.5] * 5, RICHER.label: [0.45] * 5}
+    chosen, reasons, dropped = recommend(_table(random, region), [SIMPLE, RICHER], [RANDOM, REGION])
+    assert chosen is SIMPLE and not dropped
+    assert any("take the simpler" in line for line in reasons)
+
+
+def test_rule_takes_a_richer_model_whose_gain_exceeds_its_spread():
+    region = {SIMPLE.label: SIMPLE_REGION, RICHER.label: [m - 0.2 + d for m, d in
+                                                          zip(SIMPLE_REGION, [0.01, -0.01, 0.0, 0.01, -0.01])]}
+    random = {SIMPLE.label: [0.5] * 5, RICHER.label: [0.45] * 5}
+    chosen, reasons, _ = recommend(_table(random, region), [SIMPLE, RICHER], [RANDOM, REGION])
+    assert chosen is RICHER
+    assert any("more than the fold-to-fold spread" in line for line in reasons)
+
+
+def test_rule_drops_a_hybrid_that_does_not_beat_its_base():
+    # Far better at random, a little worse on the regions left out: dropped, with a line.
+    region = {SIMPLE.label: SIMPLE_REGION, HYBRID.label: [m + 0.01 for m in SIMPLE_REGION]}
+    random = {SIMPLE.label: [0.5] * 5, HYBRID.label: [0.1] * 5}
+    chosen, _, dropped = recommend(_table(random, region), [SIMPLE, HYBRID], [RANDOM, REGION])
+    assert chosen is SIMPLE
+    assert len(dropped) == 1 and dropped[0].startswith("hybrid full dropped") and "kinematic full" in dropped[0]
+
+
+def test_rule_never_picks_a_model_worse_than_the_simplest_at_random():
+    # Clearly better on the regions, worse on random folds: not taken.
+    region = {SIMPLE.label: SIMPLE_REGION, RICHER.label: [m - 0.3 for m in SIMPLE_REGION]}
+    random = {SIMPLE.label: [0.5] * 5, RICHER.label: [0.55] * 5}
+    chosen, _, _ = recommend(_table(random, region), [SIMPLE, RICHER], [RANDOM, REGION])
+    assert chosen is SIMPLE
+
+
+# ---------------------------------------------------------------------------- compare
+# A KR 150-2 cell (deg): the arm reaching forward over a table, where gravity loads q2 and q3.
+CELL_LOW = np.radians([-60, -120, 0, -30, 30, -30])
+CELL_HIGH = np.radians([60, -20, 90, 30, 90, 30])
+
+
+def test_compare_recommends_compliance_for_a_robot_whose_joints_give_way():
+    """Joints 20 times softer than the typical preset's (a few tenths of a mm of sag over the
+    cell) and no backlash: the compliance calibration explains what the rigid one cannot."""
+    chain = load_robot("kr150-2")
+    typical = make_true_robot(chain, "typical", seed=2)
+    soft = Compliance(typical.compliance.stiffness / 20.0, typical.compliance.link_masses, typical.compliance.payload)
+    truth = dataclasses.replace(typical, compliance=soft, backlash=np.zeros(6))
+    rng = np.random.default_rng(8)
+    q = CELL_LOW + rng.random((100, 6)) * (CELL_HIGH - CELL_LOW)
+    comparison = compare(chain, truth.observations(q, rng), only=["kinematic full", "kinematic full+compliance"])
+    assert comparison.recommended.label == "kinematic full+compliance", comparison.reasons
+    region = next(s.name for s in comparison.splits if s.kind == "region")
+    rigid = comparison.scores["kinematic full"][region].pooled["mean_mm"]
+    compliant = comparison.scores["kinematic full+compliance"][region].pooled["mean_mm"]
+    assert compliant < 0.5 * rigid
+    # Every model beats the nominal registered on the same folds.
+    assert rigid < comparison.scores[selection.NOMINAL][region].pooled["mean_mm"]
+
+
+def test_kriging_conditioned_on_its_own_data_reproduces_the_fit():
+    rng = np.random.default_rng(9)
+    X = rng.uniform(-200.0, 200.0, (60, 3))
+    Y = np.column_stack([np.sin(X[:, 0] / 80.0), np.cos(X[:, 1] / 120.0) * X[:, 2] / 200.0, X[:, 0] * 1e-3])
+    Y = Y + rng.normal(scale=0.01, size=Y.shape)
+    fitted = Kriging(random_state=0).fit(X, Y)
+    again = fitted.conditioned_on(X, Y)
+    assert np.array_equal(again.theta_, fitted.theta_) and np.array_equal(again.nugget_, fitted.nugget_)
+    new = rng.uniform(-190.0, 190.0, (40, 3))  # inside the training box: no extrapolation warning
+    for points in (X, new):
+        np.testing.assert_allclose(again.predict(points), fitted.predict(points), rtol=0, atol=1e-10)
+    # On other data it keeps the hyperparameters and conditions on those data.
+    other = fitted.conditioned_on(X[:40], Y[:40])
+    assert np.array_equal(other.theta_, fitted.theta_)
+    assert not np.allclose(other.predict(new), fitted.predict(new))
+
+
+# ---------------------------------------------------------------------------- the command line
+@pytest.fixture(scope="module")
+def measurement_file(tmp_path_factory):
+    """A UR5 with the typical errors: 60 poses measured, as a CSV in file units."""
+    chain = load_robot("ur5")
+    truth = make_true_robot(chain, "typical", seed=4)
+    rng = np.random.default_rng(10)
+    path = tmp_path_factory.mktemp("compare") / "meas.csv"
+    write_measurements(path, truth.measurements(uniform_joints(chain, 60, rng), rng))
+    return path
+
+
+@pytest.fixture
+def two_candidates(monkeypatch):
+    """The command line's comparisons limited to two kinematic parameter sets, so that each
+    runs in seconds (which models are compared, and how, is tested above)."""
+    every = selection.candidates
+    keep = ("kinematic full", "kinematic full+gains")
+
+    def fewer(observations, **options):
+        models, notes = every(observations, **options)
+        return [c for c in models if c.label in keep], notes
+
+    monkeypatch.setattr(selection, "candidates", fewer)
+
+
+def test_compare_prints_the_tables_and_json(measurement_file, two_candidates):
+    shown = runner.invoke(app, ["compare", "ur5", str(measurement_file), "--folds", "3", "--beyond-limits"])
+    assert shown.exit_code == 0, shown.output
+    for text in ("held-out error on random 3-fold", "held-out error on joint-space regions", "nominal (registered)",
+                 "kinematic full+gains", "recommended (*):"):
+        assert text in shown.output
+    printed = runner.invoke(app, ["compare", "ur5", str(measurement_file), "--folds", "3", "--beyond-limits",
+                                  "--json"])
+    assert printed.exit_code == 0, printed.output
+    doc = json.loads(printed.output)
+    labels = [m["label"] for m in doc["models"]]
+    assert labels == ["nominal (registered)", "kinematic full", "kinematic full+gains"]
+    assert doc["recommended"]["label"] in labels[1:] and doc["poses"] == 60
+    for model in doc["models"]:
+        assert {s["name"] for s in doc["splits"]} == set(model["scores"])
+        for score in model["scores"].values():
+            assert score["pooled"]["n"] == 60 and len(score["fold_means_mm"]) == 3
+
+
+def test_calibrate_auto_fits_the_recommended_method_and_keeps_the_comparison(measurement_file, two_candidates,
+                                                                           tmp_path):
+    out = tmp_path / "auto.json"
+    result = runner.invoke(app, ["calibrate", "ur5", str(measurement_file), "--method", "auto", "--out", str(out),
+                                 "--beyond-limits", "--json"])
+    assert result.exit_code == 0, result.output
+    model = load_model(out)
+    comparison = model.training["comparison"]
+    recommended = comparison["recommended"]
+    assert model.method == recommended["method"]
+    assert all(model.options.get(k) == v for k, v in recommended["settings"].items()), model.options
+    assert [m["label"] for m in comparison["models"]][1:] == ["kinematic full", "kinematic full+gains"]
+    assert comparison["poses"] == model.training["n_poses"] == 60
+
+
+def test_calibrate_auto_refuses_a_method_option_with_one_line(measurement_file, tmp_path):
+    out = tmp_path / "auto.json"
+    result = runner.invoke(app, ["calibrate", "ur5", str(measurement_file), "--method", "auto", "--parameters",
+                                 "full+gains", "--out", str(out), "--beyond-limits"])
+    assert result.exit_code == 2
+    assert "--parameters" in result.output and "auto" in result.output
+    assert len(result.output.strip().splitlines()) == 1 and "Traceback" not in result.output
+    assert not out.exists()
