@@ -53,3 +53,34 @@ def test_export_takes_its_format_from_the_name(files, tmp_path, monkeypatch):
     result = runner.invoke(app, ["export", "model.json", "--out", "calibrated"])
     assert result.exit_code == 0, result.output
     assert "[[joints]]" in (tmp_path / "calibrated").read_text()
+
+
+def test_the_last_garbled_inputs_of_the_hostile_pass_are_one_line(files, tmp_path, monkeypatch):
+    """Found by the last hostile pass: a split that leaves no training pose, noise of 1e300 mm,
+    export to a .json name, a model file holding NaN, text joints in Python."""
+    import json
+
+    import numpy as np
+
+    from robocal.errors import FileFormatError, InputError
+    from robocal.estimation.calibration import KinematicCalibration
+    from robocal.interfaces.jobs import load_fitted
+    from robocal.io.library import builtin
+    from robocal.kinematics.ik import solve_ik
+
+    before = copy_inputs(files, tmp_path, monkeypatch)
+    for args, says in ((["dataset", "ur5-tsinghua", "--split", "0.00001", "--out", "q"], "leaves no training"),
+                       (["simulate", "ur5", "--noise", "1e300", "--out", "s.csv"], "<= 1,000"),
+                       (["export", "model.json", "--out", "x.json"], "name it x.toml")):
+        assert_refused(args, says, tmp_path, before)
+    document = json.loads((tmp_path / "model.json").read_text())
+    document["training"]["residual_before"]["mean_mm"] = float("nan")
+    (tmp_path / "nan.json").write_text(json.dumps(document))
+    with pytest.raises(FileFormatError, match="NaN"):
+        load_fitted(tmp_path / "nan.json")
+    _, fitted = load_fitted(tmp_path / "model.json")
+    chain = builtin("ur5")
+    for call in (lambda: fitted.predict([["a"] * 6]), lambda: solve_ik(chain, [[["x"] * 4] * 4]),
+                 lambda: KinematicCalibration().fit(chain, [["a"] * 6] * 10, np.zeros((10, 3)))):
+        with pytest.raises(InputError, match="numbers"):
+            call()

@@ -276,8 +276,11 @@ class KinematicCalibration(FittedCalibration):
 
     # ------------------------------------------------------------------ data
     def _check(self, chain, joints, positions, orientations, sigmas):
-        q = np.asarray(joints, dtype=float)
-        p = np.asarray(positions, dtype=float)
+        try:
+            q = np.asarray(joints, dtype=float)
+            p = np.asarray(positions, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError("joints (rad; mm for prismatic joints) and positions (mm) must be numbers") from None
         if q.ndim != 2 or q.shape[1] != chain.n_joints:
             raise InputError(f"joints must be (N, {chain.n_joints}) for {chain.name}, got {q.shape}")
         if p.shape != (len(q), 3):

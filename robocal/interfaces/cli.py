@@ -163,6 +163,8 @@ LARGEST_WHOLE = 10**9
 # simulate --n: beyond this a file is no measurement series anyone makes, and the run would
 # take minutes and gigabytes.
 MOST_SIMULATED_POSES = 1_000_000
+# simulate --noise: an instrument this noisy (a metre) measures nothing about a robot.
+LARGEST_NOISE_MM = 1000
 
 
 def _number(*, whole=False, at_least=None, between=None, at_most=None):
@@ -457,7 +459,7 @@ def simulate(
     n: int = typer.Option(None, "--n", help="Number of poses (default 200; liu2022: 150).", **_number(whole=True, at_least=1, at_most=MOST_SIMULATED_POSES)),
     sampling: str = typer.Option("joint", help="joint (uniform in the limits), lhs (Latin hypercube in --box), grid (n^(1/3) per axis in --box) or sockets (ball in the sockets of --fixture, joint angles only).", **_choice(SAMPLINGS)),
     errors: str = typer.Option("typical", parser=_errors_preset, help="none, typical, liu2022 (KR150-2 only), or a truth file (JSON, as --truth writes it) whose deviations you edit, e.g. joint gains in ppm."),
-    noise: float = typer.Option(None, help="Measurement noise sigma in mm (overrides the preset); sockets: the ball's seating error.", **_number(at_least=0)),
+    noise: float = typer.Option(None, help="Measurement noise sigma in mm (overrides the preset); sockets: the ball's seating error.", **_number(at_least=0, at_most=LARGEST_NOISE_MM)),
     seed: int = typer.Option(0, help="Random seed.", **_number(whole=True, at_least=0)),
     truth: str = typer.Option(None, help="Also write the hidden truth (JSON) here.", **_output(".json")),
     orientation: bool = typer.Option(False, "--orientation", help="Also write measured rx, ry, rz."),
@@ -690,6 +692,10 @@ def export(
     Example: robocal export model.json --format urdf --out calibrated.urdf
     """
     suffix = Path(out_file).suffix.lower().lstrip(".")
+    if fmt is None and "." + suffix in OUTPUT_KINDS and suffix not in EXPORT_FORMATS:
+        raise InputError(f"export writes a robot TOML or a URDF, but --out {out_file} names a "
+                         f"{OUTPUT_KINDS['.' + suffix]} file: name it {Path(out_file).with_suffix('.toml')} or "
+                         f"{Path(out_file).with_suffix('.urdf')}")
     if fmt is None:
         fmt = suffix if suffix in EXPORT_FORMATS else "toml"
     elif "." + suffix in OUTPUT_KINDS and suffix != fmt:

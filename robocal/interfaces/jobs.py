@@ -371,7 +371,9 @@ def validate_job(robot, measurements, *, method=DEFAULT_METHOD, settings=None, f
     unfitted = make_method(method, **(settings or {}))
     chain = load_robot(robot, root=root, tip=tip)
     observations = read_observations(measurements, chain, fixture, beyond_limits=beyond_limits)
-    return cross_validate(unfitted, chain, observations, folds=folds, sizes=sizes, seed=seed, on_fit=on_fit)
+    result = cross_validate(unfitted, chain, observations, folds=folds, sizes=sizes, seed=seed, on_fit=on_fit)
+    # The report checks a validation against its model's robot by this name.
+    return {"robot": chain.name, **result}
 
 
 def compare_job(robot, measurements, *, folds=5, seed=0, fixture=None, network=None, root=None, tip=None,

@@ -200,7 +200,12 @@ def split_indices(data, split, seed=0):
         raise InputError(f"--split is the training fraction and must lie between 0 and 1, got {split}")
     rng = np.random.default_rng(seed)
     if data.fixture is None:
-        return np.sort(rng.permutation(data.n_poses)[:int(round(split * data.n_poses))]), None
+        count = int(round(split * data.n_poses))
+        if not 0 < count < data.n_poses:
+            raise InputError(f"--split {split} of {data.n_poses} poses leaves {'no training' if count == 0 else 'no test'} "
+                             f"pose: give a training fraction between {1 / data.n_poses:.3g} and "
+                             f"{1 - 1 / data.n_poses:.4g}")
+        return np.sort(rng.permutation(data.n_poses)[:count]), None
     placements = np.unique(data.fixture)
     if len(placements) < 2:
         raise InputError(f"{data.path} has one fixture placement: nothing to hold out")

@@ -121,7 +121,12 @@ def load_model(path, robot=None) -> ModelFile:
         )
     checksum = _require(doc, "checksum", str, path)
     body = {k: v for k, v in doc.items() if k != "checksum"}
-    if hashlib.sha256(_canonical(body).encode()).hexdigest() != checksum:
+    try:
+        canonical = _canonical(body)
+    except ValueError:  # NaN or infinity: robocal never writes them
+        raise FileFormatError(f"{path}: the file holds NaN or infinite numbers, which robocal never writes: it was "
+                              "modified; regenerate it with 'robocal calibrate'") from None
+    if hashlib.sha256(canonical.encode()).hexdigest() != checksum:
         raise FileFormatError(f"{path}: the checksum does not match: the file was modified after robocal "
                               "wrote it; regenerate it with 'robocal calibrate'")
     # Which methods exist is the methods registry's to say (robocal.methods.load_fitted).

@@ -10,8 +10,8 @@ from ..estimation.joint_kriging import JointKriging
 from ..estimation.kriging import Kriging
 from ..estimation.metrics import error_stats
 from ..kinematics.ik import solve_ik
-from .base import (ERROR_MODEL_INPUTS, RANDOM_STATE, REGISTER, Method, Setting, one_of, require_distinct,
-                   require_positions)
+from .base import (ERROR_MODEL_INPUTS, RANDOM_STATE, REGISTER, Method, Setting, joint_array, one_of,
+                   require_distinct, require_positions)
 from .records import FitRecord, ReportFigure
 from .frames import measurement_frame
 
@@ -145,8 +145,8 @@ class KrigingResidual:
         rad: the root of the summed x, y, z variances of the Kriging (for position inputs,
         at the model's FK of the joints)."""
         self._check_fitted()
-        joints = np.asarray(joints, dtype=float)
         compensator = self.compensator_
+        joints = joint_array(joints, compensator.chain)
         inputs = joints if compensator.error_input == "joints" else compensator.chain.fk_positions(joints)
         _, mse = compensator.error_model.predict(inputs, return_mse=True)
         return np.sqrt(np.asarray(mse).sum(axis=1))

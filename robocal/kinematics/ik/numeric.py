@@ -68,9 +68,17 @@ class IKResult:
     orientation_error: np.ndarray
 
 
+def _numbers(values, message):
+    """``values`` as a float array; InputError(``message``) for text or other non-numbers."""
+    try:
+        return np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(message) from None
+
+
 def as_targets(targets):
     """(N, 4, 4) float array of target poses; a single (4, 4) pose becomes N = 1."""
-    out = np.asarray(targets, dtype=float)
+    out = _numbers(targets, "targets must be 4x4 poses of numbers (mm), shape (N, 4, 4)")
     if out.shape == (4, 4):
         out = out[None]
     if out.ndim != 3 or out.shape[1:] != (4, 4):
@@ -80,7 +88,7 @@ def as_targets(targets):
 
 def as_joints(chain, values, count, what):
     """(count, n) joint array from (n,) or (count, n) values."""
-    out = np.asarray(values, dtype=float)
+    out = _numbers(values, f"{what} must be joint values, numbers (rad; mm for prismatic joints)")
     if out.ndim == 1:
         out = np.broadcast_to(out, (count, out.size))
     if out.shape != (count, chain.n_joints):
