@@ -195,6 +195,24 @@ def test_rule_never_picks_a_model_worse_than_the_simplest_at_random():
     assert chosen is SIMPLE
 
 
+@pytest.mark.xfail(strict=True, reason="recommend() takes the simplest model whose gap to the best is within the "
+                   "spread of that gap, so a model that fails badly on one region (large spread) counts as 'within "
+                   "the spread': on UR10 A (shoulder side 0 held out) it chose kinematic full+compliance+gains, "
+                   "3.79 mm on the test part against 1.87 for kinematic full (bench/model_choice.py)")
+def test_rule_does_not_take_a_model_for_failing_on_one_region():
+    # The fold means compare measured on the training part of that case (mm): the richest
+    # kinematic set is as good as the simplest on four regions and three times worse on the
+    # fifth; the hybrid is better on every region.
+    erratic = Candidate("kinematic full+compliance+gains", "kinematic", {"parameters": "full+compliance+gains"})
+    region = {SIMPLE.label: [0.458, 0.344, 0.364, 0.346, 1.030], erratic.label: [0.467, 0.339, 0.359, 0.339, 3.436],
+              HYBRID.label: [0.220, 0.120, 0.119, 0.139, 0.978]}
+    random = {SIMPLE.label: [0.367, 0.372, 0.347, 0.375, 0.363], erratic.label: [0.365, 0.361, 0.340, 0.364, 0.358],
+              HYBRID.label: [0.094, 0.102, 0.093, 0.098, 0.098]}
+    chosen, _, _ = recommend(_table(random, region), [SIMPLE, erratic, HYBRID], [RANDOM, REGION])
+    assert chosen is not erratic
+    assert np.mean(region[chosen.label]) <= np.mean(region[SIMPLE.label])
+
+
 # ---------------------------------------------------------------------------- compare
 # A KR 150-2 cell (deg): the arm reaching forward over a table, where gravity loads q2 and q3.
 CELL_LOW = np.radians([-60, -120, 0, -30, 30, -30])
