@@ -86,7 +86,8 @@ def test_frames_from_15_poses_give_what_the_true_frames_give(setup):
     # The original is untouched, and the copy keeps what the fit left.
     assert fitted.compensator_.chain.base is not again.compensator_.chain.base
     assert held_out(fitted, test)["mean_mm"] == as_it_stands["mean_mm"]
-    assert again.calibration_ is fitted.calibration_ and again.record_ is fitted.record_
+    assert again.calibration_ is fitted.calibration_
+    assert again.record_ == fitted.record_.replace(reregistration=record.to_dict())
     # The training box of the domain moves with the frame: the held-out poses stay inside it.
     new_positions = again.predict(test.joints)
     assert fitted.domain_.check(test.joints, new_positions).n_outside == test.n_poses

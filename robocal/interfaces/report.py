@@ -119,12 +119,38 @@ def _figures(fitted, observations, positions, before, after, validation):
     ]
     figures += [(item.title, item.caption, DIAGNOSTIC_PLOTS[item.kind](item.data))
                 for item in fitted.report_figures(observations.joints)]
+    domain = getattr(fitted, "domain_", None)
+    if domain is not None:
+        check = domain.check(observations.joints, observations.positions)
+        figures.append(("Training coverage", "Each joint's training range (shaded; dashed: the margin that still "
+                        "counts as inside) and histogram (grey), against the configurations of this file: inside "
+                        f"the domain of validity (blue outline) or outside it (red). {check.summary}.",
+                        plots.domain_coverage(**domain.coverage(observations.joints, observations.positions))))
     if validation is not None and validation.get("learning_curve"):
         figures.append(("Learning curve", "Held-out error against the number of training poses "
                         f"({validation['method']}, from {validation['file']}).",
                         plots.learning_curve(validation["learning_curve"],
                                              validation["nominal_cross_validation"]["pooled"]["mean_mm"])))
     return figures
+
+
+def _comparison_section(comparison):
+    """The model choice a ``calibrate --method auto`` kept in its model file: held-out error of
+    every model compared on each split, the recommendation and why."""
+    if not comparison:
+        return ""
+    parts = ["<h2>Model choice</h2><p class=note>Every method compared on poses it never saw (robocal compare), "
+             "split at random and by regions of configuration space left out whole; this model is the one "
+             f"recommended: <b>{html.escape(comparison['recommended']['label'])}</b>.</p>"]
+    for split in comparison["splits"]:
+        rows = [[model["label"]] + [f"{model['scores'][split['name']]['pooled'][key]:.4f}"
+                                    for key in ("mean_mm", "rms_mm", "max_mm", "p95_mm")]
+                for model in comparison["models"]]
+        parts.append(f"<p class=note>Held-out error on {html.escape(split['name'])} (mm)</p>"
+                     + _table(["model", "mean", "RMS", "max", "95 %"], rows))
+    lines = comparison["reasons"] + comparison.get("dropped", []) + comparison.get("notes", [])
+    parts.append("<ul>" + "".join(f"<li>{html.escape(line)}</li>" for line in lines) + "</ul>")
+    return "".join(parts)
 
 
 def _iso_section(iso_before, iso_after):
@@ -263,7 +289,8 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyo
             _table(["data"] + [name for _, name, _ in STATS], accuracy_rows),
             _socket_distance_section(scores.stats) if scores.iso is None
             else _iso_section(scores.iso["nominal"], scores.iso["calibrated"]),
-            _calibration_section(fitted.record_.calibration, fitted.compensator_.chain)]
+            _calibration_section(fitted.record_.calibration, fitted.compensator_.chain),
+            _comparison_section(model.training.get("comparison"))]
     for title, caption, fig in figures:
         body.append(f"<h2>{html.escape(title)}</h2><p class=note>{html.escape(caption)}</p>"
                     f"<img alt=\"{html.escape(title)}\" src=\"data:image/png;base64,{_png(fig)}\">")
