@@ -190,6 +190,11 @@ class Chain:
         """Controller joint values -> the model variables of the link transforms."""
         return np.atleast_2d(np.asarray(q, dtype=float)) @ self.joint_map.T
 
+    def joint_batch(self, q):
+        """``q`` as an (N, n) float array of configurations (rad; mm for prismatic joints);
+        InputError, in one line, for text or another number of joints."""
+        return self._check_q(q)[0]
+
     def _check_q(self, q, finite=False):
         """``q`` as ((N, n) float array, whether one configuration (n,) was given); InputError
         for text or another width, and with ``finite`` for a row with some NaN or an infinite

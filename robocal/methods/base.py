@@ -108,7 +108,7 @@ class Method:
         """Where the real robot's TCP goes at ``joints`` (N, n) rad: (N, 3) mm in the
         measurement frame (for ball-in-socket data, the ball centre in the robot's frame)."""
         self._check_fitted()
-        return self.compensator_.predict_positions(joint_array(joints, self.compensator_.chain))
+        return self.compensator_.predict_positions(self.compensator_.chain.joint_batch(joints))
 
     def uncertainty(self, joints):
         """The standard deviation (N,) mm of :meth:`predict` at ``joints`` (N, n) rad, as the
@@ -174,18 +174,6 @@ class Method:
     def report_figures(self, joints):
         """The diagnostics of this method for the report, at ``joints`` (N, n) rad."""
         return []
-
-
-def joint_array(joints, chain):
-    """``joints`` as an (N, n) float array for ``chain``; InputError for text or another width."""
-    try:
-        q = np.atleast_2d(np.asarray(joints, dtype=float))
-    except (TypeError, ValueError):
-        raise InputError(f"joint values for the robot {chain.name!r} must be numbers (rad; mm for prismatic joints), "
-                         f"a batch (N, {chain.n_joints})") from None
-    if q.ndim != 2 or q.shape[1] != chain.n_joints:
-        raise InputError(f"robot {chain.name!r} has {chain.n_joints} joints; got joint values of shape {q.shape}")
-    return q
 
 
 def option_of(name):

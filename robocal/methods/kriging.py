@@ -10,8 +10,8 @@ from ..estimation.joint_kriging import JointKriging
 from ..estimation.kriging import Kriging
 from ..estimation.metrics import error_stats
 from ..kinematics.ik import solve_ik
-from .base import (ERROR_MODEL_INPUTS, RANDOM_STATE, REGISTER, Method, Setting, joint_array, one_of,
-                   require_distinct, require_positions)
+from .base import (ERROR_MODEL_INPUTS, RANDOM_STATE, REGISTER, Method, Setting, one_of, require_distinct,
+                   require_positions)
 from .records import FitRecord, ReportFigure
 from .frames import measurement_frame
 
@@ -146,7 +146,7 @@ class KrigingResidual:
         at the model's FK of the joints)."""
         self._check_fitted()
         compensator = self.compensator_
-        joints = joint_array(joints, compensator.chain)
+        joints = compensator.chain.joint_batch(joints)
         inputs = joints if compensator.error_input == "joints" else compensator.chain.fk_positions(joints)
         _, mse = compensator.error_model.predict(inputs, return_mse=True)
         return np.sqrt(np.asarray(mse).sum(axis=1))

@@ -105,7 +105,7 @@ class TrueRobot:
         (default: the zero configuration); it sets the first row's direction of motion.
         """
         chain = self.actual
-        q2 = _commands(chain, q)
+        q2 = chain.joint_batch(q)
         offset = np.zeros_like(q2)
         if self.backlash is not None:
             start = np.zeros(chain.n_joints) if previous is None else np.asarray(previous, dtype=float)
@@ -148,7 +148,7 @@ class TrueRobot:
         then.  rng: a numpy Generator or a seed.
         """
         rng = np.random.default_rng(rng)
-        q = _commands(self.nominal, q)
+        q = self.nominal.joint_batch(q)
         if orientation:
             poses = self.pose(q, previous)
             positions = poses[:, :3, 3]
@@ -163,7 +163,7 @@ class TrueRobot:
     def observations(self, q, rng, previous=None, orientation=False):
         """:meth:`measure` as :class:`~robocal.io.observations.Observations` (internal units),
         what every method fits; the position noise is each row's sigma when there is any."""
-        q = _commands(self.nominal, q)
+        q = self.nominal.joint_batch(q)
         measured = self.measure(q, rng, previous, orientation)
         positions, rotations = measured if orientation else (measured, None)
         sigmas = np.full_like(positions, self.noise) if self.noise > 0 else None
@@ -235,18 +235,6 @@ class TrueRobot:
             raise FileFormatError(f"{where}: missing entry {missing}") from None
         except (TypeError, ValueError, tomllib.TOMLDecodeError) as why:
             raise FileFormatError(f"{where}: {why}") from None
-
-
-def _commands(chain, q):
-    """(N, n) float commands from (N, n) or (n,) values, or InputError."""
-    try:
-        q2 = np.atleast_2d(np.asarray(q, dtype=float))
-    except (TypeError, ValueError):
-        raise InputError(f"joint commands for the robot {chain.name!r} must be numbers (rad; mm for prismatic "
-                         f"joints) in rows of {chain.n_joints}") from None
-    if q2.ndim != 2 or q2.shape[1] != chain.n_joints:
-        raise InputError(f"robot {chain.name!r} has {chain.n_joints} joints; got joint values of shape {np.shape(q)}")
-    return q2
 
 
 def write_truth(path, truth):
