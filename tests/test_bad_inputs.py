@@ -173,7 +173,7 @@ ROWS = [
     # an output that is an input, or a second output in a missing folder: refused before anything is written
     ("calibrate ur5 meas.csv --out meas.csv", "name it meas.json"),  # refused by its name first
     ("compensate model.json meas.csv --out meas.csv", "also an input"),
-    ("export model.json --out model.json", "also an input"),
+    ("export model.json --out model.json", "name it model.toml"),  # refused by its name first
     ("simulate ur5 --n 10 --out s --truth s", "two outputs"),
     ("simulate ur5 --n 10 --out s.csv --truth missing_dir/t.json", "does not exist"),
     ("report model.json meas.csv --out r.html --pdf missing_dir/p.pdf", "does not exist"),

@@ -97,6 +97,7 @@ class CompliantChain:
     joints_from_file = _rigid_method("joints_from_file")
     joints_to_file = _rigid_method("joints_to_file")
     model_joints = _rigid_method("model_joints")
+    joint_batch = _rigid_method("joint_batch")
 
     # ------------------------------------------------------------ deflection
     def gravity_torque(self, q):
