@@ -203,8 +203,8 @@ def placement_split(placements):
 
 
 def splits(chain, observations, *, folds=FOLDS, seed=0):
-    """(splits, notes): every split that applies to ``observations``, the one the
-    recommendation judges on first among the region splits; notes say what was left out."""
+    """(splits, notes): every split that applies to ``observations`` (the random one first);
+    notes say what was left out."""
     n, notes = observations.n_poses, []
     if observations.positions is None:
         if observations.placement is None or len(set(observations.placement.tolist())) < 2:
@@ -385,10 +385,11 @@ class Comparison:
 NOMINAL = "nominal (registered)"
 
 
-def _gain(scores, better, worse, split):
+def _gain(scores, better, worse, splits_):
     """Mean and fold-to-fold standard deviation of the per-fold gain (mm) of ``better`` over
-    ``worse`` on ``split`` (paired by fold)."""
-    gain = np.asarray(scores[worse][split.name].fold_means) - np.asarray(scores[better][split.name].fold_means)
+    ``worse`` over the folds of ``splits_`` (paired by fold)."""
+    gain = np.concatenate([np.asarray(scores[worse][s.name].fold_means) - np.asarray(scores[better][s.name].fold_means)
+                           for s in splits_])
     spread = float(gain.std(ddof=1)) if gain.size > 1 else 0.0
     return float(gain.mean()), spread
 
@@ -396,42 +397,50 @@ def _gain(scores, better, worse, split):
 def recommend(comparison_scores, candidate_list, split_list):
     """(chosen Candidate, reasons, dropped): the conservative rule of the module docstring.
 
-    Judged on the first region split.  Residual models that do not beat their own base model
-    there are dropped, and models worse than the simplest on the random split are not
-    considered.  The contenders are the richer models whose gain over the simplest, fold by
-    fold, is larger on average than its fold-to-fold standard deviation: a model that wins
-    some regions and fails one is not a contender.  The contender with the lowest held-out
-    region error is chosen; with none, the simplest."""
-    region = next(s for s in split_list if s.kind == "region")
-    random = next((s for s in split_list if s.kind == "random"), region)
+    Judged on the region splits together (their folds pooled; a model's region error is the
+    mean of its held-out error over the region splits).  Residual models that do not beat
+    their own base model there are dropped, and models worse than the simplest on the random
+    split are not considered.  The contenders are the richer models whose gain over the
+    simplest, fold by fold, is larger on average than its fold-to-fold standard deviation: a
+    model that wins some regions and fails one is not a contender.  The contender with the
+    lowest held-out region error is chosen; with none, the simplest."""
+    regions = [s for s in split_list if s.kind == "region"]
+    random = next((s for s in split_list if s.kind == "random"), regions[0])
+    where = "the held-out regions" if len(regions) > 1 else regions[0].name
     by_label = {c.label: c for c in candidate_list}
-    mean = lambda label, split: comparison_scores[label][split.name].pooled["mean_mm"]  # noqa: E731
+
+    def region(label):
+        return float(np.mean([comparison_scores[label][s.name].pooled["mean_mm"] for s in regions]))
+
+    def at_random(label):
+        return comparison_scores[label][random.name].pooled["mean_mm"]
+
     dropped, eligible = [], []
     for candidate in candidate_list:
         base = candidate.base
-        if base is not None and base in comparison_scores and mean(candidate.label, region) >= mean(base, region):
-            dropped.append(f"{candidate.label} dropped: on {region.name} it does not beat its base model {base} "
-                           f"({mean(candidate.label, region):.4f} mm against {mean(base, region):.4f} mm)")
+        if base is not None and base in comparison_scores and region(candidate.label) >= region(base):
+            dropped.append(f"{candidate.label} dropped: on {where} it does not beat its base model {base} "
+                           f"({region(candidate.label):.4f} mm against {region(base):.4f} mm)")
             continue
         eligible.append(candidate)
     simplest = eligible[0]
     contenders = []
     for candidate in eligible[1:]:
-        gain, spread = _gain(comparison_scores, candidate.label, simplest.label, region)
-        if gain > spread and mean(candidate.label, random) <= mean(simplest.label, random):
-            contenders.append((mean(candidate.label, region), candidate, gain, spread))
-    reasons = [f"the simplest model, {simplest.label}: {mean(simplest.label, region):.4f} mm held out on "
-               f"{region.name}, {mean(simplest.label, random):.4f} mm on {random.name}"]
+        gain, spread = _gain(comparison_scores, candidate.label, simplest.label, regions)
+        if gain > spread and at_random(candidate.label) <= at_random(simplest.label):
+            contenders.append((region(candidate.label), candidate, gain, spread))
+    reasons = [f"the simplest model, {simplest.label}: {region(simplest.label):.4f} mm held out on {where}, "
+               f"{at_random(simplest.label):.4f} mm on {random.name}"]
     if not contenders:
-        reasons.append(f"no richer model beats it on {region.name} by more than the fold-to-fold spread of its gain: "
+        reasons.append(f"no richer model beats it on {where} by more than the fold-to-fold spread of its gain: "
                        "keep it")
         return simplest, reasons, dropped
     _, chosen, gain, spread = min(contenders, key=lambda item: item[0])
     others = len(contenders) - 1
     reasons.append(f"{chosen.label} beats it by {gain:.4f} mm per region, more than the fold-to-fold spread of that "
-                   f"gain ({spread:.4f} mm), and has the lowest held-out error on {region.name} "
-                   f"({mean(chosen.label, region):.4f} mm)" + (f" of the {others + 1} models that beat it so" if others
-                                                              else "") + ": take it")
+                   f"gain ({spread:.4f} mm), and has the lowest held-out error on {where} "
+                   f"({region(chosen.label):.4f} mm)" + (f" of the {others + 1} models that beat it so" if others
+                                                         else "") + ": take it")
     return by_label[chosen.label], reasons, dropped
 
 
