@@ -309,6 +309,13 @@ def test_calibrate_auto_fits_the_recommended_method_and_keeps_the_comparison(mea
     assert all(model.options.get(k) == v for k, v in recommended["settings"].items()), model.options
     assert [m["label"] for m in comparison["models"]][1:] == ["kinematic full", "kinematic full+gains"]
     assert comparison["poses"] == model.training["n_poses"] == 60
+    # The report shows the choice, its tables and its reasons, and the training coverage.
+    report = tmp_path / "auto.html"
+    result = runner.invoke(app, ["report", str(out), str(measurement_file), "--out", str(report), "--beyond-limits"])
+    assert result.exit_code == 0, result.output
+    page = report.read_text()
+    assert "Model choice" in page and recommended["label"] in page and "Training coverage" in page
+    assert all(line.split(":")[0] in page for line in comparison["reasons"])
 
 
 def test_calibrate_auto_refuses_a_method_option_with_one_line(measurement_file, tmp_path):
