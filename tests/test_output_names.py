@@ -36,6 +36,14 @@ ROWS = [
     (["simulate", "ur5", "--seed", HUGE, "--out", "s.csv"], "--seed must be a whole number"),
     (["validate", "ur5", "meas.csv", "--folds", HUGE], "--folds must be a whole number"),
     (["validate", "ur5", "meas.csv", "--sizes", f"10,{HUGE}"], "--sizes must be"),
+    # compare, auto and frames, new in issue 15
+    (["compare", "ur5", "meas.csv"], "measure more poses"),
+    (["compare", "ur5", "meas.csv", "--folds", "1"], "--folds must be"),
+    (["calibrate", "ur5", "meas.csv", "--method", "auto", "--parameters", "full", "--out", "a.json"],
+     "--method auto chooses"),
+    (["calibrate", "model.json", "meas.csv", "--method", "frames", "--loss", "huber", "--out", "f.json"],
+     "leave out --loss"),
+    (["calibrate", "ur5", "meas.csv", "--parameters", "frames", "--out", "f.json"], "give --method frames"),
 ]
 
 

@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from robocal.interfaces.cli import app
 from robocal.io.library import builtin
-from robocal.io.tables import Measurements, write_measurements
+from robocal.io.tables import write_measurements
 from robocal.simulation import make_true_robot, uniform_joints
 
 runner = CliRunner()

@@ -369,14 +369,20 @@ class Comparison:
     notes: list = field(default_factory=list)
     seconds: dict = field(default_factory=dict)
 
+    def _method_of(self, label):
+        """The method and settings of a compared model ({} for the registered nominal)."""
+        for candidate in self.candidates:
+            if candidate.label == label:
+                return {"method": candidate.method, "settings": candidate.settings}
+        return {}
+
     def to_dict(self):
         return {"file": self.file, "poses": self.poses,
                 "splits": [{"name": s.name, "kind": s.kind, "folds": list(s.fold_names)} for s in self.splits],
-                "models": [{"label": label, **({"method": c.method, "settings": c.settings} if c else {}),
+                "models": [{"label": label, **self._method_of(label),
                             "scores": {name: score.to_dict() for name, score in by_split.items()},
                             "seconds": self.seconds.get(label)}
-                           for label, by_split in self.scores.items()
-                           for c in [next((c for c in self.candidates if c.label == label), None)]],
+                           for label, by_split in self.scores.items()],
                 "recommended": {"label": self.recommended.label, "method": self.recommended.method,
                                 "settings": self.recommended.settings},
                 "reasons": self.reasons, "dropped": self.dropped, "notes": self.notes}
@@ -469,12 +475,6 @@ def compare(chain, observations, *, folds=FOLDS, seed=0, network=None, on_fit=No
     chosen, reasons, dropped = recommend(scores, candidate_list, split_list)
     return Comparison(observations.n_poses, observations.path, split_list, scores, candidate_list, chosen, reasons,
                       dropped, notes, seconds)
-
-
-def fit_count(chain, observations, *, folds=FOLDS, seed=0, network=None):
-    """How many fits :func:`compare` makes on ``observations`` (for a progress bar)."""
-    split_list, _ = splits(chain, observations, folds=folds, seed=seed)
-    return (len(candidates(observations, network=network, folds=folds)[0]) + 1) * sum(len(s.tests) for s in split_list)
 
 
 def choose(chain, observations, *, folds=FOLDS, seed=0, network=None, on_fit=None, progress=None):
