@@ -98,6 +98,15 @@ def load_fitted(model_path, robot=None):
 NO_DOMAIN = "this model file records no domain of validity"
 
 
+def _answered(fitted, check):
+    """The domain check's summary, saying what answered outside when the model falls back
+    to another there (calibrate --method auto, robocal.methods.fallback)."""
+    label = getattr(fitted.compensator_, "label", None)
+    if label is None or not check.n_outside:
+        return check.summary
+    return f"{check.summary}; those outside were answered by {label}"
+
+
 def _uncertainty(fitted, joints, known):
     """The error model's predicted standard deviation (N,) mm where ``known`` (NaN elsewhere),
     or None for a method without one."""
@@ -128,7 +137,7 @@ def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False):
     q = observations.joints
     check = fitted.domain_.check(q, observations.positions, observations.placement,
                                  _uncertainty(fitted, q, np.ones(len(q), dtype=bool)), what="poses")
-    result = {**head, **scores, "outside_domain": check.n_outside, "domain_summary": check.summary}
+    result = {**head, **scores, "outside_domain": check.n_outside, "domain_summary": _answered(fitted, check)}
     if after is not None:
         result.update(in_domain=error_stats(after[check.inside]), out_of_domain=error_stats(after[~check.inside]))
     return result
@@ -158,7 +167,7 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
         check = fitted.domain_.check(q, targets.poses[:, :3, 3], uncertainty=sigma)
         extra["in_domain"] = [("1" if inside else "0") if ok else "" for inside, ok in zip(check.inside, reached)]
         extra["domain_note"] = list(check.reasons)
-        outside, summary = check.n_outside, check.summary
+        outside, summary = check.n_outside, _answered(fitted, check)
     if sigma is not None:
         extra["uncertainty_mm"] = [f"{s:.4f}" if ok else "" for s, ok in zip(sigma, reached)]
     write_joint_commands(out, model.kinematics, result.q, result.corrected, reached, extra=extra)

@@ -1,6 +1,6 @@
 """Model files: one versioned JSON document per calibrated model.
 
-Layout (schema 1)::
+Layout (schema 1; schema 2 when it has ``outside_domain``)::
 
     {"schema": "robocal.model", "schema_version": 1, "software_version": "...",
      "created": "2026-11-22T04:30:00Z", "method": "kriging",
@@ -11,7 +11,13 @@ Layout (schema 1)::
      "error_model": {...} or null,          # e.g. Kriging.to_dict()
      "training": {...}, "options": {...},
      "domain": {...} or absent,             # the training data's domain of validity (deg, mm)
+     "outside_domain": {...} or absent,     # schema 2: what answers beyond the domain
      "checksum": "sha256 of everything above"}
+
+``outside_domain`` (``calibrate --method auto``, :mod:`robocal.methods.fallback`) holds a
+parametric calibration — ``label``, ``kinematics``, ``reference`` and ``joint_compliance``
+as above — that answers for configurations outside the domain.  A file that has it is
+written as schema 2, so that a robocal that would ignore it refuses the file instead.
 
 Robot documents are the robot-TOML structure (mm, deg) as JSON.  Loading validates all of it
 and refuses, with a message, a file of another robot, a newer schema, or one that was edited
@@ -31,7 +37,9 @@ from ..kinematics.compliant import CompliantChain
 
 
 SCHEMA = "robocal.model"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+# Files without an outside_domain entry are written as schema 1, readable by older robocal.
+PLAIN_SCHEMA_VERSION = 1
 
 
 def robot_hash(chain):
@@ -58,13 +66,15 @@ class ModelFile:
     # The domain of validity (robocal.methods.domain.Domain.to_dict: deg, mm); None in files
     # written before robocal recorded it.
     domain: dict | None = None
+    # What answers beyond the domain: (label, kinematics Chain, reference Chain), or None.
+    outside: tuple | None = None
     created: str = ""
     software_version: str = __version__
 
     def to_document(self):
         doc = {
             "schema": SCHEMA,
-            "schema_version": SCHEMA_VERSION,
+            "schema_version": PLAIN_SCHEMA_VERSION if self.outside is None else SCHEMA_VERSION,
             "software_version": self.software_version,
             "created": self.created or _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
             "method": self.method,
@@ -80,6 +90,12 @@ class ModelFile:
             doc["joint_compliance"] = self.kinematics.compliance_document()
         if self.domain is not None:
             doc["domain"] = self.domain
+        if self.outside is not None:
+            label, chain, reference = self.outside
+            doc["outside_domain"] = {"label": label, "kinematics": chain_to_dict(chain),
+                                     "reference": chain_to_dict(reference)}
+            if isinstance(chain, CompliantChain):
+                doc["outside_domain"]["joint_compliance"] = chain.compliance_document()
         doc["checksum"] = hashlib.sha256(_canonical(doc).encode()).hexdigest()
         return doc
 
@@ -151,8 +167,21 @@ def load_model(path, robot=None) -> ModelFile:
     domain = doc.get("domain")
     if domain is not None and not isinstance(domain, dict):
         raise FileFormatError(f"{path}: 'domain' has the wrong type; regenerate the file")
+    outside = None
+    if "outside_domain" in doc:
+        entry = _require(doc, "outside_domain", dict, path)
+        where = "'outside_domain'"
+        label = _require(entry, "label", str, path, where)
+        chain = chain_from_dict(_require(entry, "kinematics", dict, path, where), f"{path} (outside_domain)")
+        outside_reference = chain_from_dict(_require(entry, "reference", dict, path, where),
+                                            f"{path} (outside_domain reference)")
+        if "joint_compliance" in entry:
+            chain = CompliantChain.from_document(chain, _require(entry, "joint_compliance", dict, path, where), path)
+        if chain.n_joints != nominal.n_joints:
+            raise FileFormatError(f"{path}: the kinematics outside the domain and the robot have different joint counts")
+        outside = (label, chain, outside_reference)
     return ModelFile(
         method=method, nominal=nominal, kinematics=kinematics, error_model=error_model, reference=reference,
-        training=doc.get("training") or {}, options=doc.get("options") or {}, domain=domain,
+        training=doc.get("training") or {}, options=doc.get("options") or {}, domain=domain, outside=outside,
         created=doc.get("created", ""), software_version=doc.get("software_version", ""),
     )

@@ -28,6 +28,7 @@ from ..errors import FileFormatError, InputError
 from ..estimation.calibration import PARAMETER_SETS, check_payload, parameter_terms
 from ..io.model_file import ModelFile
 from .domain import Domain
+from .fallback import DomainFallback, from_fallback_document
 from .records import FitRecord
 from .reregistration import ReframedErrorModel, is_reframed, reframed_document, reframed_from_document
 
@@ -137,11 +138,16 @@ class Method:
         """The fitted method as a :class:`ModelFile` of robot ``nominal``; ``training`` adds
         entries about the data (file, number of poses) to the record."""
         self._check_fitted()
+        compensator = self.compensator_
+        outside = None
+        if isinstance(compensator, DomainFallback):
+            outside = (compensator.label, compensator.outside.chain, compensator.outside.reference)
+            compensator = compensator.inside
         # A re-registered error model is written as the method writes its own, wrapped with
         # the frame it was moved by (robocal.methods.reregistration).
-        document = (reframed_document(self) if isinstance(self.compensator_.error_model, ReframedErrorModel)
+        document = (reframed_document(self) if isinstance(compensator.error_model, ReframedErrorModel)
                     else self.error_model_document())
-        return ModelFile(method=self.name, nominal=nominal, kinematics=self.compensator_.chain,
+        return ModelFile(method=self.name, nominal=nominal, kinematics=compensator.chain, outside=outside,
                          reference=self.reference_, error_model=document,
                          training={**(training or {}), **self.record_.to_dict()}, options=self.get_settings(),
                          domain=None if getattr(self, "domain_", None) is None else self.domain_.to_dict())
@@ -168,6 +174,8 @@ class Method:
         method.record_ = FitRecord.from_dict(model.training)
         # Files written before the domain was recorded have none: the verbs say so.
         method.domain_ = None if model.domain is None else Domain.from_dict(model.domain, model.nominal, path)
+        if model.outside is not None:
+            method.compensator_ = from_fallback_document(method.compensator_, model.outside, method.domain_, path)
         return method
 
     # ------------------------------------------------------------------ report

@@ -470,6 +470,10 @@ def _check_model(fitted, robot):
     if getattr(fitted, "data_kind", "position") != "position":
         raise InputError(f"a {fitted.name} model is calibrated from ball-in-socket data, which have no measurement "
                          "frame to move: re-registration is for models of measured TCP positions")
+    if hasattr(compensator, "outside"):  # a DomainFallback (robocal.methods.fallback)
+        raise InputError(f"this model (calibrate --method auto) answers with {compensator.label} outside its training "
+                         "domain, and re-registering such a pair is not supported yet: calibrate --method auto again "
+                         "on the new set-up's data, or re-register a model of one method")
     controller = compensator.controller if compensator.controller is not None else compensator.nominal
     if robot is not None and controller is not None and robot_hash(robot) != robot_hash(controller):
         raise InputError(f"the model belongs to robot '{controller.name}' (hash {robot_hash(controller)}), the data "

@@ -19,6 +19,10 @@ fold to fold, and no worse on the random split; of the richer models that are, t
 the lowest held-out region error is taken.  A residual model (hybrid, network) that does
 not beat its own base model on the region split is dropped, with a line that says so.
 
+Beyond the training data no split can judge a model; there ``calibrate --method auto``
+answers with the kinematic calibration without joint gains (:func:`outside_choice`,
+:mod:`robocal.methods.fallback`), target by target.
+
 Scores are of the position error |measured - predicted| (mm) on held-out poses; on
 ball-in-socket data, the socket consistency on the placement left out.  The registered
 nominal robot, scored the same way, is the baseline of every table.
@@ -36,6 +40,7 @@ from ..estimation.constraint import socket_deviations
 from ..estimation.metrics import error_stats
 from . import make_method
 from .frames import registered_nominal
+from .fallback import wrap
 
 # The parameter sets compared, simplest first (the order of the conservative rule).
 PARAMETER_SETS = ("full", "full+gains", "full+compliance", "full+compliance+gains")
@@ -368,6 +373,8 @@ class Comparison:
     dropped: list = field(default_factory=list)
     notes: list = field(default_factory=list)
     seconds: dict = field(default_factory=dict)
+    # What answers outside the training domain (a Candidate, :func:`outside_choice`), or None.
+    outside: Candidate | None = None
 
     def _method_of(self, label):
         """The method and settings of a compared model ({} for the registered nominal)."""
@@ -385,6 +392,8 @@ class Comparison:
                            for label, by_split in self.scores.items()],
                 "recommended": {"label": self.recommended.label, "method": self.recommended.method,
                                 "settings": self.recommended.settings},
+                "outside_domain": None if self.outside is None else {
+                    "label": self.outside.label, "method": self.outside.method, "settings": self.outside.settings},
                 "reasons": self.reasons, "dropped": self.dropped, "notes": self.notes}
 
 
@@ -450,6 +459,33 @@ def recommend(comparison_scores, candidate_list, split_list):
     return by_label[chosen.label], reasons, dropped
 
 
+def outside_choice(comparison_scores, candidate_list, split_list, recommended):
+    """(Candidate or None, reason): what answers for configurations outside the training
+    domain (see :mod:`robocal.methods.fallback` for why): the kinematic calibration without
+    joint gains — with joint compliance, which models gravity wherever the arm goes, unless
+    the held-out regions show it worse than the rigid one by more than the fold-to-fold
+    spread of the difference.  None when there is no kinematic candidate (ball-in-socket
+    data) or when it is the recommended model itself."""
+    kinematic = {c.settings.get("parameters"): c for c in candidate_list if c.method == "kinematic"}
+    rigid, compliant = kinematic.get("full"), kinematic.get("full+compliance")
+    if rigid is None and compliant is None:
+        return None, None
+    regions = [s for s in split_list if s.kind == "region"]
+    chosen, why = rigid or compliant, "the rigid kinematic calibration"
+    if rigid is not None and compliant is not None:
+        gain, spread = _gain(comparison_scores, compliant.label, rigid.label, regions)
+        if -gain > spread:
+            why = (f"{compliant.label} is worse than {rigid.label} on the held-out regions by {-gain:.4f} mm, more "
+                   f"than the fold-to-fold spread ({spread:.4f} mm)")
+        else:
+            chosen, why = compliant, "joint compliance models gravity on every branch"
+    if chosen.label == recommended.label:
+        return None, None
+    return chosen, (f"outside the training domain (another arm branch, a joint beyond its measured range) it "
+                    f"answers with {chosen.label}: error models know nothing there and joint gains extrapolate; "
+                    f"{why}")
+
+
 def compare(chain, observations, *, folds=FOLDS, seed=0, network=None, on_fit=None, only=None):
     """Score every :func:`candidates` model (``only``: a list of labels to keep) on every
     :func:`splits` split of ``observations`` of ``chain``, beside the registered nominal, and
@@ -473,13 +509,20 @@ def compare(chain, observations, *, folds=FOLDS, seed=0, network=None, on_fit=No
                                    for split in split_list}
         seconds[candidate.label] = time.perf_counter() - start
     chosen, reasons, dropped = recommend(scores, candidate_list, split_list)
+    outside, why = outside_choice(scores, candidate_list, split_list, chosen)
+    if why:
+        reasons.append(why)
     return Comparison(observations.n_poses, observations.path, split_list, scores, candidate_list, chosen, reasons,
-                      dropped, notes, seconds)
+                      dropped, notes, seconds, outside)
 
 
 def choose(chain, observations, *, folds=FOLDS, seed=0, network=None, on_fit=None, progress=None):
     """``calibrate --method auto``: :func:`compare`, then the recommended method fitted on all
-    of ``observations``.  Returns (fitted method, :class:`Comparison`)."""
+    of ``observations``, answering with the :func:`outside_choice` model (fitted on all of
+    them too) outside its training domain (:mod:`robocal.methods.fallback`).  Returns (fitted method, :class:`Comparison`)."""
     comparison = compare(chain, observations, folds=folds, seed=seed, network=network, on_fit=on_fit)
     fitted = comparison.recommended.unfitted().fit(chain, observations, progress=progress)
+    if comparison.outside is not None:
+        fallback = comparison.outside.unfitted().fit(chain, observations)
+        wrap(fitted, fallback, comparison.outside.label)
     return fitted, comparison
