@@ -903,6 +903,54 @@ def demo(as_json: bool = typer.Option(False, "--json", help="Print one JSON obje
             out.print(renderable)
 
 
+@command()
+@user_errors
+def fleet(
+    fleet_file: str = typer.Argument(..., help="Fleet file (TOML): one [[robot]] table per robot with name, robot, train, and optionally test, method, fixture, options (calibrate's options); paths relative to it."),
+    out_dir: str = typer.Option(..., "--out", metavar="<DIR>", help="Folder to write: DIR/<name>/model.json and report.html per robot, DIR/summary.csv and DIR/summary.html (created if missing)."),
+    scheduler: str = typer.Option(None, metavar="<tcp://HOST:PORT>", help="A running Dask scheduler to use (its workers must see the files at the same paths); default: a local cluster on 127.0.0.1."),
+    jobs: int = typer.Option(None, help="Workers of the local cluster (default: one per CPU core).", **_number(whole=True, at_least=1, at_most=1024)),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+):
+    """Calibrate, evaluate and report every robot of a fleet, in parallel on Dask.
+
+    For each robot: calibrate on train, evaluate on test when given, write the report.  A
+    mistake in the fleet file stops everything before any work starts; a robot whose data
+    are bad fails alone (the summary says why) and the exit status is then 1.  Needs Dask:
+    pip install 'robocal[fleet]'.
+
+    Example: robocal fleet fleet.toml --out results --jobs 2
+    """
+    from .fleet import OK, SUMMARY_COLUMNS, default_workers, fleet_job
+    from .progress import progress
+
+    if jobs is None and scheduler is None:
+        jobs = default_workers()
+    with progress("robots", None, enabled=not as_json) as advance:
+        result = fleet_job(fleet_file, out_dir, jobs=jobs, scheduler=scheduler,
+                           on_robot=lambda row, done, total: advance(robots=f"{done} of {total}",
+                                                                     last=f"{row['name']} {row['status']}"))
+    if as_json:
+        print(json.dumps(result, indent=2))
+    else:
+        columns = [c for c in SUMMARY_COLUMNS if c != "message"]
+        table = Table(title=f"fleet of {len(result['robots'])} robots on {result['ran_on']} (mm)")
+        for column in columns:
+            table.add_column(column, justify="right" if column.endswith(("_mm", "train", "test")) else "left")
+        for row in result["robots"]:
+            table.add_row(*[_cell(row[c]) if row[c] is not None else "" for c in columns],
+                          style=None if row["status"] == OK else "red")
+        out.print(table)
+        for row in result["robots"]:
+            if row["message"]:
+                out.print(Text(f"{row['name']}: {row['message']}", style="" if row["status"] == OK else "red"))
+        out.print(f"-> {result['summary_csv']}, {result['summary_html']}")
+    if result["failed"]:
+        _say("error", "red", f"{result['failed']} of {len(result['robots'])} robots failed: the message column of "
+                             f"{result['summary_csv']} says why")
+        raise typer.Exit(1)
+
+
 def main():
     """Console entry point."""
     warnings.showwarning = _show_warning

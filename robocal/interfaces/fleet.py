@@ -1,0 +1,433 @@
+"""robocal fleet: calibrate, evaluate and report many robots, one task per robot on Dask.
+
+A fleet file (TOML) lists the robots, paths relative to it::
+
+    [[robot]]
+    name = "line1-r01"              # names the folder DIR/line1-r01: letters, digits, . _ -
+    robot = "ur5"                   # a built-in name, or a robot .toml / .urdf file
+    train = "r01/train.csv"         # measurements to calibrate on
+    test = "r01/test.csv"           # optional: held-out measurements to evaluate on
+    method = "auto"                 # optional: any method, or auto (default kinematic)
+    fixture = "plate.toml"          # optional: ball-in-socket data
+    options = { parameters = "full+gains", seed = 3 }   # optional: calibrate's options
+
+The whole file is checked before any work is submitted: a mistake in it (an unknown key, a
+missing name, robot or train, two robots of one name, a name that is not a plain file name,
+an option calibrate does not have or a value it refuses) is one line and nothing runs.  What
+can only be found by reading a robot's data (a missing or damaged file, too few poses) fails
+that robot alone: its line in the summary says why, and the others finish.
+
+Each robot is one task (:func:`run_robot`): ``calibrate_job``, ``evaluate_job`` on the test
+file, ``report_job``, exactly as ``robocal calibrate``, ``evaluate`` and ``report`` run them.
+Only plain data travel: the task is a dict of names and paths, and its result a dict of
+numbers and text; the worker writes the model file (JSON) and the report into the robot's own
+folder, so workers of a cluster given by address must see the fleet's files and DIR at the
+same paths (one machine, or a shared file system).  The model file is written under a
+temporary name and takes its final name only once the evaluation has succeeded, so that a
+robot whose test file is bad leaves the files of an earlier run as they were.
+"""
+from __future__ import annotations
+
+import contextlib
+import csv
+import html
+import io
+import os
+import re
+import secrets
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .. import parallel
+from ..errors import FileFormatError, InputError, RobocalError, RobocalWarning
+from ..io.atomic import write_text_atomic
+from ..methods import DEFAULT_METHOD, make_method
+from ..methods.reregistration import PARAMETER_CHOICES as FRAME_PARAMETERS
+from .jobs import AUTO, FRAMES, calibrate_job, evaluate_job
+
+MODEL_FILE = "model.json"
+REPORT_FILE = "report.html"
+SUMMARY_CSV = "summary.csv"
+SUMMARY_HTML = "summary.html"
+SUMMARY_COLUMNS = ("name", "status", "method", "n_train", "n_test", "mean_mm", "max_mm", "message")
+OK, FAILED = "ok", "failed"
+
+# The keys of a [[robot]] table; the first three are required.
+REQUIRED_KEYS = ("name", "robot", "train")
+OPTIONAL_KEYS = ("test", "method", "fixture", "options")
+# calibrate's parameters that a robot's options do not take: its files and its method have
+# keys of their own, and the fleet decides what is written and printed.
+NOT_OPTIONS = ("robot", "measurements", "out_file", "method", "fixture", "as_json", "debug")
+# calibrate's options that go to calibrate_job itself; the others are the method's settings.
+JOB_OPTIONS = ("root", "tip", "beyond_limits")
+# A robot's name names its folder: a plain file name, nothing a file system reads as a path.
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}\Z")
+ROBOT_FILE_SUFFIXES = (".toml", ".urdf")
+
+
+@dataclass(frozen=True)
+class FleetRobot:
+    """One [[robot]] table, checked: paths absolute, the method's ``settings`` as its
+    keywords, ``job_options`` (root, tip, beyond_limits) as calibrate_job's."""
+
+    name: str
+    robot: str
+    train: str
+    test: str | None
+    method: str
+    fixture: str | None
+    settings: dict = field(default_factory=dict)
+    job_options: dict = field(default_factory=dict)
+
+    def task(self, folder):
+        """What the worker gets (:func:`run_robot`): plain data only."""
+        return {"name": self.name, "robot": self.robot, "train": self.train, "test": self.test,
+                "method": self.method, "fixture": self.fixture, "settings": dict(self.settings),
+                "folder": str(folder), **self.job_options}
+
+
+# --------------------------------------------------------------------------- the fleet file
+def read_fleet(path):
+    """The robots of a fleet file, every one checked (see the module docstring); InputError
+    or FileFormatError in one line, naming the file, the robot and what to do."""
+    from ..io.robot_file import tomllib  # the same parser the robot files are read with
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileFormatError(f"{path} does not exist: give the fleet file (TOML, one [[robot]] table per robot)")
+    try:
+        document = tomllib.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError:
+        raise FileFormatError(f"{path} is not a text file: give the fleet file (TOML)") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise FileFormatError(f"{path} is not valid TOML ({exc}): fix that line") from None
+    unknown = sorted(set(document) - {"robot"})
+    if unknown:
+        raise InputError(f"{path}: unknown key {unknown[0]!r} at the top: a fleet file holds [[robot]] tables only")
+    tables = document.get("robot")
+    if not tables:
+        raise InputError(f"{path} lists no robots: add a [[robot]] table with name, robot and train for each")
+    if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
+        raise InputError(f"{path}: 'robot' must be [[robot]] tables (double brackets), one per robot")
+    folder = path.resolve().parent
+    robots = [_robot(table, k + 1, path, folder) for k, table in enumerate(tables)]
+    seen = {}
+    for k, robot in enumerate(robots):
+        other = seen.setdefault(robot.name.lower(), k)
+        if other != k:
+            raise InputError(f"{path}: robots {other + 1} and {k + 1} are both named {robots[other].name!r}"
+                             f"{'' if robots[other].name == robot.name else f' / {robot.name!r}'}: give each robot "
+                             "its own name (it names the robot's folder)")
+    return robots
+
+
+def _robot(table, number, path, folder):
+    """One [[robot]] table -> FleetRobot, or a one-line refusal."""
+    raw_name = table.get("name")
+    where = f"{path}: robot {number}" + (f" ({raw_name})" if isinstance(raw_name, str) and raw_name else "")
+    unknown = sorted(set(table) - set(REQUIRED_KEYS) - set(OPTIONAL_KEYS))
+    if unknown:
+        raise InputError(f"{where}: unknown key {unknown[0]!r}; a [[robot]] table takes "
+                         f"{', '.join(REQUIRED_KEYS + OPTIONAL_KEYS)} (calibrate's options go in options = {{...}})")
+    for key in REQUIRED_KEYS:
+        if key not in table:
+            raise InputError(f"{where}: no {key}; every [[robot]] needs name, robot (a built-in name or a robot "
+                             "file) and train (its measurement CSV)")
+    for key in REQUIRED_KEYS + ("test", "method", "fixture"):
+        if key in table and (not isinstance(table[key], str) or not table[key].strip()):
+            raise InputError(f"{where}: {key} must be a non-empty text in quotes, got {table[key]!r}")
+    name = table["name"]
+    if not NAME.match(name) or name.lower() in (SUMMARY_CSV, SUMMARY_HTML):
+        raise InputError(f"{where}: name {name!r} is not a plain file name (it names the robot's folder in the "
+                         "output): use letters, digits, '.', '_' and '-', starting with a letter or digit, and not "
+                         f"{SUMMARY_CSV} or {SUMMARY_HTML}, e.g. 'line1-r07'")
+    options = table.get("options", {})
+    if not isinstance(options, dict):
+        raise InputError(f"{where}: options must be a table of calibrate's options, e.g. "
+                         "options = { parameters = \"full+gains\", seed = 3 }")
+    method, settings, job_options = _calibrate_options(table.get("method", DEFAULT_METHOD), options, where)
+    robot = table["robot"]
+    if Path(robot).suffix.lower() in ROBOT_FILE_SUFFIXES:
+        robot = _resolved(folder, robot)
+    else:
+        from ..io.library import builtin_names
+
+        if robot not in builtin_names():
+            raise InputError(f"{where}: robot {robot!r} is neither a built-in robot ({', '.join(builtin_names())}) "
+                             "nor a robot file (.toml or .urdf)")
+    optional = {key: _resolved(folder, table[key]) if key in table else None for key in ("test", "fixture")}
+    return FleetRobot(name=name, robot=robot, train=_resolved(folder, table["train"]), method=method,
+                      settings=settings, job_options=job_options, **optional)
+
+
+def _resolved(folder, given):
+    """A path of the fleet file, relative to its folder, made absolute (for every worker)."""
+    return os.path.abspath(folder / Path(given).expanduser())
+
+
+def _calibrate_command():
+    """The ``calibrate`` command as the command line defines it (its options and parsers)."""
+    import typer.main
+
+    from .cli import app
+
+    return typer.main.get_command(app).commands["calibrate"]
+
+
+def _calibrate_options(method, options, where):
+    """(method, settings, job options) from a robot's method and options, parsed by calibrate's
+    own command-line parsers, so that they mean and refuse exactly what calibrate's do."""
+    from .cli import UsageError, _method_settings
+
+    command = _calibrate_command()
+    params = {opt[2:]: param for param in command.params if param.name not in NOT_OPTIONS
+              for opt in param.opts if opt.startswith("--")}
+    argv = ["ROBOT", "TRAIN.csv", "--out", MODEL_FILE, f"--method={method}"]
+    keys = {"method": "method"}  # a parameter's name -> the key the fleet file gives it under
+    for key, value in options.items():
+        option = key.replace("_", "-")
+        param = params.get(option)
+        keys[getattr(param, "name", None)] = f"options.{key}"
+        if param is None:
+            raise InputError(f"{where}: calibrate has no option --{option}; options takes {', '.join(sorted(params))} "
+                             "('robocal calibrate --help' says what each does)")
+        if getattr(param, "is_flag", False):
+            if not isinstance(value, bool):
+                raise InputError(f"{where}: options.{key} is on or off: write {key} = true or {key} = false")
+            argv += [f"--{option}"] if value else []
+        elif isinstance(value, (str, int, float)) and not isinstance(value, bool):
+            argv.append(f"--{option}={value}")
+        elif isinstance(value, list) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+            argv.append(f"--{option}={','.join(map(str, value))}")
+        else:
+            raise InputError(f"{where}: options.{key} must be a text, a number or a list of numbers, got {value!r}")
+    try:
+        parsed = command.make_context("calibrate", argv).params
+    except UsageError as exc:
+        label = keys.get(getattr(getattr(exc, "param", None), "name", None), "options")
+        message = getattr(exc, "message", None) or exc.format_message()
+        raise InputError(f"{where}: {label} {message.rstrip('.')}") from None
+    method = parsed["method"]
+    if method == FRAMES or parsed.get("parameters") in FRAME_PARAMETERS:
+        raise InputError(f"{where}: a fleet calibrates from robot files; re-registering a model file (method "
+                         f"{FRAMES}, parameters {' / '.join(FRAME_PARAMETERS)}) is 'robocal calibrate MODEL.json "
+                         f"NEW.csv --method {FRAMES}'")
+    job_options = {key: parsed[key] for key in JOB_OPTIONS if key in parsed}
+    settings = _method_settings(method, **{key: value for key, value in parsed.items()
+                                           if key not in NOT_OPTIONS and key not in JOB_OPTIONS})
+    if method == AUTO and settings:
+        raise InputError(f"{where}: method auto chooses the method and its settings by comparing them: leave "
+                         f"{', '.join(sorted(settings))} out of options, or name a method")
+    if method != AUTO:
+        try:
+            make_method(method, **settings)
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+    return method, settings, job_options
+
+
+# --------------------------------------------------------------------------- one robot (worker side)
+def run_robot(task):
+    """Calibrate one robot, evaluate it on its test file, write its report: the task of a
+    fleet, run on a worker.  ``task`` is :meth:`FleetRobot.task`; returns its summary row
+    (SUMMARY_COLUMNS, and ``seconds``), with status ``failed`` and why in ``message`` when
+    the robot's files are bad (nothing raised: the other robots go on)."""
+    start = time.perf_counter()
+    folder = Path(task["folder"])
+    model_path, report_path = folder / MODEL_FILE, folder / REPORT_FILE
+    staged = folder / f".{MODEL_FILE}.{secrets.token_hex(4)}.partial"
+    row = failed_row(task)
+    notes, promoted = [], False
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RobocalWarning)
+            calibrated = calibrate_job(task["robot"], task["train"], staged, method=task["method"],
+                                       settings=task["settings"], fixture=task["fixture"], root=task.get("root"),
+                                       tip=task.get("tip"), beyond_limits=task.get("beyond_limits", False))
+            row.update(method=calibrated.method, n_train=calibrated.data["n_poses"])
+            if "comparison" in calibrated.data:
+                notes.append(f"auto chose {calibrated.data['comparison']['recommended']['label']}")
+            if task["test"] is None:
+                stats = calibrated.record.residual_after_training
+                notes.append("no test file: mean and max are on the training poses")
+            else:
+                stats = evaluate_job(staged, task["test"], beyond_limits=task.get("beyond_limits", False))
+                row["n_test"] = stats["n"]
+                if stats.get("outside_domain"):
+                    notes.append(stats["domain_summary"])
+            row.update(mean_mm=stats["mean_mm"], max_mm=stats["max_mm"])
+            os.replace(staged, model_path)
+            promoted = True
+            _report(model_path, task["test"] or task["train"], report_path, task.get("beyond_limits", False))
+        notes += list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, RobocalWarning)))
+        row["status"] = OK
+    except Exception as exc:  # noqa: BLE001 - any failure is this robot's alone
+        notes.insert(0, _failure(exc, promoted))
+        if not promoted and model_path.exists():
+            notes.append(f"{folder} keeps the files of an earlier run")
+    finally:
+        staged.unlink(missing_ok=True)
+    row["message"] = "; ".join(notes)
+    row["seconds"] = time.perf_counter() - start
+    return row
+
+
+def _report(model_path, measurements, out, beyond_limits):
+    """The HTML report of ``robocal report`` (imported here: it draws with matplotlib)."""
+    from .report import report_job
+
+    return report_job(str(model_path), measurements, str(out), beyond_limits=beyond_limits)
+
+
+def _failure(exc, promoted):
+    """A robot's failure in one line."""
+    if isinstance(exc, RobocalError):
+        text = str(exc)
+    elif isinstance(exc, OSError):
+        where = f" {exc.filename}" if exc.filename else ""
+        text = f"cannot use{where}: {exc.strerror or exc}; check the path and its permissions"
+    else:
+        text = (f"internal error ({type(exc).__name__}: {exc}); run 'robocal calibrate' on this robot with --debug "
+                "and report the traceback")
+    return f"the model was written but the report failed: {text}" if promoted else text
+
+
+# --------------------------------------------------------------------------- the fleet (client side)
+def default_workers():
+    """One worker per CPU core this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def fleet_job(fleet_file, out_dir, *, jobs=None, scheduler=None, on_robot=None):
+    """Every robot of ``fleet_file`` (:func:`read_fleet`): its task run on a local Dask cluster
+    of ``jobs`` workers, on the cluster at ``scheduler``, or (neither) on the active
+    :func:`robocal.parallel.executor`, serially outside one.  Writes DIR/<name>/model.json and
+    report.html, DIR/summary.csv and DIR/summary.html; ``on_robot(row, finished, total)`` is
+    called as each robot finishes.  Returns the rows and what was written; ``failed`` counts the failures."""
+    if jobs is not None or scheduler is not None:
+        parallel.require_dask("robocal fleet")
+    robots = read_fleet(fleet_file)
+    out = _output_folder(out_dir)
+    folders = [_robot_folder(out, robot.name) for robot in robots]
+    _check_inputs_are_not_outputs(robots, folders, out, fleet_file)
+    created = [folder for folder in folders if not folder.exists()]
+    for folder in folders:
+        folder.mkdir(exist_ok=True)
+    tasks = [robot.task(folder) for robot, folder in zip(robots, folders)]
+
+    def lost(index, exc):  # the worker died under the robot, or could not run it at all
+        return {**failed_row(tasks[index]), "message": f"its task did not finish: {type(exc).__name__}: {exc}"}
+
+    finished = []
+
+    def done(index, row):
+        finished.append(index)
+        if on_robot is not None:
+            on_robot(row, len(finished), len(tasks))
+
+    try:
+        with parallel.executor(jobs=jobs, scheduler=scheduler) as chosen:
+            rows = chosen.map(run_robot, tasks, on_done=done, on_error=lost)
+            where, workers = chosen.description, chosen.workers
+    finally:
+        for folder in folders:  # what a worker killed in mid-write left
+            for left in folder.glob(f".{MODEL_FILE}.*.partial"):
+                left.unlink(missing_ok=True)
+        for folder in created:  # a robot that failed before writing anything leaves no folder
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+    written = write_summary(out, rows)
+    failed = sum(row["status"] != OK for row in rows)
+    return {"fleet": str(fleet_file), "out": str(out), "ran_on": where, "workers": workers,
+            "robots": rows, "ok": len(rows) - failed, "failed": failed, **written}
+
+
+def failed_row(task):
+    """The summary row of a robot that has not (yet) succeeded."""
+    return {"name": task["name"], "status": FAILED, "method": task["method"], "n_train": None, "n_test": None,
+            "mean_mm": None, "max_mm": None, "message": "", "seconds": None}
+
+
+def _output_folder(out_dir):
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} is a file: give a folder (it is created if missing)")
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def _robot_folder(out, name):
+    """DIR/<name>, refused when something there could lead writes out of DIR."""
+    folder = out / name
+    if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+        raise InputError(f"{folder} is a symbolic link or a file: the fleet writes only into folders of its own "
+                         f"inside {out}; remove it, or rename the robot")
+    if folder.resolve().parent != out.resolve():  # cannot happen with a plain name; kept as the guarantee
+        raise InputError(f"{folder} is not inside {out}: rename the robot")
+    return folder
+
+
+def _check_inputs_are_not_outputs(robots, folders, out, fleet_file):
+    outputs = {Path(p).resolve() for p in (out / SUMMARY_CSV, out / SUMMARY_HTML)}
+    for folder in folders:
+        outputs |= {(folder / MODEL_FILE).resolve(), (folder / REPORT_FILE).resolve()}
+    for robot in robots:
+        for key in ("robot", "train", "test", "fixture"):
+            given = getattr(robot, key)
+            if given is not None and Path(given).resolve() in outputs:
+                raise InputError(f"{fleet_file}: robot {robot.name}: {key} {given} is a file the fleet writes: "
+                                 "move the input, or choose another --out")
+
+
+def write_summary(out, rows):
+    """DIR/summary.csv (SUMMARY_COLUMNS) and DIR/summary.html; returns their paths."""
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(SUMMARY_COLUMNS)
+    for row in rows:
+        writer.writerow([_cell(row[column]) for column in SUMMARY_COLUMNS])
+    csv_path, html_path = out / SUMMARY_CSV, out / SUMMARY_HTML
+    write_text_atomic(csv_path, text.getvalue())
+    write_text_atomic(html_path, summary_html(rows))
+    return {"summary_csv": str(csv_path), "summary_html": str(html_path)}
+
+
+def _cell(value):
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return f"{value:.4f}"
+    return str(value)
+
+
+def summary_html(rows):
+    """The summary as one self-contained page: a row per robot, linking its report and model."""
+    from .. import __version__
+    from .report import STYLE
+
+    failed = sum(row["status"] != OK for row in rows)
+    head = "".join(f"<th>{html.escape(column)}</th>" for column in SUMMARY_COLUMNS)
+    body = []
+    for row in rows:
+        cells = []
+        for column in SUMMARY_COLUMNS:
+            text = html.escape(_cell(row[column]))
+            if column == "name" and row["status"] == OK:
+                folder = html.escape(row["name"], quote=True)
+                text += (f" (<a href=\"{folder}/{REPORT_FILE}\">report</a>, "
+                         f"<a href=\"{folder}/{MODEL_FILE}\">model</a>)")
+            elif column == "status" and row["status"] != OK:
+                text = f"<b style=\"color:#b00\">{text}</b>"
+            numeric = column in ("n_train", "n_test", "mean_mm", "max_mm")
+            cells.append(f"<td class=\"{'num' if numeric else ''}\">{text}</td>")
+        body.append("<tr>" + "".join(cells) + "</tr>")
+    return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>robocal fleet</title><style>{STYLE}"
+            f"</style></head><body><h1>Fleet summary</h1><p class=note>{len(rows)} robots, {len(rows) - failed} ok, "
+            f"{failed} failed; mean and max are the error on the test file (mm), on the training poses where a "
+            f"robot has none. Written by robocal {html.escape(__version__)}.</p>"
+            f"<table><tr>{head}</tr>{''.join(body)}</table></body></html>\n")
