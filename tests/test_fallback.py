@@ -134,6 +134,26 @@ def test_no_fallback_when_it_is_the_chosen_model_or_there_is_no_kinematic_candid
                           constraint) == (None, None)
 
 
+def test_the_rule_judges_the_poses_inside_each_folds_domain():
+    """A fold whose held-out poses all lie outside its training domain (the other arm branch)
+    is where the fallback answers: it does not count against the chosen model."""
+    def score(inside):
+        return Score([0.5] * 5, {"mean_mm": 0.5}, 0.1, list(inside), float(np.nanmean(inside)))
+
+    # All held-out poses: the hybrid fails one region badly.  Inside the domains it is better
+    # on every fold that has any (the failing fold had none inside).
+    rigid = Score(RIGID_REGION, {"mean_mm": float(np.mean(RIGID_REGION))}, 0.1,
+                  [1.00, 1.20, 0.80, 1.10, float("nan")], 1.025)
+    hybrid = Score([0.5, 0.7, 0.3, 0.6, 9.0], {"mean_mm": 2.22}, 0.1, [0.5, 0.7, 0.3, 0.6, float("nan")], 0.525)
+    scores = {RIGID.label: {RANDOM.name: score([0.5] * 5), REGION.name: rigid},
+              "hybrid full": {RANDOM.name: score([0.2] * 5), REGION.name: hybrid}}
+    hybrid_full = Candidate("hybrid full", "hybrid", {"parameters": "full"}, base=RIGID.label)
+    chosen, reasons, _ = selection.recommend(scores, [RIGID, hybrid_full], [RANDOM, REGION])
+    assert chosen is hybrid_full, reasons
+    gain, spread = selection._gain(scores, hybrid_full.label, RIGID.label, [REGION])
+    assert gain == pytest.approx(0.5) and spread == pytest.approx(0.0)
+
+
 # ---------------------------------------------------------------------------- command line
 def test_calibrate_auto_writes_the_fallback_and_evaluate_says_what_answered(tmp_path, monkeypatch):
     chain = load_robot("ur5")

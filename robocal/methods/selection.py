@@ -40,6 +40,7 @@ from ..estimation.constraint import socket_deviations
 from ..estimation.metrics import error_stats
 from . import make_method
 from .frames import registered_nominal
+from .domain import Domain, arm_branches
 from .fallback import wrap
 
 # The parameter sets compared, simplest first (the order of the conservative rule).
@@ -172,8 +173,6 @@ def branch_split(chain, joints):
     """Leave one side of an arm branch (shoulder, elbow or wrist) out, then the other: the
     most balanced choice whose both sides hold BRANCH_MIN_SHARE of the poses; None if none
     does (or the robot has no closed form that defines branches)."""
-    from .domain import arm_branches
-
     found = arm_branches(chain, joints)
     if found is None:
         return None
@@ -241,14 +240,28 @@ def splits(chain, observations, *, folds=FOLDS, seed=0):
 @dataclass
 class Score:
     """A model on a split: the per-fold mean errors (mm), the pooled statistics of every
-    held-out pose (:func:`error_stats`), and the mean fit time (s)."""
+    held-out pose (:func:`error_stats`), and the mean fit time (s); ``inside_fold_means`` and
+    ``inside_mean``: the same means over the held-out poses inside the fold's training domain
+    only (NaN for a fold with none), which is where an auto model answers with this model
+    (outside, its fallback does: :mod:`robocal.methods.fallback`)."""
 
     fold_means: list
     pooled: dict
     fit_seconds: float
+    inside_fold_means: list | None = None
+    inside_mean: float = float("nan")
 
     def to_dict(self):
-        return {"fold_means_mm": self.fold_means, "pooled": self.pooled, "fit_seconds": self.fit_seconds}
+        return {"fold_means_mm": self.fold_means, "pooled": self.pooled, "fit_seconds": self.fit_seconds,
+                "inside_fold_means_mm": [None if not np.isfinite(m) else m for m in self.inside_fold_means or []],
+                "inside_mean_mm": None if not np.isfinite(self.inside_mean) else self.inside_mean}
+
+    def judged(self):
+        """(per-fold means, overall mean) the rule judges: over the poses inside each fold's
+        training domain where the split has any, else over all held-out poses."""
+        if self.inside_fold_means is not None and np.isfinite(self.inside_mean):
+            return np.asarray(self.inside_fold_means, dtype=float), self.inside_mean
+        return np.asarray(self.fold_means, dtype=float), self.pooled["mean_mm"]
 
 
 def _held_out_errors(fitted, observations, test):
@@ -314,6 +327,16 @@ class _Refits:
         self.chain = chain
         self.kinematic = {}  # (parameter set, split, fold) -> fitted KinematicMethod
         self.template = {}  # candidate label -> its first fit
+        self.insides = {}  # (split, fold) -> (len(test),) bool
+
+    def inside(self, observations, train, test, where):
+        """(len(test),) bool: the held-out poses ``test`` inside the domain of the training
+        poses ``train`` (computed once per fold, for every candidate)."""
+        if where not in self.insides:
+            held = observations.subset(test)
+            domain = Domain.of(self.chain, observations.subset(train))
+            self.insides[where] = domain.check(held.joints, held.positions).inside
+        return self.insides[where]
 
     def fit(self, candidate, observations, where):
         if candidate.method == "nominal":
@@ -333,7 +356,7 @@ def score(candidate, observations, split, refits, *, on_fit=None):
     """:class:`Score` of ``candidate`` fitted on each fold's training poses of ``split`` and
     scored on its held-out poses (fits made by ``refits``, a :class:`_Refits`)."""
     n = observations.n_poses
-    errors, fold_means, seconds = [], [], 0.0
+    errors, fold_means, seconds, insides = [], [], 0.0, []
     for fold, test in enumerate(split.tests):
         train = np.setdiff1d(np.arange(n), test)
         # Warnings of a fold's fit or prediction (Kriging extrapolating into the region left
@@ -348,7 +371,12 @@ def score(candidate, observations, split, refits, *, on_fit=None):
             on_fit()
         errors.append(error)
         fold_means.append(float(np.linalg.norm(error, axis=1).mean()))
-    return Score(fold_means, error_stats(np.concatenate(errors)), seconds / len(split.tests))
+        insides.append(refits.inside(observations, train, test, (split.name, fold)))
+    lengths = [np.linalg.norm(e, axis=1) for e in errors]
+    inside_means = [float(d[i].mean()) if i.any() else float("nan") for d, i in zip(lengths, insides)]
+    inside = np.concatenate([d[i] for d, i in zip(lengths, insides)])
+    return Score(fold_means, error_stats(np.concatenate(errors)), seconds / len(split.tests), inside_means,
+                 float(inside.mean()) if inside.size else float("nan"))
 
 
 # ---------------------------------------------------------------------------- the choice
@@ -402,9 +430,12 @@ NOMINAL = "nominal (registered)"
 
 def _gain(scores, better, worse, splits_):
     """Mean and fold-to-fold standard deviation of the per-fold gain (mm) of ``better`` over
-    ``worse`` over the folds of ``splits_`` (paired by fold)."""
-    gain = np.concatenate([np.asarray(scores[worse][s.name].fold_means) - np.asarray(scores[better][s.name].fold_means)
-                           for s in splits_])
+    ``worse`` over the folds of ``splits_`` (paired by fold; :meth:`Score.judged` means, folds
+    with no held-out pose inside their training domain left out)."""
+    gain = np.concatenate([scores[worse][s.name].judged()[0] - scores[better][s.name].judged()[0] for s in splits_])
+    gain = gain[np.isfinite(gain)]
+    if not gain.size:
+        return 0.0, 0.0
     spread = float(gain.std(ddof=1)) if gain.size > 1 else 0.0
     return float(gain.mean()), spread
 
@@ -425,10 +456,10 @@ def recommend(comparison_scores, candidate_list, split_list):
     by_label = {c.label: c for c in candidate_list}
 
     def region(label):
-        return float(np.mean([comparison_scores[label][s.name].pooled["mean_mm"] for s in regions]))
+        return float(np.mean([comparison_scores[label][s.name].judged()[1] for s in regions]))
 
     def at_random(label):
-        return comparison_scores[label][random.name].pooled["mean_mm"]
+        return comparison_scores[label][random.name].judged()[1]
 
     dropped, eligible = [], []
     for candidate in candidate_list:
@@ -445,7 +476,8 @@ def recommend(comparison_scores, candidate_list, split_list):
         if gain > spread and at_random(candidate.label) <= at_random(simplest.label):
             contenders.append((region(candidate.label), candidate, gain, spread))
     reasons = [f"the simplest model, {simplest.label}: {region(simplest.label):.4f} mm held out on {where}, "
-               f"{at_random(simplest.label):.4f} mm on {random.name}"]
+               f"{at_random(simplest.label):.4f} mm on {random.name} (judged on the held-out poses inside each "
+               "fold's training domain, where the chosen model answers)"]
     if not contenders:
         reasons.append(f"no richer model beats it on {where} by more than the fold-to-fold spread of its gain: "
                        "keep it")
