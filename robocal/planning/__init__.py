@@ -1,0 +1,16 @@
+"""Measurement planning: which poses to measure for a calibration (``robocal design``).
+
+Beside the estimators (it imports kinematics and estimation, never methods or interfaces):
+candidates (:mod:`.candidates`), the information one pose gives the parametric calibration
+(:mod:`.information`), design criteria with rank-3 updates (:mod:`.criteria`), greedy
+selection and exchange (:mod:`.exchange`), the measuring order (:mod:`.tour`), the design
+and its predicted result (:mod:`.design`).
+"""
+from .candidates import box_candidates, joint_candidates, usable
+from .criteria import CRITERIA, DEFAULT_CRITERION
+from .design import Design, design_poses
+from .information import information_model
+from .tour import tour
+
+__all__ = ["CRITERIA", "DEFAULT_CRITERION", "Design", "box_candidates", "design_poses", "information_model",
+           "joint_candidates", "tour", "usable"]

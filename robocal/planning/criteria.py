@@ -1,0 +1,193 @@
+"""Design criteria as states that a selection adds poses to and removes poses from, each
+step judged for every candidate at once.
+
+Parametric calibration (:class:`InformationState`): the chosen poses' information matrix
+M = R + sum A_i^T A_i (R a small ridge, plus the poses already measured) and its inverse
+P = M^-1, the covariance of the scaled parameters.  A pose's block A_i is 3 x P, so adding or
+removing one is a rank-3 change, done by the Woodbury identity:
+
+    S = I_3 + s A P A^T,  P' = P - s P A^T S^-1 A P        (s = +1 add, -1 remove)
+    log det M' = log det M + log det S
+    trace(W P') = trace(W P) - s trace(S^-1 A P W P A^T)
+
+which for all N candidates is two (3N x P) @ (P x P) products and a batch of 3 x 3 solves:
+no Python loop over candidates.
+
+* ``prediction`` (I-optimality, the default): minimise trace(W P), the mean squared error
+  of the predicted TCP positions over a set of target configurations, W = mean of
+  J_t^T J_t.  This is the goal of a calibration: the error where the robot will work, not
+  the parameters themselves; it weighs a parameter by how much it moves the TCP at the
+  targets, and a combination the targets never see costs nothing.
+* ``d-optimal``: maximise log det M (FIGAROH's and most of the literature's choice): the
+  volume of the parameters' confidence ellipsoid, with every scaled parameter equally
+  important.  On the KR 150-2 and the UR5 it does no better than random poses at the
+  targets (see bench/design.py).
+
+Residual models (Kriging, hybrid, network) learn a function over the configurations, so
+their design is ``space-filling`` (:class:`SpacingState`): minimise the Morris–Mitchell
+sum of d_ij^-p over the pairs of chosen configurations (p = SPACING_POWER; maximin distance
+as p grows), in joint space scaled to [0, 1] per joint.  Adding or removing a pose changes
+the sum by its own row of distances, so both are exact and vectorised.
+
+Every state exposes ``score`` (larger is better), ``gains_of_adding(mask)`` (N,),
+``gains_of_removing()`` (one per removable chosen pose), ``add(i)`` and ``remove(i)``.
+"""
+import numpy as np
+
+from ..errors import InputError
+
+CRITERIA = ("prediction", "d-optimal", "space-filling")
+DEFAULT_CRITERION = "prediction"
+# The ridge that makes M invertible before the design has P poses, relative to the
+# information of one average pose: small enough to vanish once the parameters are
+# determined (1e-6 of a pose), large enough to keep P finite in double precision.
+RIDGE = 1e-6
+# After this many rank-3 updates P is recomputed from M, so rounding cannot build up.
+REFRESH_EVERY = 25
+# Morris–Mitchell exponent of the space-filling criterion.
+SPACING_POWER = 10
+
+
+def check_criterion(criterion):
+    if criterion not in CRITERIA:
+        raise InputError(f"criterion must be one of {', '.join(CRITERIA)}, got {criterion!r}")
+    return criterion
+
+
+def _woodbury(P, blocks, sign, W=None):
+    """For each block A (K, 3, P): (log det S, trace(S^-1 A P W P A^T) or None, S^-1, A P)."""
+    AP = (blocks.reshape(-1, P.shape[0]) @ P).reshape(blocks.shape)
+    S = np.eye(3) + sign * np.einsum("kip,kjp->kij", AP, blocks)
+    sign_det, logdet = np.linalg.slogdet(S)
+    logdet = np.where(sign_det > 0, logdet, -np.inf)
+    S_inv = np.linalg.inv(S)
+    if W is None:
+        return logdet, None, S_inv, AP
+    APW = (AP.reshape(-1, P.shape[0]) @ W).reshape(blocks.shape)
+    quad = np.einsum("kip,kjp->kij", APW, AP)
+    return logdet, np.einsum("kij,kji->k", S_inv, quad), S_inv, AP
+
+
+class InformationState:
+    """The information of a growing set of poses (see the module notes).
+
+    blocks: (N, 3, P) candidate blocks; start: (P, P) information already there (the ridge
+    and the poses measured before); W: (P, P) target weight for ``prediction``, None for
+    ``d-optimal``.
+    """
+
+    def __init__(self, blocks, start, W=None):
+        self.blocks = blocks
+        self.M = np.array(start, dtype=float)
+        self.W = W
+        self.chosen = []
+        self._refresh()
+
+    def _refresh(self):
+        self.P = np.linalg.inv(self.M)
+        self.P = (self.P + self.P.T) / 2
+        self._updates = 0
+
+    @property
+    def score(self):
+        """log det M (d-optimal) or -trace(W P) (prediction: minus the mean squared error)."""
+        if self.W is None:
+            return float(np.linalg.slogdet(self.M)[1])
+        return -float(np.sum(self.W * self.P))
+
+    def _gains(self, blocks, sign):
+        logdet, trace, _, _ = _woodbury(self.P, blocks, sign, self.W)
+        if self.W is None:
+            return logdet
+        # A removal that leaves M singular (S not positive) costs everything.
+        return np.where(np.isfinite(logdet), sign * trace, -np.inf)
+
+    def gains_of_adding(self, available):
+        """(N,) score gained by adding each candidate (-inf where not ``available``)."""
+        gains = np.full(len(self.blocks), -np.inf)
+        index = np.flatnonzero(available)
+        gains[index] = self._gains(self.blocks[index], +1)
+        return gains
+
+    def gains_of_removing(self):
+        """(k,) score gained (negative: lost) by removing each chosen pose."""
+        return self._gains(self.blocks[self.chosen], -1)
+
+    def _update(self, i, sign):
+        block = self.blocks[i][None]
+        self.M += sign * block[0].T @ block[0]
+        self._updates += 1
+        if self._updates >= REFRESH_EVERY:
+            self._refresh()
+            return
+        _, _, S_inv, AP = _woodbury(self.P, block, sign)
+        self.P -= sign * AP[0].T @ S_inv[0] @ AP[0]
+        self.P = (self.P + self.P.T) / 2
+
+    def add(self, i):
+        self.chosen.append(int(i))
+        self._update(i, +1)
+
+    def remove(self, i):
+        self.chosen.remove(int(i))
+        self._update(i, -1)
+
+
+def information_start(candidate_blocks, before_blocks=None):
+    """The information before the design: the ridge (RIDGE times the information of an
+    average candidate, per parameter) plus that of the poses measured before."""
+    count, _, n_parameters = candidate_blocks.shape
+    typical = float(np.sum(candidate_blocks ** 2) / count / n_parameters)
+    start = RIDGE * typical * np.eye(n_parameters)
+    if before_blocks is not None and len(before_blocks):
+        flat = before_blocks.reshape(-1, n_parameters)
+        start = start + flat.T @ flat
+    return start
+
+
+class SpacingState:
+    """Space filling in scaled joint space (see the module notes).
+
+    points: (N, d) candidates scaled to [0, 1]; before: (k, d) poses measured before (they
+    repel, and are never removed).  The score is minus T, the sum of d^-p over the pairs of
+    chosen poses and over the chosen poses paired with those before.
+    """
+
+    def __init__(self, points, before=None):
+        self.points = points
+        self.chosen = []
+        self.total = 0.0
+        # Each candidate's sum of d^-p to the poses chosen so far and those before (itself
+        # left out).
+        self._near = np.zeros(len(points))
+        if before is not None and len(before):
+            for start in range(0, len(before), 256):
+                self._near += self._repulsion(before[start:start + 256]).sum(axis=0)
+
+    def _repulsion(self, others, own=None):
+        """(k, N) d^-p from each of ``others`` to every candidate (0 at index ``own``)."""
+        d2 = np.sum((others[:, None, :] - self.points[None]) ** 2, axis=2)
+        out = 1.0 / np.maximum(d2, 1e-24) ** (SPACING_POWER / 2)
+        if own is not None:
+            out[0, own] = 0.0
+        return out
+
+    @property
+    def score(self):
+        return -self.total
+
+    def gains_of_adding(self, available):
+        return np.where(available, -self._near, -np.inf)
+
+    def gains_of_removing(self):
+        return self._near[self.chosen].copy()
+
+    def add(self, i):
+        self.total += self._near[i]
+        self._near += self._repulsion(self.points[i][None], own=i)[0]
+        self.chosen.append(int(i))
+
+    def remove(self, i):
+        self.chosen.remove(int(i))
+        self._near -= self._repulsion(self.points[i][None], own=i)[0]
+        self.total -= self._near[i]

@@ -1,0 +1,217 @@
+"""Which poses to measure: :func:`design_poses` chooses ``count`` of the candidate
+configurations for a calibration campaign and predicts what they will give.
+
+The default criterion, ``prediction``, minimises the mean squared error of the calibrated
+TCP position over the target configurations (the candidates themselves unless the user
+names the targets): it aims at what a calibration is for.  ``d-optimal`` (log det of the
+information of the identifiable, scaled parameters) treats every parameter alike; on the
+KR 150-2 and the UR5 it does not beat random poses at the targets.  ``space-filling``
+spreads the poses over configuration space, for residual models (Kriging, hybrid, network)
+that learn the error as a function of the joints.  See :mod:`robocal.planning.criteria`.
+
+Whatever the criterion, the summary is that of the parametric calibration: the predicted
+standard error of each identifiable parameter, O1 and the noise amplification index of the
+chosen poses, and the predicted held-out error propagated from the covariance with the
+stated noise, beside the median of random selections of the same size.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from ..estimation.identifiability import analyse
+from .criteria import (CRITERIA, DEFAULT_CRITERION, InformationState, SpacingState, check_criterion,
+                       information_start)
+from .exchange import select
+from .information import information_model, noise_of
+from .tour import path_length, tour
+
+# The mean of a 3-D isotropic Gaussian error's length over its RMS: sqrt(8 / (3 pi)).
+MEAN_OVER_RMS = float(np.sqrt(8.0 / (3.0 * np.pi)))
+# Random selections the summary compares the design with.
+RANDOM_DRAWS = 20
+# Joints whose motion moves the TCP less than this share of the most moving joint's (over the
+# candidates) are left out of the space-filling distance (the last axis with the TCP on it).
+STILL_JOINT = 1e-3
+# Targets the prediction criterion averages over at most (a fixed subsample beyond).
+MAX_TARGETS = 20_000
+
+
+@dataclass(frozen=True)
+class Design:
+    """A chosen set of poses and what it predicts (JSON-ready through :meth:`to_dict`).
+
+    joints: (count, n) rad, in the order to measure them (a short tour); indices: (count,)
+    their rows among the candidates; criterion; exchanges: exchange steps after the greedy
+    selection; names: the identifiable parameters; std_errors: (P,) predicted standard errors
+    (rad, mm, ...; file_units converts); fixed: {name: reason} for those the candidates
+    cannot determine; noise: (mean) standard deviation of a reading, mm; model_rms: predicted
+    RMS error of the calibrated TCP over the targets (mm, without the reading's own noise);
+    held_out_rms / held_out_mean: the same with the noise of a held-out reading added;
+    random_model_rms: the median of model_rms over random selections of the same size (None
+    when the candidates are too few to draw from); o1, noise_amplification, condition_number:
+    of the chosen poses (with those measured before); tour_length / given_length: the
+    largest-joint motion along the tour and along the order of choice (deg; mm on prismatic
+    joints).
+    """
+
+    joints: np.ndarray
+    indices: np.ndarray
+    criterion: str
+    exchanges: int
+    names: tuple
+    std_errors: np.ndarray
+    file_units: np.ndarray
+    fixed: dict
+    noise: float
+    model_rms: float
+    held_out_rms: float
+    held_out_mean: float
+    random_model_rms: float | None
+    o1: float
+    noise_amplification: float
+    condition_number: float
+    tour_length: float
+    given_length: float
+    n_candidates: int
+    n_existing: int
+
+    def to_dict(self):
+        return {
+            "poses": int(len(self.joints)), "candidates": self.n_candidates, "existing": self.n_existing,
+            "criterion": self.criterion, "exchanges": self.exchanges, "noise_mm": self.noise,
+            "predicted": {"model_rms_mm": self.model_rms, "held_out_rms_mm": self.held_out_rms,
+                          "held_out_mean_mm": self.held_out_mean, "random_model_rms_mm": self.random_model_rms},
+            "o1": self.o1, "noise_amplification": self.noise_amplification,
+            "condition_number": self.condition_number,
+            "std_errors": {n: float(s * f) for n, s, f in zip(self.names, self.std_errors, self.file_units)},
+            "fixed": dict(self.fixed),
+            "tour_deg": self.tour_length, "order_of_choice_deg": self.given_length,
+        }
+
+
+def _check_joints(chain, joints, what):
+    q = chain.joint_batch(joints)
+    if not np.all(np.isfinite(q)):
+        row = int(np.flatnonzero(~np.all(np.isfinite(q), axis=1))[0])
+        raise InputError(f"{what} {row} has NaN or infinite joint values: remove or fix it")
+    return q
+
+
+def target_weight(info, targets=None):
+    """W = mean over the targets of J_t^T J_t (scaled, unweighted), (P, P): the targets'
+    configurations (rad), or the candidates when None."""
+    if targets is None:
+        rows = info.blocks * info.sigma[:, None, None]
+    else:
+        rows = info.rows_of(targets)
+    if len(rows) > MAX_TARGETS:
+        rows = rows[np.random.default_rng(0).choice(len(rows), MAX_TARGETS, replace=False)]
+    flat = rows.reshape(-1, rows.shape[2])
+    return flat.T @ flat / len(rows)
+
+
+def spacing_points(chain, candidates, existing=None):
+    """Candidates (and poses before) scaled to [0, 1] per joint over the candidates' range, the
+    joints that do not move the TCP left out: the space-filling criterion's points."""
+    moving = np.linalg.norm(chain.rigid.jacobian(candidates)[:, :3, :], axis=1).max(axis=0)
+    keep = moving > STILL_JOINT * moving.max()
+    low, high = candidates.min(axis=0), candidates.max(axis=0)
+    span = np.where(high > low, high - low, 1.0)
+
+    def scaled(q):
+        return ((q - low) / span)[:, keep]
+
+    return scaled(candidates), None if existing is None else scaled(existing)
+
+
+def _model_rms(info, W, chosen_blocks, start):
+    flat = chosen_blocks.reshape(-1, info.n_parameters)
+    M = start + flat.T @ flat
+    return float(np.sqrt(max(np.sum(W * np.linalg.inv(M)), 0.0)))
+
+
+def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, parameters="full", noise=0.02,
+                 tracker=None, targets=None, existing=None, payload=None, refine=True, seed=0):
+    """Choose ``count`` of ``candidates`` (N, n) rad to measure for a calibration of
+    ``parameters`` (a parameter set) and predict the result.
+
+    criterion: ``prediction`` (default), ``d-optimal`` or ``space-filling`` (module notes).
+    noise: standard deviation of a position reading per coordinate (mm); say here what the
+    model will not explain (tracker noise plus the robot's unmodelled errors, e.g. an earlier
+    calibration's residual RMS / sqrt(3)) and the predicted errors become held-out figures.
+    tracker: its position (mm, robot base frame) when its noise grows with distance.
+    targets: (T, n) rad, where the robot will work (default: the candidates).  existing:
+    (k, n) rad poses measured before, which the design complements (the tour starts next to
+    the last of them).  refine: exchange after the greedy selection.  seed: the random
+    selections the summary compares with.  Returns a :class:`Design`.
+    """
+    check_criterion(criterion)
+    q = _check_joints(chain, candidates, "candidate")
+    before = None if existing is None or len(existing) == 0 else _check_joints(chain, existing, "measured pose")
+    n_before = 0 if before is None else len(before)
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+        raise InputError(f"the number of poses must be a whole number >= 1, got {count!r}")
+    if count > len(q):
+        raise InputError(f"{count} poses asked for but only {len(q)} candidates: ask for at most {len(q)} poses or "
+                         "give more candidates")
+    info = information_model(chain, q, parameters, noise=noise, tracker=tracker, payload=payload)
+    p = info.n_parameters
+    if 3 * (count + n_before) < p:
+        need = -(-p // 3) - n_before
+        raise InputError(f"{count} poses{f' and {n_before} measured before' if n_before else ''} give "
+                         f"{3 * (count + n_before)} equations for the {p} parameters the calibration identifies: "
+                         f"ask for at least {need} poses (2 to 3 times as many is better), or a smaller parameter set")
+    before_blocks = None if before is None else info.rows_of(before, noise_of(chain, before, noise, tracker))
+    start = information_start(info.blocks, before_blocks)
+    W = target_weight(info, None if targets is None else _check_joints(chain, targets, "target"))
+    if criterion == "space-filling":
+        points, points_before = spacing_points(chain, q, before)
+        state = SpacingState(points, points_before)
+    else:
+        state = InformationState(info.blocks, start, W if criterion == "prediction" else None)
+    chosen, steps = select(state, count, np.ones(len(q), dtype=bool), refine=refine)
+    order = tour(q[chosen], None if before is None else before[-1])
+    chosen_in_order = chosen[order]
+    return _summary(chain, info, q, chosen_in_order, chosen, criterion, steps, W, start, before, before_blocks,
+                    noise, seed)
+
+
+def _summary(chain, info, q, chosen, order_of_choice, criterion, steps, W, start, before, before_blocks, noise, seed):
+    p = info.n_parameters
+    blocks = info.blocks[chosen]
+    if before_blocks is not None:
+        blocks = np.concatenate([before_blocks, blocks])
+    flat = blocks.reshape(-1, p)
+    cov = np.linalg.inv(start + flat.T @ flat)
+    std = np.sqrt(np.clip(np.diag(cov), 0.0, None)) / info.scale
+    report = analyse(info.chain, flat, list(info.names), explain=False)[1]
+    model_rms = float(np.sqrt(max(np.sum(W * cov), 0.0)))
+    mean_sigma = float(np.sqrt(np.mean(info.sigma ** 2)))
+    held_out = float(np.sqrt(model_rms ** 2 + 3 * mean_sigma ** 2))
+    random_rms = None
+    count = len(chosen)
+    if len(q) > count:
+        rng = np.random.default_rng(seed)
+        draws = [_model_rms(info, W, info.blocks[rng.choice(len(q), count, replace=False)], start)
+                 for _ in range(RANDOM_DRAWS)]
+        random_rms = float(np.median(draws))
+    start_pose = None if before is None else before[-1]
+    return Design(
+        joints=q[chosen], indices=chosen, criterion=criterion, exchanges=int(steps), names=info.names,
+        std_errors=std, file_units=info.file_units, fixed=info.fixed, noise=float(np.mean(info.sigma)),
+        model_rms=model_rms, held_out_rms=held_out, held_out_mean=MEAN_OVER_RMS * held_out,
+        random_model_rms=random_rms, o1=report.o1, noise_amplification=report.noise_amplification,
+        condition_number=report.condition_number,
+        tour_length=_degrees(chain, path_length(q[chosen], start=start_pose)),
+        given_length=_degrees(chain, path_length(q[order_of_choice], start=start_pose)),
+        n_candidates=len(q), n_existing=0 if before is None else len(before))
+
+
+def _degrees(chain, length):
+    # The tour is measured in rad on revolute joints (mm on prismatic ones): report degrees
+    # when every joint is revolute.
+    return float(np.degrees(length)) if np.all(chain.revolute) else float(length)
+
+
+__all__ = ["CRITERIA", "Design", "design_poses", "spacing_points", "target_weight"]
