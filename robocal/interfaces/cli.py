@@ -884,6 +884,82 @@ def dataset(
 
 @command()
 @user_errors
+def design(
+    robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
+    n: int = typer.Option(..., "--n", help="Number of poses to measure.", **_number(whole=True, at_least=1, at_most=100_000)),
+    out_file: str = typer.Option(..., "--out", help="Poses CSV to write: pose, q1..qN (deg, the joint columns of a measurement file), x_nominal, y_nominal, z_nominal.", **_output(".csv")),
+    seed: int = typer.Option(0, help="Seed of the candidates drawn (and of the random selections the summary compares with).", **_number(whole=True, at_least=0)),
+    criterion: str = typer.Option("prediction", help="prediction (default: the mean squared error of the calibrated TCP over the targets; what a calibration is for), d-optimal (log det of the parameters' information) or space-filling (spread over configuration space, for the kriging, hybrid and ann residual models).", **_choice(("prediction", "d-optimal", "space-filling"))),
+    parameters: str = typer.Option("full", help="The parameter set the calibration will identify (as calibrate --parameters).", **_choice(PARAMETER_SETS)),
+    candidates: str = typer.Option(None, help="CSV of your own candidate configurations (q1..qN, deg): reachable poses of an offline program, or an earlier campaign's."),
+    pool: int = typer.Option(10_000, help="Candidate configurations to draw (without --candidates).", **_number(whole=True, at_least=10, at_most=1_000_000)),
+    sampling: str = typer.Option("uniform", help="How candidates are drawn in joint space: uniform or lhs (Latin hypercube).", **_choice(("uniform", "lhs"))),
+    box: str = typer.Option(None, help="Restrict the candidates to a Cartesian box of the robot base frame: xmin,xmax,ymin,ymax,zmin,zmax in mm.", **_numbers(count=6)),
+    rpy: str = typer.Option(None, help="With --box: the TCP orientation rx,ry,rz in deg (default 180,0,0).", **_numbers(count=3)),
+    hint: str = typer.Option(None, help="With --box: a posture q1,...,qn in deg whose IK branch every candidate takes.", **_numbers()),
+    tool: str = typer.Option(None, help="The TCP x,y,z in mm in the flange frame, in place of the robot file's tool.", **_numbers(count=3)),
+    margin: float = typer.Option(5.0, help="Degrees the candidates keep from joint limits and singularities.", **_number(at_least=0, at_most=45)),
+    existing: str = typer.Option(None, help="Measurement (or poses) CSV of poses measured before: design the --n poses that best complement them; with x, y, z their calibration's residual sets the noise unless --noise is given."),
+    targets: str = typer.Option(None, help="Where the robot will work: a CSV of configurations (q1..qN, deg) or of targets (x, y, z, rx, ry, rz; mm, deg, robot base frame). Default: the candidates."),
+    noise: float = typer.Option(None, help="Standard deviation of a reading per coordinate in mm (default 0.02): the tracker's noise, plus what the calibration will not explain if you know it (an earlier calibration's residual RMS / 1.73).", **_number(at_least=0, at_most=LARGEST_NOISE_MM)),
+    tracker: str = typer.Option(None, help="The laser tracker's position x,y,z in mm (robot base frame): its noise then grows with distance.", **_numbers(count=3)),
+    payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (as calibrate --payload).", **_number(at_least=0)),
+    tip: str = typer.Option(None, help="URDF only: the tip link."),
+    root: str = typer.Option(None, help="URDF only: the root link."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+):
+    """Choose which poses to measure for a calibration, and predict what they will give.
+
+    From 10,000 candidate configurations (or --candidates), greedy selection and exchange
+    choose --n poses for the criterion, ordered as a short tour in joint space; the summary
+    gives the predicted standard error of every identifiable parameter and the predicted
+    held-out position error, beside random poses of the same number.
+
+    Example: robocal design kr150-2 --n 30 --out poses.csv
+
+    Augment a campaign: robocal design ur5 --n 10 --existing measured.csv --out next.csv
+    """
+    from ..planning.job import design_job
+
+    if noise is not None and noise <= 0:
+        raise InputError(f"--noise is a standard deviation and must be > 0 mm, got {noise}")
+    result = design_job(robot, out_file, n=n, seed=seed, criterion=criterion, parameters=parameters,
+                        candidates=candidates, pool=pool, sampling=sampling, box=box, rpy=rpy, hint=hint, tool=tool,
+                        margin=margin, existing=existing, targets=targets, noise=noise, tracker=tracker,
+                        payload=payload, root=root, tip=tip)
+    if as_json:
+        print(json.dumps(result, indent=2))
+        return
+    predicted = result["predicted"]
+    versus = predicted["random_model_rms_mm"]
+    table = Table(title=f"{result['poses']} poses of {result['candidates']} candidates ({result['criterion']}) -> {out_file}",
+                  show_header=False)
+    for key, value in (("robot", result["robot"]), ("candidates", result["candidates_from"]),
+                       ("targets", result["targets"]), ("measured before", result["existing"]),
+                       ("noise", f"{result['noise_mm']:.4f} mm ({result['noise_from']})"),
+                       ("calibrated TCP error at the targets", f"{predicted['model_rms_mm']:.4f} mm RMS predicted"
+                        + ("" if versus is None else f" (random poses of the same number: {versus:.4f} mm)")),
+                       ("held-out error with a reading's noise", f"mean {predicted['held_out_mean_mm']:.4f} mm, "
+                                                                  f"RMS {predicted['held_out_rms_mm']:.4f} mm predicted"),
+                       ("O1, noise amplification", f"{result['o1']:.4g}, {result['noise_amplification']:.4g}"),
+                       ("condition number", f"{result['condition_number']:.4g}"),
+                       ("tour", f"{result['tour_deg']:.0f} deg of the largest joint's motion "
+                                f"({result['order_of_choice_deg']:.0f} in the order of choice)"),
+                       ("exchanges after the greedy selection", str(result["exchanges"]))):
+        table.add_row(key, str(value))
+    out.print(table)
+    parameters_table = Table(title=f"predicted standard errors ({len(result['std_errors'])} identifiable parameters)")
+    for column in ("parameter", "std. error", "unit"):
+        parameters_table.add_column(column, justify="right")
+    for name, entry in result["std_errors"].items():
+        parameters_table.add_row(name, f"{entry['std_error']:.3g}", entry["unit"])
+    out.print(parameters_table)
+    for name, reason in result["fixed"].items():
+        out.print(f"not identifiable from these candidates, {name}: {reason}")
+
+
+@command()
+@user_errors
 def demo(as_json: bool = typer.Option(False, "--json", help="Print one JSON object instead of tables.")):
     """Run the reference Kriging experiment on built-in data and print what it measured.
 

@@ -44,7 +44,7 @@ class Design:
     joints: (count, n) rad, in the order to measure them (a short tour); indices: (count,)
     their rows among the candidates; criterion; exchanges: exchange steps after the greedy
     selection; names: the identifiable parameters; std_errors: (P,) predicted standard errors
-    (rad, mm, ...; file_units converts); fixed: {name: reason} for those the candidates
+    (rad, mm, ...; file_units converts to units, as files show them); fixed: {name: reason} for those the candidates
     cannot determine; noise: (mean) standard deviation of a reading, mm; model_rms: predicted
     RMS error of the calibrated TCP over the targets (mm, without the reading's own noise);
     held_out_rms / held_out_mean: the same with the noise of a held-out reading added;
@@ -62,6 +62,7 @@ class Design:
     names: tuple
     std_errors: np.ndarray
     file_units: np.ndarray
+    units: tuple
     fixed: dict
     noise: float
     model_rms: float
@@ -84,7 +85,8 @@ class Design:
                           "held_out_mean_mm": self.held_out_mean, "random_model_rms_mm": self.random_model_rms},
             "o1": self.o1, "noise_amplification": self.noise_amplification,
             "condition_number": self.condition_number,
-            "std_errors": {n: float(s * f) for n, s, f in zip(self.names, self.std_errors, self.file_units)},
+            "std_errors": {n: {"std_error": float(s * f), "unit": u}
+                           for n, s, f, u in zip(self.names, self.std_errors, self.file_units, self.units)},
             "fixed": dict(self.fixed),
             "tour_deg": self.tour_length, "order_of_choice_deg": self.given_length,
         }
@@ -199,7 +201,8 @@ def _summary(chain, info, q, chosen, order_of_choice, criterion, steps, W, start
     start_pose = None if before is None else before[-1]
     return Design(
         joints=q[chosen], indices=chosen, criterion=criterion, exchanges=int(steps), names=info.names,
-        std_errors=std, file_units=info.file_units, fixed=info.fixed, noise=float(np.mean(info.sigma)),
+        std_errors=std, file_units=info.file_units, units=tuple(info.chain.parameters[n].file_unit for n in info.names),
+        fixed=info.fixed, noise=float(np.mean(info.sigma)),
         model_rms=model_rms, held_out_rms=held_out, held_out_mean=MEAN_OVER_RMS * held_out,
         random_model_rms=random_rms, o1=report.o1, noise_amplification=report.noise_amplification,
         condition_number=report.condition_number,

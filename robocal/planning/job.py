@@ -1,0 +1,204 @@
+"""What ``robocal design`` does with files: read the robot, the candidates, the poses measured
+before and the targets; draw candidates when none are given; design; write the poses CSV.
+
+The poses CSV is the joint part of a measurement file: ``pose`` (the order to measure in),
+``q1`` … ``qN`` in the controller's degrees (mm for prismatic joints) and ``x_nominal,
+y_nominal, z_nominal``, where the nominal model puts the TCP (mm, robot base frame; a check
+for the operator, which ``calibrate`` ignores).  Add the measured ``x, y, z`` and it is a
+measurement file; ball-in-socket designs also carry ``fixture, socket``.
+"""
+import csv
+import io
+
+import numpy as np
+
+from ..errors import FileFormatError, InputError
+from ..io.atomic import check_outputs, write_text_atomic
+from ..io.library import load_robot
+from ..io.observations import check_robot_in_mm, read_observations, read_target_poses
+from ..kinematics.ik import solve_ik
+from ..spatial import compose_pose, rpy_to_matrix
+from .candidates import DEFAULT_COUNT, MARGIN_DEG, box_candidates, joint_candidates
+from .criteria import DEFAULT_CRITERION
+from .design import design_poses
+
+# Joint values in a file that all lie within this (and spread by at least RADIAN_SPREAD over
+# RADIAN_ROWS rows or more) are radians, not the degrees robocal reads.
+RADIAN_BOUND = 6.3
+RADIAN_SPREAD = 0.5
+RADIAN_ROWS = 5
+# Joint values this far beyond a limit (deg, mm) are refused, as measurement files' are.
+LIMIT_TOLERANCE = 0.5
+# An existing measurement file fitted for its residual needs this many times as many
+# equations as parameters.
+NOISE_FIT_RATIO = 1.5
+
+
+def _table(path):
+    """(header, rows of text) of a CSV file; FileFormatError for an empty one."""
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as handle:
+            text = handle.read()
+    except UnicodeDecodeError:
+        raise FileFormatError(f"{path} is not a text (UTF-8) CSV file") from None
+    first = text.splitlines()[0] if text.strip() else ""
+    delimiter = ";" if first.count(";") > first.count(",") else ","
+    rows = [row for row in csv.reader(io.StringIO(text), delimiter=delimiter) if any(cell.strip() for cell in row)]
+    if not rows:
+        raise FileFormatError(f"{path} is empty: give a CSV with columns q1 ... qN (deg)")
+    return [name.strip() for name in rows[0]], rows[1:]
+
+
+def read_joints(path, chain, what="configurations"):
+    """Joint values of a CSV (columns q1 … qN in deg, mm on prismatic joints; others
+    ignored) -> ((N, n) rad, header).  One-line errors for missing columns, empty, non-numeric
+    or NaN cells, radian-looking values and values beyond the joint limits."""
+    header, rows = _table(path)
+    names = [f"q{k}" for k in range(1, chain.n_joints + 1)]
+    missing = [name for name in names if name not in header]
+    if missing:
+        raise FileFormatError(f"{path} lacks column{'s' if len(missing) > 1 else ''} {', '.join(missing)}: {what} need "
+                              f"the joint values q1 ... q{chain.n_joints} of robot '{chain.name}' (deg; mm on "
+                              "prismatic joints)")
+    if not rows:
+        raise FileFormatError(f"{path} has a header but no rows of {what}")
+    index = [header.index(name) for name in names]
+    values = np.empty((len(rows), len(names)))
+    for r, row in enumerate(rows):
+        for c, k in enumerate(index):
+            cell = row[k].strip() if k < len(row) else ""
+            try:
+                values[r, c] = float(cell)
+            except ValueError:
+                values[r, c] = np.nan
+            if not np.isfinite(values[r, c]):
+                shown = repr(cell) if cell else "empty"
+                raise FileFormatError(f"{path} row {r + 2}, column {names[c]}: {shown} is not a finite number (deg); "
+                                      "fix or remove that row")
+    revolute = values[:, chain.revolute]
+    if (len(values) >= RADIAN_ROWS and revolute.size and np.abs(revolute).max() < RADIAN_BOUND
+            and np.ptp(revolute, axis=0).max() >= RADIAN_SPREAD):
+        raise FileFormatError(f"all joint values of {path} lie within ±{RADIAN_BOUND}: they look like radians, but "
+                              "robocal reads degrees; convert them with numpy.degrees() or check the export")
+    q = chain.joints_from_file(values)
+    tolerance = np.where(chain.revolute, np.radians(LIMIT_TOLERANCE), LIMIT_TOLERANCE)
+    beyond = np.flatnonzero(np.any((q < chain.lower - tolerance) | (q > chain.upper + tolerance), axis=1))
+    if beyond.size:
+        joint = int(np.flatnonzero((q[beyond[0]] < chain.lower - tolerance) | (q[beyond[0]] > chain.upper + tolerance))[0])
+        raise InputError(f"{path} row {beyond[0] + 2}: q{joint + 1} = {values[beyond[0], joint]:.6g} lies beyond joint "
+                         f"{joint + 1}'s limits of robot '{chain.name}' ({len(beyond)} row{'s' if beyond.size > 1 else ''} "
+                         "so): remove those rows or fix the robot file's min and max")
+    return np.clip(q, chain.lower, chain.upper), header
+
+
+def _targets(path, chain):
+    """Target configurations (rad): a file's q columns, or its x, y, z, rx, ry, rz targets
+    solved by the nominal IK (q columns as posture hints), the unreachable ones dropped."""
+    header, _ = _table(path)
+    if "x" not in header and "q1" in header:
+        return read_joints(path, chain, "targets")[0]
+    targets = read_target_poses(path, chain)
+    result = solve_ik(chain, targets.poses, targets.hints)
+    if not result.success.any():
+        raise InputError(f"none of the targets of {path} can be reached by robot '{chain.name}': are they in the robot "
+                         "base frame, in mm and degrees?")
+    return result.q[result.success]
+
+
+def _write_poses(path, chain, joints, extra=None):
+    """The poses CSV (module notes), atomically."""
+    degrees = chain.joints_to_file(joints)
+    nominal = chain.fk_positions(joints)
+    columns = {"pose": [str(k) for k in range(1, len(joints) + 1)]}
+    for j in range(chain.n_joints):
+        columns[f"q{j + 1}"] = [_number(v) for v in degrees[:, j]]
+    for c, axis in enumerate("xyz"):
+        columns[f"{axis}_nominal"] = [f"{v:.3f}" for v in nominal[:, c]]
+    columns.update(extra or {})
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(list(columns))
+    writer.writerows(zip(*columns.values()))
+    write_text_atomic(path, buffer.getvalue())
+
+
+def _number(value):
+    # Six decimals of a degree (3.6 milli-arcseconds): far below any controller's resolution.
+    text = f"{value:.6f}".rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def _noise_from(path, chain, parameters, payload):
+    """The per-coordinate standard deviation (mm) a calibration of the measured poses of
+    ``path`` leaves, with its degrees of freedom (3N - P); None when the file has no
+    positions or too few poses."""
+    from ..estimation.calibration import KinematicCalibration
+
+    header, _ = _table(path)
+    if not {"x", "y", "z"} <= set(header):
+        return None
+    observations = read_observations(path, chain)
+    fit = KinematicCalibration(parameters, payload=payload)
+    try:
+        fit.fit(chain, observations.joints, observations.positions, sigmas=observations.sigmas)
+    except InputError:
+        return None
+    count = len(fit.names_)
+    equations = 3 * observations.n_poses
+    if equations < NOISE_FIT_RATIO * count:
+        return None
+    residual = observations.positions - fit.predict(observations.joints)
+    return float(np.sqrt(np.sum(residual ** 2) / (equations - count)))
+
+
+def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters="full", candidates=None,
+               pool=DEFAULT_COUNT, sampling="uniform", box=None, rpy=None, hint=None, tool=None,
+               margin=MARGIN_DEG, existing=None, targets=None, noise=None, tracker=None, payload=None,
+               root=None, tip=None):
+    """Design ``n`` poses for ``robot`` and write them to ``out`` (module notes); returns the
+    JSON-ready result: the design's :meth:`~robocal.planning.Design.to_dict` and where the
+    candidates, the noise and the poses came from and went."""
+    check_outputs([out], [robot, candidates, existing, targets])
+    chain = load_robot(robot, root=root, tip=tip)
+    if tool is not None:
+        chain = chain.replace(tool=compose_pose(np.asarray(tool, dtype=float), np.zeros(3)))
+    check_robot_in_mm(chain)
+    if candidates is not None:
+        given = {"--pool": pool != DEFAULT_COUNT or None, "--sampling": sampling != "uniform" or None, "--box": box,
+                 "--rpy": rpy, "--hint": hint}
+        unused = [name for name, value in given.items() if value]
+        if unused:
+            raise InputError(f"{', '.join(unused)} draw candidates, but --candidates gives them: leave "
+                             f"{'it' if len(unused) == 1 else 'them'} out")
+        q = read_joints(candidates, chain, "candidates")[0]
+        source = str(candidates)
+    elif box is not None:
+        rotation = rpy_to_matrix(np.radians(rpy if rpy is not None else [180.0, 0.0, 0.0]))
+        hint_rad = None if hint is None else chain.joints_from_file(np.asarray(hint, dtype=float))
+        q = box_candidates(chain, pool, np.asarray(box[0::2], float), np.asarray(box[1::2], float), rotation, seed,
+                           hint=hint_rad, margin_deg=margin)
+        source = f"{len(q)} reachable of {pool} Latin-hypercube points in the box"
+    else:
+        if rpy is not None or hint is not None:
+            raise InputError("--rpy and --hint set the TCP orientation in a --box: give --box too, or leave them out")
+        q = joint_candidates(chain, pool, seed, sampling=sampling, margin_deg=margin)
+        source = f"{len(q)} {sampling} joint configurations {margin:g} deg inside the limits"
+    if n > len(q):
+        raise InputError(f"--n {n} poses asked for but there are {len(q)} candidates: ask for at most {len(q)}, or give "
+                         "more candidates")
+    before = None
+    noise_note = "as stated (--noise)" if noise is not None else "the default tracker noise"
+    if existing is not None:
+        before = read_joints(existing, chain, "measured poses")[0]
+        if noise is None:
+            fitted = _noise_from(existing, chain, parameters, payload)
+            if fitted is not None:
+                noise, noise_note = fitted, f"the residual of a calibration of {existing}"
+    target_q = None if targets is None else _targets(targets, chain)
+    design = design_poses(chain, n, q, criterion=criterion, parameters=parameters,
+                          noise=0.02 if noise is None else noise, tracker=tracker, targets=target_q,
+                          existing=before, payload=payload, seed=seed)
+    _write_poses(out, chain, design.joints)
+    return {"robot": chain.name, "out": str(out), "candidates_from": source, "noise_from": noise_note,
+            "targets": "the candidates" if targets is None else f"{len(target_q)} configurations of {targets}",
+            **design.to_dict()}
