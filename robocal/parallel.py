@@ -213,7 +213,7 @@ def _local_client(jobs):
     distributed = require_dask("a local cluster")
     cluster = distributed.LocalCluster(
         n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
-        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"}, silence_logs=logging.ERROR)
+        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"}, silence_logs=logging.CRITICAL)
     try:
         with distributed.Client(cluster) as client:
             yield client

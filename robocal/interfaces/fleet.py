@@ -44,6 +44,7 @@ from .. import parallel
 from ..errors import FileFormatError, InputError, RobocalError, RobocalWarning
 from ..io.atomic import write_text_atomic
 from ..methods import DEFAULT_METHOD, make_method
+from ..methods.base import option_of
 from ..methods.reregistration import PARAMETER_CHOICES as FRAME_PARAMETERS
 from .jobs import AUTO, FRAMES, calibrate_job, evaluate_job
 
@@ -219,7 +220,8 @@ def _calibrate_options(method, options, where):
                                            if key not in NOT_OPTIONS and key not in JOB_OPTIONS})
     if method == AUTO and settings:
         raise InputError(f"{where}: method auto chooses the method and its settings by comparing them: leave "
-                         f"{', '.join(sorted(settings))} out of options, or name a method")
+                         f"{', '.join(sorted(option_of(name)[2:] for name in settings))} out of options, or name a "
+                         "method")
     if method != AUTO:
         try:
             make_method(method, **settings)

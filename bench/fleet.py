@@ -1,0 +1,175 @@
+"""Acceptance and timing of ``robocal fleet`` (issue 17): 20 simulated robots, one with a
+damaged measurement file, on a local Dask cluster of 1 and of 2 workers.
+
+The fleet: the seven built-in robots, each with errors of its own (``--errors typical``, a
+seed per robot), measured on ``N_TRAIN`` poses to calibrate and ``N_TEST`` other poses of the
+same true robot to evaluate; the methods mixed (kinematic with several parameter sets and a
+robust loss, kriging, hybrid, auto, ann, and constraint on ball-in-socket data of
+examples/plate-fixture.toml).  Robot 13's training file has a text in a joint cell: it must
+fail alone.  Acceptance, for every run: 19 model files, 19 reports, one failure in
+DIR/summary.csv; and the model files of the two runs are the same (their time and checksum
+aside).
+
+Each run is ``robocal fleet FLEET.toml --out DIR --jobs N`` as a user types it (a process of
+its own: the cluster's start and stop are in the time).  The machine may be shared: the load
+average before and after each run, and the CPU time of the run's processes, are printed
+beside its wall time.
+
+    python bench/fleet.py                 # 1 and 2 workers, in a temporary folder
+    python bench/fleet.py --work /tmp/f   # keep the data and the outputs there
+    python bench/fleet.py --workers 1,2,4
+"""
+import argparse
+import csv
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from robocal.interfaces.jobs import simulate_job
+
+N_TRAIN, N_TEST = 120, 40
+FIXTURE = Path(__file__).resolve().parents[1] / "examples" / "plate-fixture.toml"
+DAMAGED = 13  # this robot's training file gets a text in a joint cell
+# (robot, method, options) of the 20 robots, in the fleet file's order.
+PLAN = [
+    ("ur5", "kinematic", {}),
+    ("ur10", "kinematic", {"parameters": "full+gains"}),
+    ("kr150-2", "kriging", {}),
+    ("irb120", "hybrid", {"seed": 1}),
+    ("panda", "kinematic", {"loss": "huber"}),
+    ("iiwa14", "kinematic", {"parameters": "offsets"}),
+    ("fanuc-r2000ic-165f", "auto", {}),
+    ("ur5", "hybrid", {"inputs": "sincos"}),
+    ("ur10", "kriging", {"correlation": "matern52"}),
+    ("kr150-2", "constraint", {}),
+    ("irb120", "kinematic", {"parameters": "full+compliance"}),
+    ("panda", "ann", {"hidden": [8, 8], "generations": 60}),
+    ("iiwa14", "hybrid", {}),
+    ("ur5", "kinematic", {}),
+    ("ur10", "auto", {}),
+    ("kr150-2", "kinematic", {"parameters": "full+gains"}),
+    ("irb120", "constraint", {"pairs": "spanning"}),
+    ("fanuc-r2000ic-165f", "kriging", {}),
+    ("panda", "hybrid", {"seed": 2}),
+    ("iiwa14", "kinematic", {}),
+]
+
+
+def make_fleet(folder):
+    """The measurement files and FLEET.toml of the 20 robots in ``folder``."""
+    data = folder / "data"
+    data.mkdir(parents=True, exist_ok=True)
+    tables = []
+    for k, (robot, method, options) in enumerate(PLAN, start=1):
+        name = f"r{k:02d}-{robot}"
+        train, test, truth = data / f"{name}_train.csv", data / f"{name}_test.csv", data / f"{name}_truth.json"
+        if method == "constraint":
+            sockets = {"sampling": "sockets", "fixture": str(FIXTURE), "placements": 6, "per_socket": 8}
+            simulate_job(robot, train, seed=k, truth=truth, **sockets)
+            simulate_job(robot, test, seed=100 + k, errors=str(truth), **{**sockets, "placements": 3})
+        else:
+            simulate_job(robot, train, n=N_TRAIN, seed=k, truth=truth)
+            simulate_job(robot, test, n=N_TEST, seed=100 + k, errors=str(truth))
+        if k == DAMAGED:
+            lines = train.read_text().splitlines()
+            cells = lines[7].split(",")
+            lines[7] = ",".join(["ninety"] + cells[1:])
+            train.write_text("\n".join(lines) + "\n")
+        table = [f'name = "{name}"', f'robot = "{robot}"', f'train = "data/{train.name}"',
+                 f'test = "data/{test.name}"', f'method = "{method}"']
+        if method == "constraint":
+            table.append(f"fixture = {json.dumps(str(FIXTURE))}")
+        if options:
+            table.append("options = { " + ", ".join(f"{key} = {json.dumps(value)}" for key, value in options.items())
+                         + " }")
+        tables.append("[[robot]]\n" + "\n".join(table) + "\n")
+    fleet = folder / "fleet.toml"
+    fleet.write_text("# 20 simulated robots for bench/fleet.py; paths relative to this file.\n\n" + "\n".join(tables))
+    return fleet
+
+
+def load():
+    return "load average {:.2f} {:.2f} {:.2f}".format(*os.getloadavg())
+
+
+def run(fleet, out, workers):
+    """``robocal fleet`` with a local cluster of ``workers``: (wall s, CPU s of its processes)."""
+    print(f"  {workers} worker(s): before, {load()}", flush=True)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "robocal.interfaces.cli", "fleet", str(fleet), "--out", str(out),
+                           "--jobs", str(workers), "--json"], capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    if done.returncode != 1:  # 1: some robot failed, as one must here
+        sys.exit(f"robocal fleet exited with {done.returncode}:\n{done.stderr}")
+    tasks = [row["seconds"] for row in json.loads(done.stdout)["robots"] if row["seconds"] is not None]
+    print(f"  {workers} worker(s): {wall:.1f} s wall, {cpu:.1f} s CPU; the robots' tasks {sum(tasks):.1f} s in all, "
+          f"the longest {max(tasks):.1f} s; after, {load()}", flush=True)
+    return wall, cpu
+
+
+def check(out):
+    """The acceptance of one run's outputs; returns its summary rows."""
+    with open(out / "summary.csv", newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    models, reports = list(out.glob("*/model.json")), list(out.glob("*/report.html"))
+    failed = [row for row in rows if row["status"] != "ok"]
+    verdict = "ok" if (len(rows), len(models), len(reports), len(failed)) == (20, 19, 19, 1) else "NOT MET"
+    print(f"  {out.name}: {len(models)} models, {len(reports)} reports, {len(failed)} failed of {len(rows)} "
+          f"[{verdict}]")
+    for row in failed:
+        print(f"    {row['name']}: {row['message']}")
+    return rows
+
+
+def comparable(path):
+    """A model file's document without what differs between two runs of the same fit: when it
+    was written (hence its checksum) and how long the steps took."""
+    def strip(value):
+        if isinstance(value, dict):
+            return {k: strip(v) for k, v in value.items() if not k.endswith("seconds")}
+        return [strip(v) for v in value] if isinstance(value, list) else value
+
+    doc = json.loads(path.read_text())
+    return strip({key: value for key, value in doc.items() if key not in ("created", "checksum")})
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--work", type=Path, help="folder for the data and outputs (default: a temporary one)")
+    parser.add_argument("--workers", default="1,2", help="worker counts to time, e.g. 1,2")
+    args = parser.parse_args()
+    counts = [int(n) for n in args.workers.split(",")]
+    with tempfile.TemporaryDirectory() as temporary:
+        folder = args.work or Path(temporary)
+        folder.mkdir(parents=True, exist_ok=True)
+        print(f"robocal fleet, {len(PLAN)} simulated robots ({N_TRAIN} training / {N_TEST} test poses; "
+              f"ball-in-socket robots 48 / 24), one damaged file; {os.cpu_count()} CPUs; {load()}")
+        start = time.perf_counter()
+        fleet = make_fleet(folder)
+        print(f"  data simulated in {time.perf_counter() - start:.1f} s: {fleet}")
+        times, rows = {}, {}
+        for workers in counts:
+            out = folder / f"out-{workers}"
+            times[workers] = run(fleet, out, workers)
+            rows[workers] = check(out)
+        first = counts[0]
+        for workers in counts[1:]:
+            same = all(comparable(model) == comparable(folder / f"out-{workers}" / model.parent.name / "model.json")
+                       for model in (folder / f"out-{first}").glob("*/model.json"))
+            print(f"  model files of {first} and {workers} worker(s) the same: {same}")
+            print(f"  speed-up {first} -> {workers} workers: {times[first][0] / times[workers][0]:.2f}x wall "
+                  f"({times[first][0]:.1f} s / {times[workers][0]:.1f} s)")
+        print("  per robot (first run): " + ", ".join(f"{row['name']} {row['method']} {row['mean_mm'] or '-'} mm"
+                                                     for row in rows[first]))
+
+
+if __name__ == "__main__":
+    main()
