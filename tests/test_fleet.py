@@ -376,3 +376,11 @@ def test_an_active_executor_runs_map_jobs_on_its_cluster():
         assert [r["value"] for r in results] == [0, 1, 4, 9]
         assert [list(r["array"]) for r in results][3] == [0, 1, 2]
     assert parallel.current() is parallel.SERIAL
+
+
+def test_the_example_fleet_file_is_valid_and_its_files_exist():
+    example = Path(__file__).resolve().parents[1] / "examples" / "fleet" / "fleet.toml"
+    robots = read_fleet(example)
+    assert [robot.name for robot in robots] == ["cell1-ur5", "cell2-irb120", "cell3-kr150"]
+    for robot in robots:
+        assert all(Path(p).is_file() for p in (robot.train, robot.test, robot.fixture) if p is not None)

@@ -343,7 +343,7 @@ def fleet_job(fleet_file, out_dir, *, jobs=None, scheduler=None, on_robot=None):
         for folder in created:  # a robot that failed before writing anything leaves no folder
             with contextlib.suppress(OSError):
                 folder.rmdir()
-    written = write_summary(out, rows)
+    written = write_summary(out, rows, fleet_file)
     failed = sum(row["status"] != OK for row in rows)
     return {"fleet": str(fleet_file), "out": str(out), "ran_on": where, "workers": workers,
             "robots": rows, "ok": len(rows) - failed, "failed": failed, **written}
@@ -386,7 +386,7 @@ def _check_inputs_are_not_outputs(robots, folders, out, fleet_file):
                                  "move the input, or choose another --out")
 
 
-def write_summary(out, rows):
+def write_summary(out, rows, fleet_file):
     """DIR/summary.csv (SUMMARY_COLUMNS) and DIR/summary.html; returns their paths."""
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
@@ -395,7 +395,7 @@ def write_summary(out, rows):
         writer.writerow([_cell(row[column]) for column in SUMMARY_COLUMNS])
     csv_path, html_path = out / SUMMARY_CSV, out / SUMMARY_HTML
     write_text_atomic(csv_path, text.getvalue())
-    write_text_atomic(html_path, summary_html(rows))
+    write_text_atomic(html_path, summary_html(rows, fleet_file))
     return {"summary_csv": str(csv_path), "summary_html": str(html_path)}
 
 
@@ -407,12 +407,15 @@ def _cell(value):
     return str(value)
 
 
-def summary_html(rows):
+def summary_html(rows, fleet_file):
     """The summary as one self-contained page: a row per robot, linking its report and model."""
+    import datetime
+
     from .. import __version__
     from .report import STYLE
 
     failed = sum(row["status"] != OK for row in rows)
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     head = "".join(f"<th>{html.escape(column)}</th>" for column in SUMMARY_COLUMNS)
     body = []
     for row in rows:
@@ -429,7 +432,7 @@ def summary_html(rows):
             cells.append(f"<td class=\"{'num' if numeric else ''}\">{text}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
     return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>robocal fleet</title><style>{STYLE}"
-            f"</style></head><body><h1>Fleet summary</h1><p class=note>{len(rows)} robots, {len(rows) - failed} ok, "
-            f"{failed} failed; mean and max are the error on the test file (mm), on the training poses where a "
-            f"robot has none. Written by robocal {html.escape(__version__)}.</p>"
+            f"</style></head><body><h1>Fleet summary</h1><p class=note>{html.escape(str(fleet_file))}: {len(rows)} "
+            f"robots, {len(rows) - failed} ok, {failed} failed; mean and max are the error on the test file (mm), on "
+            f"the training poses where a robot has none. Written {now} by robocal {html.escape(__version__)}.</p>"
             f"<table><tr>{head}</tr>{''.join(body)}</table></body></html>\n")
