@@ -452,6 +452,12 @@ def recommend(comparison_scores, candidate_list, split_list):
     lowest held-out region error is chosen; with none, the simplest."""
     regions = [s for s in split_list if s.kind == "region"]
     random = next((s for s in split_list if s.kind == "random"), regions[0])
+    # A region split whose held-out poses all lie outside their training domain (the other
+    # arm branch) is the fallback's to answer, not the chosen model's: it is left out here
+    # unless every region split is like that.
+    some_inside = [s for s in regions if all(np.isfinite(comparison_scores[c.label][s.name].inside_mean)
+                                             for c in candidate_list)]
+    regions = some_inside or regions
     where = "the held-out regions" if len(regions) > 1 else regions[0].name
     by_label = {c.label: c for c in candidate_list}
 
