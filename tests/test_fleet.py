@@ -160,9 +160,10 @@ def test_outputs_stay_inside_the_output_folder(tmp_path, data):
     with pytest.raises(InputError, match="is a symbolic link or a file"):
         fleet_job(small_fleet(data, tmp_path), tmp_path / "out")
     assert list(outside.iterdir()) == []
-    fleet = write_fleet(tmp_path / "f2.toml", [{**GOOD, "train": "out/r1/model.json"}])
+    fleet = write_fleet(tmp_path / "f2.toml", [{**GOOD, "train": "new/r1/model.json"}])
     with pytest.raises(InputError, match="is a file the fleet writes"):
-        fleet_job(fleet, tmp_path / "out")
+        fleet_job(fleet, tmp_path / "new")
+    assert not (tmp_path / "new").exists()
 
 
 # --------------------------------------------------------------------------- running a fleet
@@ -234,9 +235,10 @@ def test_a_real_scheduler_and_worker_run_the_fleet_and_give_the_serial_model_fil
         address = _wait_for_address(scheduler_file, processes[0])
         processes.append(subprocess.Popen(dask + ["worker", address, "--nworkers", "1", "--nthreads", "1"] + local,
                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
-        fleet = small_fleet(data, tmp_path)
-        done = subprocess.run(ROBOCAL + ["fleet", str(fleet), "--out", str(tmp_path / "out"), "--scheduler", address,
-                                         "--json"], capture_output=True, text=True, timeout=300)
+        small_fleet(data, tmp_path)
+        # Relative paths, from a folder the worker does not run in: they reach it made absolute.
+        done = subprocess.run(ROBOCAL + ["fleet", "fleet.toml", "--out", "out", "--scheduler", address, "--json"],
+                              capture_output=True, text=True, timeout=300, cwd=tmp_path)
     finally:
         for process in reversed(processes):
             process.terminate()

@@ -190,10 +190,10 @@ def _calibrate_options(method, options, where):
     for key, value in options.items():
         option = key.replace("_", "-")
         param = params.get(option)
-        keys[getattr(param, "name", None)] = f"options.{key}"
         if param is None:
             raise InputError(f"{where}: calibrate has no option --{option}; options takes {', '.join(sorted(params))} "
                              "('robocal calibrate --help' says what each does)")
+        keys[param.name] = f"options.{key}"
         if getattr(param, "is_flag", False):
             if not isinstance(value, bool):
                 raise InputError(f"{where}: options.{key} is on or off: write {key} = true or {key} = false")
@@ -314,13 +314,17 @@ def fleet_job(fleet_file, out_dir, *, jobs=None, scheduler=None, on_robot=None):
     if jobs is not None or scheduler is not None:
         parallel.require_dask("robocal fleet")
     robots = read_fleet(fleet_file)
-    out = _output_folder(out_dir)
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} is a file: give a folder (it is created if missing)")
     folders = [_robot_folder(out, robot.name) for robot in robots]
     _check_inputs_are_not_outputs(robots, folders, out, fleet_file)
+    out.mkdir(parents=True, exist_ok=True)
     created = [folder for folder in folders if not folder.exists()]
     for folder in folders:
         folder.mkdir(exist_ok=True)
-    tasks = [robot.task(folder) for robot, folder in zip(robots, folders)]
+    # Absolute: a worker of a cluster given by address runs in a folder of its own.
+    tasks = [robot.task(os.path.abspath(folder)) for robot, folder in zip(robots, folders)]
 
     def lost(index, exc):  # the worker died under the robot, or could not run it at all
         return {**failed_row(tasks[index]), "message": f"its task did not finish: {type(exc).__name__}: {exc}"}
@@ -353,14 +357,6 @@ def failed_row(task):
     """The summary row of a robot that has not (yet) succeeded."""
     return {"name": task["name"], "status": FAILED, "method": task["method"], "n_train": None, "n_test": None,
             "mean_mm": None, "max_mm": None, "message": "", "seconds": None}
-
-
-def _output_folder(out_dir):
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out} is a file: give a folder (it is created if missing)")
-    out.mkdir(parents=True, exist_ok=True)
-    return out
 
 
 def _robot_folder(out, name):
