@@ -30,6 +30,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from robocal.interfaces.fleet import fitted_content
 from robocal.interfaces.jobs import simulate_job
 
 N_TRAIN, N_TEST = 120, 40
@@ -129,18 +130,6 @@ def check(out):
     return rows
 
 
-def comparable(path):
-    """A model file's document without what differs between two runs of the same fit: when it
-    was written (hence its checksum) and how long the steps took."""
-    def strip(value):
-        if isinstance(value, dict):
-            return {k: strip(v) for k, v in value.items() if not k.endswith("seconds")}
-        return [strip(v) for v in value] if isinstance(value, list) else value
-
-    doc = json.loads(path.read_text())
-    return strip({key: value for key, value in doc.items() if key not in ("created", "checksum")})
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--work", type=Path, help="folder for the data and outputs (default: a temporary one)")
@@ -162,8 +151,8 @@ def main():
             rows[workers] = check(out)
         first = counts[0]
         for workers in counts[1:]:
-            same = all(comparable(model) == comparable(folder / f"out-{workers}" / model.parent.name / "model.json")
-                       for model in (folder / f"out-{first}").glob("*/model.json"))
+            same = all(fitted_content(model) == fitted_content(folder / f"out-{workers}" / model.relative_to(
+                folder / f"out-{first}")) for model in (folder / f"out-{first}").glob("*/model.json"))
             print(f"  model files of {first} and {workers} worker(s) the same: {same}")
             print(f"  speed-up {first} -> {workers} workers: {times[first][0] / times[workers][0]:.2f}x wall "
                   f"({times[first][0]:.1f} s / {times[workers][0]:.1f} s)")

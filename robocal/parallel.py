@@ -151,7 +151,8 @@ class Executor:
     def _distributed(self, function, items, on_done, on_error):
         from dask.distributed import as_completed
 
-        futures = [self.client.submit(function, item, pure=False, key=f"{function.__name__}-{index}-{os.urandom(4).hex()}")
+        run = f"{function.__name__}-{os.urandom(4).hex()}"  # the keys of this map's tasks on the scheduler
+        futures = [self.client.submit(function, item, pure=False, key=f"{run}-{index}")
                    for index, item in enumerate(items)]
         index_of = {future.key: index for index, future in enumerate(futures)}
         results = [None] * len(items)

@@ -32,6 +32,7 @@ import contextlib
 import csv
 import html
 import io
+import json
 import os
 import re
 import secrets
@@ -432,3 +433,16 @@ def summary_html(rows, fleet_file):
             f"robots, {len(rows) - failed} ok, {failed} failed; mean and max are the error on the test file (mm), on "
             f"the training poses where a robot has none. Written {now} by robocal {html.escape(__version__)}.</p>"
             f"<table><tr>{head}</tr>{''.join(body)}</table></body></html>\n")
+
+
+def fitted_content(model_path):
+    """A model file's document without what differs between two runs of the same fit (when it
+    was written, hence its checksum, and how long its steps took): a robot's model file is the
+    same, so compared, whichever executor and worker fitted it."""
+    def strip(value):
+        if isinstance(value, dict):
+            return {key: strip(entry) for key, entry in value.items() if not key.endswith("seconds")}
+        return [strip(entry) for entry in value] if isinstance(value, list) else value
+
+    document = json.loads(Path(model_path).read_text(encoding="utf-8"))
+    return strip({key: value for key, value in document.items() if key not in ("created", "checksum")})
