@@ -11,7 +11,8 @@ removing one is a rank-3 change, done by the Woodbury identity:
     trace(W P') = trace(W P) - s trace(S^-1 A P W P A^T)
 
 which for all N candidates is two (3N x P) @ (P x P) products and a batch of 3 x 3 solves:
-no Python loop over candidates.
+no Python loop over candidates.  (The change a step accepts is applied to M and P = M^-1
+recomputed, one P x P inverse.)
 
 * ``prediction`` (I-optimality, the default): minimise trace(W P), the mean squared error
   of the predicted TCP positions over a set of target configurations, W = mean of
@@ -42,8 +43,6 @@ DEFAULT_CRITERION = "prediction"
 # information of one average pose: small enough to vanish once the parameters are
 # determined (1e-6 of a pose), large enough to keep P finite in double precision.
 RIDGE = 1e-6
-# After this many rank-3 updates P is recomputed from M, so rounding cannot build up.
-REFRESH_EVERY = 25
 # Morris–Mitchell exponent of the space-filling criterion.
 SPACING_POWER = 10
 
@@ -54,7 +53,7 @@ def check_criterion(criterion):
     return criterion
 
 
-def _woodbury(P, blocks, sign, W=None):
+def woodbury(P, blocks, sign, W=None):
     """For each block A (K, 3, P): (log det S, trace(S^-1 A P W P A^T) or None, S^-1, A P)."""
     AP = (blocks.reshape(-1, P.shape[0]) @ P).reshape(blocks.shape)
     S = np.eye(3) + sign * np.einsum("kip,kjp->kij", AP, blocks)
@@ -86,7 +85,6 @@ class InformationState:
     def _refresh(self):
         self.P = np.linalg.inv(self.M)
         self.P = (self.P + self.P.T) / 2
-        self._updates = 0
 
     @property
     def score(self):
@@ -96,7 +94,7 @@ class InformationState:
         return -float(np.sum(self.W * self.P))
 
     def _gains(self, blocks, sign):
-        logdet, trace, _, _ = _woodbury(self.P, blocks, sign, self.W)
+        logdet, trace, _, _ = woodbury(self.P, blocks, sign, self.W)
         if self.W is None:
             return logdet
         # A removal that leaves M singular (S not positive) costs everything.
@@ -114,15 +112,12 @@ class InformationState:
         return self._gains(self.blocks[self.chosen], -1)
 
     def _update(self, i, sign):
-        block = self.blocks[i][None]
-        self.M += sign * block[0].T @ block[0]
-        self._updates += 1
-        if self._updates >= REFRESH_EVERY:
-            self._refresh()
-            return
-        _, _, S_inv, AP = _woodbury(self.P, block, sign)
-        self.P -= sign * AP[0].T @ S_inv[0] @ AP[0]
-        self.P = (self.P + self.P.T) / 2
+        # The accepted change itself is one P x P inverse, recomputed rather than updated: it
+        # costs nothing beside judging the candidates, and no rounding builds up while the
+        # ridge still dominates M.
+        block = self.blocks[i]
+        self.M += sign * block.T @ block
+        self._refresh()
 
     def add(self, i):
         self.chosen.append(int(i))

@@ -3,7 +3,9 @@ configurations for a calibration campaign and predicts what they will give.
 
 The default criterion, ``prediction``, minimises the mean squared error of the calibrated
 TCP position over the target configurations (the candidates themselves unless the user
-names the targets): it aims at what a calibration is for.  ``d-optimal`` (log det of the
+names the targets): it aims at what a calibration is for.  It chooses one pose per stratum of
+the targets (:func:`robocal.planning.exchange.select_stratified`), so that errors the
+calibration cannot model are averaged as the targets will see them.  ``d-optimal`` (log det of the
 information of the identifiable, scaled parameters) treats every parameter alike; on the
 KR 150-2 and the UR5 it does not beat random poses at the targets.  ``space-filling``
 spreads the poses over configuration space, for residual models (Kriging, hybrid, network)
@@ -22,7 +24,7 @@ from ..errors import InputError
 from ..estimation.identifiability import analyse
 from .criteria import (CRITERIA, DEFAULT_CRITERION, InformationState, SpacingState, check_criterion,
                        information_start)
-from .exchange import select
+from .exchange import select, select_stratified, strata
 from .information import information_model, noise_of
 from .tour import path_length, tour
 
@@ -113,9 +115,10 @@ def target_weight(info, targets=None):
     return flat.T @ flat / len(rows)
 
 
-def spacing_points(chain, candidates, existing=None):
-    """Candidates (and poses before) scaled to [0, 1] per joint over the candidates' range, the
-    joints that do not move the TCP left out: the space-filling criterion's points."""
+def spacing_points(chain, candidates, others=None):
+    """Candidates (and ``others``: poses measured before, or targets) scaled to [0, 1] per
+    joint over the candidates' range, the joints that do not move the TCP left out: the
+    points of the space-filling criterion and of the strata."""
     moving = np.linalg.norm(chain.rigid.jacobian(candidates)[:, :3, :], axis=1).max(axis=0)
     keep = moving > STILL_JOINT * moving.max()
     low, high = candidates.min(axis=0), candidates.max(axis=0)
@@ -124,7 +127,7 @@ def spacing_points(chain, candidates, existing=None):
     def scaled(q):
         return ((q - low) / span)[:, keep]
 
-    return scaled(candidates), None if existing is None else scaled(existing)
+    return scaled(candidates), None if others is None else scaled(others)
 
 
 def _model_rms(info, W, chosen_blocks, start):
@@ -166,13 +169,20 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
                          f"ask for at least {need} poses (2 to 3 times as many is better), or a smaller parameter set")
     before_blocks = None if before is None else info.rows_of(before, noise_of(chain, before, noise, tracker))
     start = information_start(info.blocks, before_blocks)
-    W = target_weight(info, None if targets is None else _check_joints(chain, targets, "target"))
+    target_q = None if targets is None else _check_joints(chain, targets, "target")
+    W = target_weight(info, target_q)
     if criterion == "space-filling":
         points, points_before = spacing_points(chain, q, before)
         state = SpacingState(points, points_before)
     else:
         state = InformationState(info.blocks, start, W if criterion == "prediction" else None)
-    chosen, steps = select(state, count, np.ones(len(q), dtype=bool), refine=refine)
+    available = np.ones(len(q), dtype=bool)
+    if criterion == "prediction":
+        points, target_points = spacing_points(chain, q, None if targets is None else target_q)
+        labels = strata(points, count, seed, target_points)
+        chosen, steps = select_stratified(state, count, available, labels, points, refine=refine)
+    else:
+        chosen, steps = select(state, count, available, refine=refine)
     order = tour(q[chosen], None if before is None else before[-1])
     chosen_in_order = chosen[order]
     return _summary(chain, info, q, chosen_in_order, chosen, criterion, steps, W, start, before, before_blocks,

@@ -1,5 +1,7 @@
 """Choosing poses: greedy selection, then exchange.
 
+Two optimisers share the states of :mod:`robocal.planning.criteria`:
+
 :func:`greedy` adds, one at a time, the candidate that improves the criterion most (every
 candidate judged at once by the state, :mod:`robocal.planning.criteria`).  :func:`exchange`
 then improves the set by DETMAX excursions (Mitchell, 1974): add the best candidate and remove
@@ -9,8 +11,22 @@ a relative TOLERANCE, so the exchange never lowers it and stops; it ends when ne
 improves the set, or after ``max_steps`` exchanges.  With the Woodbury updates each step
 costs two evaluations over the candidates, where a full Fedorov exchange would weigh every
 (chosen, candidate) pair.  Both are deterministic: ties go to the lowest index.
+
+:func:`select_stratified` chooses one pose per stratum: the candidates are split into as
+many strata as poses are wanted (k-means in configuration space, :func:`strata`), each
+stratum starts from its representative (the member nearest its centre) and the exchange
+replaces each stratum's pose by the best of its own stratum, sweeping the strata until none
+changes.  (Starting from a greedy choice per stratum instead converges next to the extreme
+poses the greedy step picks first: held out on the KR 150-2 in a box 10-20 % worse.)  The chosen poses then stand for the targets as a
+stratified sample does, which matters when the model does not explain everything: errors the
+calibration cannot represent (joint compliance and backlash on the simulated KR 150-2, what
+remains on the real UR5) bias a fit to the extreme poses an unconstrained optimum picks,
+while a sample spread like the targets averages them out as the targets will.  On the
+KR 150-2, the UR5 and the KR 150-2 in a box, 15 to 50 stratified poses beat the unstratified
+optimum and random poses held out (bench/design.py).
 """
 import numpy as np
+from scipy.cluster.vq import kmeans2, vq
 
 from ..errors import InputError
 
@@ -19,6 +35,8 @@ from ..errors import InputError
 TOLERANCE = 1e-9
 # Exchange steps per chosen pose at most (on the KR 150-2 and the UR5 it stops well before).
 STEPS_PER_POSE = 10
+# Sweeps over the strata at most (on the KR 150-2 and the UR5 three to six suffice).
+SWEEPS = 20
 
 
 def greedy(state, count, available):
@@ -97,4 +115,60 @@ def select(state, count, available, *, refine=True, max_steps=None):
     available = np.array(available, dtype=bool)
     greedy(state, count, available)
     steps = exchange(state, available, max_steps) if refine else 0
+    return np.array(state.chosen, dtype=int), steps
+
+
+def strata(points, count, seed=0, reference=None):
+    """(N,) stratum of each candidate: k-means (seeded, k-means++ start) of ``reference``
+    (the targets' points, default ``points`` themselves) into ``count`` clusters, each of
+    ``points`` (N, d) in the stratum of its nearest centre; numbered 0 .. count-1 (a stratum
+    may be empty)."""
+    points = np.asarray(points, dtype=float)
+    reference = points if reference is None else np.asarray(reference, dtype=float)
+    if reference is points and count >= len(points):
+        return np.arange(len(points))
+    centres, labels = kmeans2(reference, min(count, len(reference)), seed=np.random.default_rng(seed), minit="++")
+    return labels if reference is points else vq(points, centres)[0]
+
+
+def select_stratified(state, count, available, labels, points, *, refine=True, max_sweeps=SWEEPS):
+    """One pose per stratum (``labels`` (N,), see the module notes): each stratum starts from
+    its representative (the member of ``points`` (N, d) nearest the stratum's mean), strata
+    left empty are made up by greedy choices, then sweeps of exchange replace each stratum's
+    pose by the best of its stratum.  Returns (the chosen candidate indices in the order of
+    choice, the exchanges made)."""
+    available = np.array(available, dtype=bool)
+    labels = np.asarray(labels)
+    owner = {}
+    for stratum in np.unique(labels[available])[:count]:
+        members = np.flatnonzero(available & (labels == stratum))
+        centre = points[members].mean(axis=0)
+        best = int(members[np.argmin(np.sum((points[members] - centre) ** 2, axis=1))])
+        state.add(best)
+        available[best] = False
+        owner[int(stratum)] = best
+    greedy(state, count - len(owner), available)
+    steps = 0
+    for _ in range(max_sweeps if refine else 0):
+        changed = False
+        for stratum, old in list(owner.items()):
+            before = state.score
+            state.remove(old)
+            available[old] = True
+            gains = state.gains_of_adding(available & (labels == stratum))
+            best = int(np.argmax(gains))
+            state.add(best)
+            available[best] = False
+            if best != old and not _improved(state.score, before):
+                state.remove(best)
+                available[best] = True
+                state.add(old)
+                available[old] = False
+                best = old
+            if best != old:
+                owner[stratum] = best
+                changed = True
+                steps += 1
+        if not changed:
+            break
     return np.array(state.chosen, dtype=int), steps

@@ -1,0 +1,307 @@
+"""Measurement planning (robocal.planning, `robocal design`): the rank-3 updates are exact,
+the optimisers never lower their criterion and are deterministic, the tour is short, designed
+poses beat random ones held out, augmenting strengthens a weak parameter, and the command line
+writes a file calibrate reads and refuses bad input in one line."""
+import csv
+import warnings
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from robocal.errors import InputError
+from robocal.estimation.calibration import KinematicCalibration
+from robocal.interfaces.cli import app
+from robocal.io.library import builtin
+from robocal.io.robot_file import write_robot
+from robocal.planning import box_candidates, design_poses, information_model, joint_candidates, tour, usable
+from robocal.planning.criteria import InformationState, SpacingState, information_start, woodbury
+from robocal.planning.design import spacing_points, target_weight
+from robocal.planning.exchange import exchange, greedy, select, select_stratified, strata
+from robocal.planning.information import noise_of
+from robocal.planning.tour import path_length
+from robocal.simulation import make_true_robot
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def ur5():
+    chain = builtin("ur5")
+    candidates = joint_candidates(chain, 1500, seed=3)
+    return chain, candidates, information_model(chain, candidates)
+
+
+def _state(info, criterion="prediction"):
+    W = target_weight(info) if criterion == "prediction" else None
+    return InformationState(info.blocks, information_start(info.blocks), W)
+
+
+def _direct(info, chosen, W):
+    flat = info.blocks[chosen].reshape(-1, info.n_parameters)
+    M = information_start(info.blocks) + flat.T @ flat
+    return (-float(np.sum(W * np.linalg.inv(M)))) if W is not None else float(np.linalg.slogdet(M)[1])
+
+
+# ----------------------------------------------------------------------------- criteria
+@pytest.mark.parametrize("criterion", ["prediction", "d-optimal"])
+def test_the_rank_3_updates_equal_a_direct_recomputation(ur5, criterion):
+    _, _, info = ur5
+    state = _state(info, criterion)
+    available = np.ones(len(info.blocks), dtype=bool)
+    greedy(state, 12, available)
+    chosen = list(state.chosen)
+    # The Woodbury form of adding and of removing a pose is the inverse of the changed M.
+    for i, sign in ((int(np.flatnonzero(available)[0]), +1), (chosen[2], -1)):
+        _, _, S_inv, AP = woodbury(state.P, info.blocks[[i]], sign)
+        updated = state.P - sign * AP[0].T @ S_inv[0] @ AP[0]
+        direct = np.linalg.inv(state.M + sign * info.blocks[i].T @ info.blocks[i])
+        np.testing.assert_allclose(updated, direct, rtol=1e-6, atol=1e-9 * np.abs(direct).max())
+    assert state.score == pytest.approx(_direct(info, chosen, state.W), rel=1e-9)
+    # Each candidate's gain is the change of the criterion when it is added ...
+    gains = state.gains_of_adding(available)
+    for i in np.flatnonzero(available)[:: 97]:
+        assert gains[i] == pytest.approx(_direct(info, chosen + [i], state.W) - state.score, rel=1e-6, abs=1e-12)
+    # ... and of each chosen pose when it is removed.
+    losses = state.gains_of_removing()
+    for k, j in enumerate(chosen):
+        rest = [c for c in chosen if c != j]
+        assert losses[k] == pytest.approx(_direct(info, rest, state.W) - state.score, rel=1e-6, abs=1e-12)
+    state.remove(chosen[3])
+    assert state.score == pytest.approx(_direct(info, state.chosen, state.W), rel=1e-9)
+
+
+def test_the_space_filling_sums_are_kept_exactly(ur5):
+    chain, candidates, _ = ur5
+    points, _ = spacing_points(chain, candidates)
+    state = SpacingState(points)
+    available = np.ones(len(points), dtype=bool)
+    greedy(state, 10, available)
+    state.remove(state.chosen[4])
+    chosen = points[state.chosen]
+    d2 = np.sum((chosen[:, None] - chosen[None]) ** 2, axis=2)
+    pairs = d2[np.triu_indices(len(chosen), 1)]
+    assert -state.score == pytest.approx(np.sum(pairs ** -5.0), rel=1e-9)
+
+
+@pytest.mark.parametrize("criterion", ["prediction", "d-optimal"])
+def test_the_exchange_never_lowers_the_criterion(ur5, criterion):
+    _, _, info = ur5
+    state = _state(info, criterion)
+    available = np.ones(len(info.blocks), dtype=bool)
+    greedy(state, 10, available)
+    before = state.score
+    exchange(state, available, max_steps=0)
+    assert state.score == before
+    exchange(state, available)
+    assert state.score >= before
+    assert len(set(state.chosen)) == 10 and not available[state.chosen].any()
+
+
+def test_the_stratified_exchange_keeps_one_pose_per_stratum_and_never_lowers_the_criterion(ur5):
+    chain, candidates, info = ur5
+    points = spacing_points(chain, candidates)[0]
+    labels = strata(points, 12, seed=0)
+    start, _ = select_stratified(_state(info), 12, np.ones(len(candidates), bool), labels, points, refine=False)
+    refined_state = _state(info)
+    chosen, steps = select_stratified(refined_state, 12, np.ones(len(candidates), bool), labels, points)
+    assert sorted(labels[chosen]) == sorted(set(labels[chosen])) and len(chosen) == 12
+    assert refined_state.score >= _direct(info, list(start), refined_state.W)
+    assert steps >= 0
+
+
+def test_a_design_is_deterministic_for_a_seed(ur5):
+    chain, candidates, _ = ur5
+    first = design_poses(chain, 12, candidates, seed=5)
+    again = design_poses(chain, 12, candidates, seed=5)
+    np.testing.assert_array_equal(first.indices, again.indices)
+    np.testing.assert_array_equal(joint_candidates(chain, 50, seed=2), joint_candidates(chain, 50, seed=2))
+    assert not np.array_equal(joint_candidates(chain, 50, seed=2), joint_candidates(chain, 50, seed=3))
+
+
+# ----------------------------------------------------------------------------- tour
+def test_the_tour_is_no_longer_than_the_order_given_and_visits_every_pose_once():
+    rng = np.random.default_rng(0)
+    for count in (3, 8, 40):
+        q = rng.uniform(-3, 3, (count, 6))
+        order = tour(q)
+        assert sorted(order) == list(range(count))
+        assert path_length(q, order) <= path_length(q) + 1e-12
+        start = rng.uniform(-3, 3, 6)
+        assert path_length(q, tour(q, start), start) <= path_length(q, start=start) + 1e-12
+    q = rng.uniform(-3, 3, (40, 6))
+    assert path_length(q, tour(q)) < 0.6 * path_length(q)
+
+
+# ----------------------------------------------------------------------------- candidates
+def test_candidates_keep_the_margins_and_a_box_is_reached_with_its_orientation():
+    chain = builtin("kr150-2")
+    q = joint_candidates(chain, 400, seed=1, margin_deg=5)
+    assert np.all(q >= chain.lower + np.radians(5) - 1e-12) and np.all(q <= chain.upper - np.radians(5) + 1e-12)
+    assert usable(chain, q).all()
+    posture = np.radians([0.0, -90.0, 90.0, 0.0, 90.0, 0.0])
+    down = chain.fk(posture)[:3, :3]
+    qb = box_candidates(chain, 300, (1200, -800, 400), (2200, 800, 1400), down, seed=0, hint=posture)
+    poses = chain.fk(qb)
+    assert len(qb) > 250
+    assert np.all((poses[:, :3, 3] >= [1200 - 1e-6, -800 - 1e-6, 400 - 1e-6])
+                  & (poses[:, :3, 3] <= [2200 + 1e-6, 800 + 1e-6, 1400 + 1e-6]))
+    np.testing.assert_allclose(poses[:, :3, :3], np.broadcast_to(down, poses[:, :3, :3].shape), atol=1e-7)
+    with pytest.raises(InputError, match="reachable"):
+        box_candidates(chain, 100, (9000, 0, 0), (9500, 100, 100), down, seed=0)
+
+
+def test_the_tracker_noise_grows_with_distance():
+    chain = builtin("ur5")
+    q = joint_candidates(chain, 100, seed=0)
+    sigma = noise_of(chain, q, 0.02, tracker=(2000.0, 0.0, 0.0))
+    distance = np.linalg.norm(chain.fk_positions(q) - [2000.0, 0.0, 0.0], axis=1)
+    assert np.all(sigma > 0.02) and np.corrcoef(sigma, distance)[0, 1] > 0.99
+
+
+# ----------------------------------------------------------------------------- held out
+def _held_out(chain, truth, q, test_q, test_p, seed):
+    fit = KinematicCalibration("full").fit(chain, q, truth.measure(q, np.random.default_rng(seed)))
+    return float(np.mean(np.linalg.norm(fit.predict(test_q) - test_p, axis=1)))
+
+
+def test_designed_poses_beat_random_ones_held_out():
+    """UR5 with typical errors, 2,000 candidates: 14 designed poses against 10 random sets of
+    14 (both measured with noise, compliance and backlash), on 300 held-out poses."""
+    warnings.simplefilter("ignore")
+    chain = builtin("ur5")
+    truth = make_true_robot(chain, "typical", seed=4)
+    candidates = joint_candidates(chain, 2000, seed=0)
+    test_q = chain.random_configurations(300, np.random.default_rng(9))
+    test_p = truth.measure(test_q, np.random.default_rng(10))
+    design = design_poses(chain, 14, candidates)
+    designed = np.mean([_held_out(chain, truth, design.joints, test_q, test_p, s) for s in range(3)])
+    rng = np.random.default_rng(11)
+    random = []
+    for s in range(10):
+        try:
+            random.append(_held_out(chain, truth, candidates[rng.choice(len(candidates), 14, replace=False)],
+                                    test_q, test_p, s))
+        except InputError:
+            pass
+    assert designed < 0.85 * np.mean(random), (designed, np.mean(random))
+    assert design.model_rms < design.random_model_rms
+
+
+def test_augmenting_strengthens_the_weak_parameter():
+    """30 poses measured with joints 2 and 3 barely moving leave d2 weak; 10 designed poses
+    to add shrink its standard error more than 10 random ones."""
+    chain = builtin("kr150-2")
+    candidates = joint_candidates(chain, 1500, seed=0)
+    middle = (chain.lower + chain.upper) / 2
+    narrow = np.abs(candidates[:, 1:3] - middle[1:3]).max(axis=1) < np.radians(15)
+    measured = candidates[narrow][:30]
+    alone = design_poses(chain, 1, candidates, existing=measured)
+    added = design_poses(chain, 10, candidates, existing=measured)
+    d2 = list(added.names).index("d2")
+    info = information_model(chain, candidates)
+    rng = np.random.default_rng(0)
+    blocks = info.rows_of(measured, np.full(len(measured), 0.02)).reshape(-1, info.n_parameters)
+    random_std = []
+    for _ in range(10):
+        extra = info.blocks[rng.choice(len(candidates), 10, replace=False)].reshape(-1, info.n_parameters)
+        flat = np.vstack([blocks, extra])
+        cov = np.linalg.inv(information_start(info.blocks) + flat.T @ flat)
+        random_std.append(np.sqrt(cov[d2, d2]) / info.scale[d2])
+    assert added.std_errors[d2] < 0.8 * np.median(random_std) < alone.std_errors[d2]
+    assert added.n_existing == 30 and added.model_rms < alone.model_rms
+
+
+def test_too_few_poses_for_the_parameters_are_refused(ur5):
+    chain, candidates, _ = ur5
+    with pytest.raises(InputError, match="ask for at least 9 poses"):
+        design_poses(chain, 5, candidates)
+    with pytest.raises(InputError, match="only 1500 candidates"):
+        design_poses(chain, 2000, candidates)
+
+
+# ----------------------------------------------------------------------------- command line
+def _rows(path):
+    with open(path, newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def test_the_poses_file_is_the_joint_part_of_a_measurement_file(tmp_path):
+    out = tmp_path / "poses.csv"
+    result = runner.invoke(app, ["design", "ur5", "--n", "15", "--pool", "800", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "predicted standard errors" in result.output
+    rows = _rows(out)
+    assert len(rows) == 15 and list(rows[0])[:7] == ["pose", "q1", "q2", "q3", "q4", "q5", "q6"]
+    # Measure them (nominal positions plus a little noise) and calibrate.
+    chain = builtin("ur5")
+    q = chain.joints_from_file([[float(r[f"q{k}"]) for k in range(1, 7)] for r in rows])
+    p = make_true_robot(chain, "typical", seed=1).measure(q, np.random.default_rng(0))
+    meas = tmp_path / "meas.csv"
+    with open(meas, "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(list(rows[0]) + ["x", "y", "z"])
+        for r, xyz in zip(rows, p):
+            writer.writerow(list(r.values()) + [f"{v:.4f}" for v in xyz])
+    calibrated = runner.invoke(app, ["calibrate", "ur5", str(meas), "--out", str(tmp_path / "m.json")])
+    assert calibrated.exit_code == 0, calibrated.output
+    # The same seed writes the same file; --existing complements it.
+    again = tmp_path / "again.csv"
+    assert runner.invoke(app, ["design", "ur5", "--n", "15", "--pool", "800", "--out", str(again)]).exit_code == 0
+    assert again.read_text() == out.read_text()
+    more = runner.invoke(app, ["design", "ur5", "--n", "5", "--pool", "800", "--existing", str(meas), "--json",
+                               "--out", str(tmp_path / "next.csv")])
+    assert more.exit_code == 0, more.output
+    assert '"existing": 15' in more.output and "residual of a calibration" in more.output
+
+
+def _one_line(result, fragment):
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert result.exit_code == 2, result.output
+    assert len(lines) == 1 and lines[0].startswith("error: ") and fragment in lines[0], result.output
+
+
+def _candidates_file(path, rows, header=("q1", "q2", "q3", "q4", "q5", "q6")):
+    with open(path, "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(header)
+        writer.writerows(rows)
+    return str(path)
+
+
+@pytest.mark.parametrize("case, fragment", [
+    ("more", "--n 50 poses asked for but there are 40 candidates"),
+    ("few", "ask for at least 9 poses"),
+    ("box", "are reachable by robot"),
+    ("missing", "lacks column q6"),
+    ("nan", "row 4, column q2: 'nan' is not a finite number"),
+    ("radians", "they look like radians"),
+    ("metres", "looks like metres"),
+    ("suffix", "names a JSON file: name it"),
+    ("pool", "--pool must be a whole number >= 10"),
+])
+def test_refusals_are_one_line(tmp_path, case, fragment):
+    chain = builtin("ur5")
+    degrees = chain.joints_to_file(joint_candidates(chain, 40, seed=0))
+    out = str(tmp_path / "p.csv")
+    args = {
+        "more": ["--n", "50", "--candidates", _candidates_file(tmp_path / "more.csv", degrees)],
+        "few": ["--n", "5", "--pool", "200"],
+        "box": ["--n", "10", "--pool", "200", "--box", "5000,5100,0,100,0,100"],
+        "missing": ["--n", "10", "--candidates", _candidates_file(tmp_path / "missing.csv", degrees[:, :5],
+                                                                   ("q1", "q2", "q3", "q4", "q5"))],
+        "nan": ["--n", "10", "--candidates", _candidates_file(tmp_path / "nan.csv", [*degrees[:2],
+                                                                                  [1, "nan", 3, 4, 5, 6]])],
+        "radians": ["--n", "10", "--candidates", _candidates_file(tmp_path / "radians.csv", np.radians(degrees))],
+        "metres": ["--n", "10", "--pool", "200"],
+        "suffix": ["--n", "10", "--out", str(tmp_path / "p.json")],
+        "pool": ["--n", "10", "--pool", "5"],
+    }[case]
+    robot = "ur5"
+    if case == "metres":
+        robot = str(tmp_path / "ur5_m.toml")
+        write_robot(chain.replace(a=chain.a / 1000, d=chain.d / 1000), robot)
+    if "--out" not in args:
+        args = args + ["--out", out]
+    _one_line(runner.invoke(app, ["design", robot, *args]), fragment)
+    assert not (tmp_path / "p.csv").exists()
