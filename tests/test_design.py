@@ -37,6 +37,14 @@ def _state(info, criterion="prediction"):
     return InformationState(info.blocks, information_start(info.blocks), W)
 
 
+def _greedy(info, criterion, count):
+    """A state with ``count`` poses chosen greedily, and the candidates still available."""
+    state = _state(info, criterion)
+    available = np.ones(len(info.blocks), dtype=bool)
+    greedy(state, count, available)
+    return state, available
+
+
 def _direct(info, chosen, W):
     flat = info.blocks[chosen].reshape(-1, info.n_parameters)
     M = information_start(info.blocks) + flat.T @ flat
@@ -46,10 +54,8 @@ def _direct(info, chosen, W):
 # ----------------------------------------------------------------------------- criteria
 @pytest.mark.parametrize("criterion", ["prediction", "d-optimal"])
 def test_the_rank_3_updates_equal_a_direct_recomputation(ur5, criterion):
-    _, _, info = ur5
-    state = _state(info, criterion)
-    available = np.ones(len(info.blocks), dtype=bool)
-    greedy(state, 12, available)
+    state, available = _greedy(ur5[2], criterion, 12)
+    info = ur5[2]
     chosen = list(state.chosen)
     # The Woodbury form of adding and of removing a pose is the inverse of the changed M.
     for i, sign in ((int(np.flatnonzero(available)[0]), +1), (chosen[2], -1)):
@@ -86,10 +92,7 @@ def test_the_space_filling_sums_are_kept_exactly(ur5):
 
 @pytest.mark.parametrize("criterion", ["prediction", "d-optimal"])
 def test_the_exchange_never_lowers_the_criterion(ur5, criterion):
-    _, _, info = ur5
-    state = _state(info, criterion)
-    available = np.ones(len(info.blocks), dtype=bool)
-    greedy(state, 10, available)
+    state, available = _greedy(ur5[2], criterion, 10)
     before = state.score
     exchange(state, available, max_steps=0)
     assert state.score == before

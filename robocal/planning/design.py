@@ -212,7 +212,7 @@ def _summary(chain, info, q, chosen, order_of_choice, criterion, steps, W, start
     return Design(
         joints=q[chosen], indices=chosen, criterion=criterion, exchanges=int(steps), names=info.names,
         std_errors=std, file_units=info.file_units, units=tuple(info.chain.parameters[n].file_unit for n in info.names),
-        fixed=info.fixed, noise=float(np.mean(info.sigma)),
+        fixed=info.fixed, noise=float(info.sigma[0] if np.all(info.sigma == info.sigma[0]) else np.mean(info.sigma)),
         model_rms=model_rms, held_out_rms=held_out, held_out_mean=MEAN_OVER_RMS * held_out,
         random_model_rms=random_rms, o1=report.o1, noise_amplification=report.noise_amplification,
         condition_number=report.condition_number,
