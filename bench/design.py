@@ -11,7 +11,8 @@ fixed set the design never saw.
   backlash, 0.02 mm noise; seed 0).  10,000 candidates uniform in the joint limits (5 deg
   margin, as `robocal design` draws them); held-out: 1,000 other uniform configurations,
   measured.  Designed sets (5 design seeds) are each measured in their tour order 4 times
-  (4 noise draws); random sets are 20 draws of N candidates.  "floor": the calibration trained on 5,000
+  (4 noise draws), and in a random order (backlash: a tour approaches neighbouring poses
+  from the same side); random sets are 20 draws of N candidates.  "floor": the calibration trained on 5,000
   candidates, what no choice of poses can beat (compliance and backlash are not in the model).
 * ur5: the real UR5 (Tsinghua, 1,000 grid poses); a fixed random 300 held out, the design
   chooses from the other 700 by their joint values alone; random: 20 draws from the 700;
@@ -130,18 +131,19 @@ def curve(name, case, draws, floor_count):
                                                   replace=False)
     floor = case.score(floor_index)
     print(f"floor (calibrated on {len(floor_index)} candidates): {fmt(None if floor is None else floor[0])}")
-    print(f"{'N':>4}  {'designed (mean of 5)':>26}  {'d-optimal (designed)':>26}  {'random (mean of 20)':>26}  "
-          "refused p/d/r  gain of mean vs random")
+    print(f"{'N':>4}  {'designed, tour (mean of 5)':>26}  {'designed, random order':>26}  {'d-optimal, tour':>26}  "
+          f"{'random (mean of 20)':>26}  refused t/o/d/r  gain of tour's mean vs random")
     rows = {}
     for n in SIZES:
         designs = [design_poses(case.chain, n, case.candidates, seed=seed) for seed in range(DESIGN_SEEDS)]
         designed = case.repeated([d.indices for d in designs], draws)
+        shuffled = case.repeated([np.random.default_rng(5).permutation(d.indices) for d in designs], draws)
         d_optimal = case.repeated([design_poses(case.chain, n, case.candidates, criterion="d-optimal").indices], draws)
         rand, refused = case.random(n)
         best = designed[0]
         gain = "-" if best is None or rand is None else f"{100 * (1 - best[0] / rand[0]):+.1f} %"
-        print(f"{n:>4}  {fmt(best):>26}  {fmt(d_optimal[0]):>26}  {fmt(rand):>26}  "
-              f"{designed[2]}/{d_optimal[2]}/{refused:<6}  {gain}", flush=True)
+        print(f"{n:>4}  {fmt(best):>26}  {fmt(shuffled[0]):>26}  {fmt(d_optimal[0]):>26}  {fmt(rand):>26}  "
+              f"{designed[2]}/{shuffled[2]}/{d_optimal[2]}/{refused:<6}  {gain}", flush=True)
         rows[n] = (designs, designed, rand)
     return rows
 

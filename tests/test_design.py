@@ -252,6 +252,12 @@ def test_the_poses_file_is_the_joint_part_of_a_measurement_file(tmp_path):
     again = tmp_path / "again.csv"
     assert runner.invoke(app, ["design", "ur5", "--n", "15", "--pool", "800", "--out", str(again)]).exit_code == 0
     assert again.read_text() == out.read_text()
+    shuffled = tmp_path / "shuffled.csv"
+    assert runner.invoke(app, ["design", "ur5", "--n", "15", "--pool", "800", "--order", "random", "--out",
+                               str(shuffled)]).exit_code == 0
+    key = [tuple(r[f"q{k}"] for k in range(1, 7)) for r in _rows(shuffled)]
+    assert sorted(key) == sorted(tuple(r[f"q{k}"] for k in range(1, 7)) for r in rows) and key != [
+        tuple(r[f"q{k}"] for k in range(1, 7)) for r in rows]
     more = runner.invoke(app, ["design", "ur5", "--n", "5", "--pool", "800", "--existing", str(meas), "--json",
                                "--out", str(tmp_path / "next.csv")])
     assert more.exit_code == 0, more.output

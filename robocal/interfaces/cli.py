@@ -903,6 +903,7 @@ def design(
     targets: str = typer.Option(None, help="Where the robot will work: a CSV of configurations (q1..qN, deg) or of targets (x, y, z, rx, ry, rz; mm, deg, robot base frame). Default: the candidates."),
     noise: float = typer.Option(None, help="Standard deviation of a reading per coordinate in mm (default 0.02): the tracker's noise, plus what the calibration will not explain if you know it (an earlier calibration's residual RMS / 1.73).", **_number(at_least=0, at_most=LARGEST_NOISE_MM)),
     tracker: str = typer.Option(None, help="The laser tracker's position x,y,z in mm (robot base frame): its noise then grows with distance.", **_numbers(count=3)),
+    order: str = typer.Option("tour", help="The order to measure in: tour (short motions) or random (averages out gear backlash, which a tour approaches from one side).", **_choice(("tour", "random"))),
     payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (as calibrate --payload).", **_number(at_least=0)),
     tip: str = typer.Option(None, help="URDF only: the tip link."),
     root: str = typer.Option(None, help="URDF only: the root link."),
@@ -926,7 +927,7 @@ def design(
     result = design_job(robot, out_file, n=n, seed=seed, criterion=criterion, parameters=parameters,
                         candidates=candidates, pool=pool, sampling=sampling, box=box, rpy=rpy, hint=hint, tool=tool,
                         margin=margin, existing=existing, targets=targets, noise=noise, tracker=tracker,
-                        payload=payload, root=root, tip=tip)
+                        payload=payload, order=order, root=root, tip=tip)
     if as_json:
         print(json.dumps(result, indent=2))
         return
@@ -943,7 +944,7 @@ def design(
                                                                   f"RMS {predicted['held_out_rms_mm']:.4f} mm predicted"),
                        ("O1, noise amplification", f"{result['o1']:.4g}, {result['noise_amplification']:.4g}"),
                        ("condition number", f"{result['condition_number']:.4g}"),
-                       ("tour", f"{result['tour_deg']:.0f} deg of the largest joint's motion "
+                       ("motion", f"{result['tour_deg']:.0f} deg of the largest joint's motion "
                                 f"({result['order_of_choice_deg']:.0f} in the order of choice)"),
                        ("exchanges after the greedy selection", str(result["exchanges"]))):
         table.add_row(key, str(value))

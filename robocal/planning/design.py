@@ -35,6 +35,8 @@ RANDOM_DRAWS = 20
 # Joints whose motion moves the TCP less than this share of the most moving joint's (over the
 # candidates) are left out of the space-filling distance (the last axis with the TCP on it).
 STILL_JOINT = 1e-3
+# The orders the poses can be written in.
+ORDERS = ("tour", "random")
 # Targets the prediction criterion averages over at most (a fixed subsample beyond).
 MAX_TARGETS = 20_000
 
@@ -53,8 +55,8 @@ class Design:
     random_model_rms: the median of model_rms over random selections of the same size (None
     when the candidates are too few to draw from); o1, noise_amplification, condition_number:
     of the chosen poses (with those measured before); tour_length / given_length: the
-    largest-joint motion along the tour and along the order of choice (deg; mm on prismatic
-    joints).
+    largest-joint motion along the order written (the tour, or a random order) and along the
+    order of choice (deg; mm on prismatic joints).
     """
 
     joints: np.ndarray
@@ -137,7 +139,7 @@ def _model_rms(info, W, chosen_blocks, start):
 
 
 def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, parameters="full", noise=0.02,
-                 tracker=None, targets=None, existing=None, payload=None, refine=True, seed=0):
+                 tracker=None, targets=None, existing=None, payload=None, refine=True, seed=0, order="tour"):
     """Choose ``count`` of ``candidates`` (N, n) rad to measure for a calibration of
     ``parameters`` (a parameter set) and predict the result.
 
@@ -148,8 +150,12 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
     tracker: its position (mm, robot base frame) when its noise grows with distance.
     targets: (T, n) rad, where the robot will work (default: the candidates).  existing:
     (k, n) rad poses measured before, which the design complements (the tour starts next to
-    the last of them).  refine: exchange after the greedy selection.  seed: the random
-    selections the summary compares with.  Returns a :class:`Design`.
+    the last of them).  refine: exchange after the greedy selection.  seed: the strata's
+    k-means start and the random selections the summary compares with.  order: ``tour``
+    (short motions) or ``random`` (a seeded shuffle: on a robot with gear backlash a tour
+    approaches neighbouring poses from the same side, which biases the calibrated joint
+    offsets where a random order averages the play out; see bench/design.py).  Returns a
+    :class:`Design`.
     """
     check_criterion(criterion)
     q = _check_joints(chain, candidates, "candidate")
@@ -183,7 +189,12 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
         chosen, steps = select_stratified(state, count, available, labels, points, refine=refine)
     else:
         chosen, steps = select(state, count, available, refine=refine)
-    order = tour(q[chosen], None if before is None else before[-1])
+    if order not in ORDERS:
+        raise InputError(f"order must be one of {', '.join(ORDERS)}, got {order!r}")
+    if order == "tour":
+        order = tour(q[chosen], None if before is None else before[-1])
+    else:
+        order = np.random.default_rng(seed).permutation(len(chosen))
     chosen_in_order = chosen[order]
     return _summary(chain, info, q, chosen_in_order, chosen, criterion, steps, W, start, before, before_blocks,
                     noise, seed)

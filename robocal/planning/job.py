@@ -154,7 +154,7 @@ def _noise_from(path, chain, parameters, payload):
 def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters="full", candidates=None,
                pool=DEFAULT_COUNT, sampling="uniform", box=None, rpy=None, hint=None, tool=None,
                margin=MARGIN_DEG, existing=None, targets=None, noise=None, tracker=None, payload=None,
-               root=None, tip=None):
+               order="tour", root=None, tip=None):
     """Design ``n`` poses for ``robot`` and write them to ``out`` (module notes); returns the
     JSON-ready result: the design's :meth:`~robocal.planning.Design.to_dict` and where the
     candidates, the noise and the poses came from and went."""
@@ -197,7 +197,7 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
     target_q = None if targets is None else _targets(targets, chain)
     design = design_poses(chain, n, q, criterion=criterion, parameters=parameters,
                           noise=0.02 if noise is None else noise, tracker=tracker, targets=target_q,
-                          existing=before, payload=payload, seed=seed)
+                          existing=before, payload=payload, seed=seed, order=order)
     _write_poses(out, chain, design.joints)
     return {"robot": chain.name, "out": str(out), "candidates_from": source, "noise_from": noise_note,
             "targets": "the candidates" if targets is None else f"{len(target_q)} configurations of {targets}",
