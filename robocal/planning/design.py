@@ -5,9 +5,9 @@ The default criterion, ``prediction``, minimises the mean squared error of the c
 TCP position over the target configurations (the candidates themselves unless the user
 names the targets): it aims at what a calibration is for.  It chooses one pose per stratum of
 the targets (:func:`robocal.planning.exchange.select_stratified`), so that errors the
-calibration cannot model are averaged as the targets will see them.  ``d-optimal`` (log det of the
-information of the identifiable, scaled parameters) treats every parameter alike; on the
-KR 150-2 and the UR5 it does not beat random poses at the targets.  ``space-filling``
+calibration cannot model are averaged as the targets will see them.  ``d-optimal`` (log det
+of the information of the identifiable, scaled parameters) treats every parameter alike and
+beats random poses held out by less.  ``space-filling``
 spreads the poses over configuration space, for residual models (Kriging, hybrid, network)
 that learn the error as a function of the joints.  See :mod:`robocal.planning.criteria`.
 
