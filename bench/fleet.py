@@ -111,8 +111,11 @@ def run(fleet, out, workers):
     if done.returncode != 1:  # 1: some robot failed, as one must here
         sys.exit(f"robocal fleet exited with {done.returncode}:\n{done.stderr}")
     tasks = [row["seconds"] for row in json.loads(done.stdout)["robots"] if row["seconds"] is not None]
-    print(f"  {workers} worker(s): {wall:.1f} s wall, {cpu:.1f} s CPU; the robots' tasks {sum(tasks):.1f} s in all, "
-          f"the longest {max(tasks):.1f} s; after, {load()}", flush=True)
+    # How much of the run the workers spent in the robots' tasks (the rest: starting and stopping
+    # the cluster, and idle workers at the end); and how much CPU the run's processes got.
+    print(f"  {workers} worker(s): {wall:.1f} s wall, {cpu:.1f} s CPU ({cpu / wall:.2f} cores on average); the robots' "
+          f"tasks {sum(tasks):.1f} s in all, the longest {max(tasks):.1f} s, the workers busy "
+          f"{100 * sum(tasks) / (wall * workers):.0f} % of the wall time; after, {load()}", flush=True)
     return wall, cpu
 
 
