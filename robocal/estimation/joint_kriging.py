@@ -28,7 +28,7 @@ from .kriging import Kriging
 JOINT_INPUTS = ("joints", "sincos")
 # The constructor keywords of Kriging, copied onto the model that is fitted.
 KRIGING_SETTINGS = ("regression", "correlation", "theta0", "theta_bounds", "nugget", "n_starts", "shared_theta",
-                    "random_state")
+                    "random_state", "approximation", "neighbours")
 # Likelihood searches of a Kriging over the joints whose n_starts is left to the default:
 # JOINT_STARTS up to JOINT_STARTS_UP_TO training poses, one above.  In 6 to 12 dimensions a
 # search costs several times one over the 3-D position, and on large designs more starts

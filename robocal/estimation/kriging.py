@@ -44,6 +44,10 @@ from .arrays import (as_matrix, check_choice, check_flag, check_header, check_ra
 
 REGRESSIONS = ("constant", "linear", "quadratic")
 CORRELATIONS = ("gaussian", "matern52")
+# The exact model, or the Vecchia approximation of its likelihood and predictor
+# (robocal.estimation.vecchia); "auto" takes the approximation above AUTO_VECCHIA_ABOVE points.
+APPROXIMATIONS = ("exact", "vecchia", "auto")
+AUTO_VECCHIA_ABOVE = 1000
 
 FORMAT = "robocal.kriging"
 FORMAT_VERSION = 1
@@ -165,6 +169,14 @@ class _Problem:
         # matrix-vector product each over them.  Memory: 8·d·n² bytes (216 MB at n = 3000).
         self.sqdiff = ((X[:, None, :] - X[None, :, :]) ** 2).reshape(n * n, d).T.copy()
 
+    def search_problem(self):
+        """The problem the hyperparameter search runs on: this one (see the Vecchia problem's)."""
+        return self
+
+    def final(self, theta, nugget, Y, start_jitter=0.0):
+        """The state a fit ends with, or a saved model is rebuilt from, at θ and the nugget."""
+        return self.condition(theta, nugget, Y, start_jitter)
+
     def condition(self, theta, nugget, Y, start_jitter=0.0, gradient=False):
         """Condition the process on ``Y`` (n, m) at θ and the nugget: a `_State`."""
         n = len(self.X)
@@ -264,6 +276,14 @@ class Kriging:
     random_state : None, int or numpy Generator
         Seeds the Latin hypercube of starts: an int ≥ 0 makes fits reproducible, a Generator
         is used (and advanced) as is, None draws fresh entropy.
+    approximation : "exact" | "vecchia" | "auto"
+        The exact likelihood and predictor (O(n³) time, O(n²) memory), or their Vecchia
+        approximation (:mod:`robocal.estimation.vecchia`: each point conditioned on its nearest
+        earlier points, O(n m³) time, O(n m) memory); "auto" is exact up to
+        AUTO_VECCHIA_ABOVE training points and Vecchia above.
+    neighbours : int ≥ 1 or None
+        Vecchia only: the neighbours m each point is conditioned on, in the likelihood and in
+        prediction; None is ``vecchia.NEIGHBOURS``.  With m ≥ n − 1 the approximation is exact.
 
     Attributes
     ----------
@@ -283,13 +303,15 @@ class Kriging:
         Number of input columns d.
     diagnostics_ : list of str
         Notes on bounds hit, ill-conditioning and the data.
+    approximation_ : "exact" or "vecchia"
+        What the fit used (``approximation`` "auto" decides by the number of points).
 
     All are set by ``fit`` or ``from_dict``.
     """
 
     def __init__(self, regression="constant", correlation="gaussian", theta0=None,
                  theta_bounds=(1e-6, 1e2), nugget=0.0, n_starts=None, shared_theta=False,
-                 random_state=None):
+                 random_state=None, approximation="auto", neighbours=None):
         self.regression = regression
         self.correlation = correlation
         self.theta0 = theta0
@@ -298,6 +320,8 @@ class Kriging:
         self.n_starts = n_starts
         self.shared_theta = shared_theta
         self.random_state = random_state
+        self.approximation = approximation
+        self.neighbours = neighbours
 
     # ------------------------------------------------------------------ fitting
 
@@ -339,7 +363,7 @@ class Kriging:
             raise InputError(f"a {self.regression} trend in {d} dimensions needs at least "
                              f"{needed} points, got {n}: add points{hint}")
         diagnostics = self._check_duplicates(X)
-        data = _Training(X, Y, self.regression, self.correlation)
+        data = _Training(X, Y, self.regression, self.correlation, self._uses_vecchia(n), self.neighbours)
         diagnostics += [f"output {j} is constant ({Y[0, j]:g}): it is predicted as that constant"
                         for j in np.flatnonzero(Y.min(axis=0) == Y.max(axis=0))]
 
@@ -348,7 +372,7 @@ class Kriging:
         fixed = getattr(self, "_fixed_states", None)  # see conditioned_on
         if fixed is not None and len(fixed) != len(groups):
             raise InputError(f"the hyperparameters are of {len(fixed)} outputs, the data have {Y.shape[1]}")
-        states = ([data.problem.condition(theta, nugget, data.Ys[:, cols]) for cols, (theta, nugget) in zip(groups, fixed)]
+        states = ([data.problem.final(theta, nugget, data.Ys[:, cols]) for cols, (theta, nugget) in zip(groups, fixed)]
                   if fixed is not None else [self._optimise(data.problem, data.Ys[:, cols], rng) for cols in groups])
         self._install(data, y_is_vector, groups, states, diagnostics)
         self._report(groups, states)
@@ -363,7 +387,8 @@ class Kriging:
         if not hasattr(self, "theta_"):
             raise InputError("this Kriging is not fitted: fit it before conditioning its hyperparameters on other data")
         settings = {name: getattr(self, name) for name in ("regression", "correlation", "theta_bounds",
-                                                          "shared_theta", "random_state")}
+                                                          "shared_theta", "random_state", "approximation",
+                                                          "neighbours")}
         # (the nugget setting only decides whether repeated inputs are allowed; the fitted
         # nugget of each output comes with its θ)
         model = Kriging(**settings, nugget=float(np.max(self.nugget_)))
@@ -393,6 +418,12 @@ class Kriging:
                              "a numeric nugget")
         check_flag("shared_theta", self.shared_theta)
         check_random_state(self.random_state)
+        check_choice("approximation", self.approximation, APPROXIMATIONS)
+        check_whole("neighbours", self.neighbours, 1, none_allowed=True)
+
+    def _uses_vecchia(self, n):
+        """Whether a fit of n points uses the Vecchia approximation."""
+        return self.approximation == "vecchia" or (self.approximation == "auto" and n > AUTO_VECCHIA_ABOVE)
 
     def _groups(self, m):
         """Output columns that share θ: all together, or each on its own."""
@@ -475,14 +506,26 @@ class Kriging:
             return theta, nugget
 
         if self.n_starts == 0:
-            return problem.condition(self._theta0(d), float(self.nugget), Y)
+            return problem.final(self._theta0(d), float(self.nugget), Y)
         if not Y.any():  # constant outputs: the likelihood does not depend on θ
             nugget = NUGGET_BOUNDS[0] if estimate_nugget else float(self.nugget)
-            return problem.condition(self._theta0(d), nugget, Y)
+            return problem.final(self._theta0(d), nugget, Y)
+        # The exact problem searches on itself; the Vecchia one on a space-filling part of
+        # its points, then refines that optimum on all of them (robocal.estimation.vecchia).
+        search = problem.search_problem()
         starts = self._starting_points(
-            d, n, rng, lambda params: problem.condition(*unpack(params), Y).log_likelihood.sum())
+            d, n, rng, lambda params: search.condition(*unpack(params), Y).log_likelihood.sum())
+        best = self._minimise(search, Y, starts, unpack, OPTIONS)
+        if search is not problem:
+            problem.focus(unpack(best)[0])
+            best = self._minimise(problem, Y, [best], unpack, problem.REFINE_OPTIONS)
+        return problem.final(*unpack(best), Y)
 
-        scale = 1.0 / (n * Y.shape[1])  # an objective per value keeps tolerances n-independent
+    def _minimise(self, problem, Y, starts, unpack, options):
+        """L-BFGS-B from each start on the summed concentrated likelihood: the best parameters."""
+        d = problem.X.shape[1]
+        estimate_nugget = self.nugget == "estimate"
+        scale = 1.0 / (len(problem.X) * Y.shape[1])  # an objective per value keeps tolerances n-independent
 
         def objective(params):
             state = problem.condition(*unpack(params), Y, gradient=True)
@@ -494,10 +537,10 @@ class Kriging:
         best_value, best_params = np.inf, starts[0]
         for start in starts:
             result = minimize(objective, start, jac=True, method="L-BFGS-B", bounds=bounds,
-                              options=OPTIONS)
+                              options=options)
             if result.fun < best_value:
                 best_value, best_params = result.fun, result.x
-        return problem.condition(*unpack(best_params), Y)
+        return best_params
 
     def _install(self, data, y_is_vector, groups, states, diagnostics):
         """Make the model the fitted one: what prediction needs and the public attributes."""
@@ -507,9 +550,11 @@ class Kriging:
         self._x_mean, self._x_scale = data.x_mean, data.x_scale
         self._y_mean, self._y_scale = data.y_mean, data.y_scale
         self._groups, self._states = groups, states
-        # Per group, the training side of the cross-correlation product (d + 2, n).
+        self._order = data.order  # the Vecchia ordering, None for the exact model
+        self.approximation_ = "exact" if data.order is None else "vecchia"
+        # Per group, the training side of the exact cross-correlation product (d + 2, n).
         self._training_factors = []
-        for state in states:
+        for state in states if data.order is None else ():
             b = data.problem.X * np.sqrt(state.theta)
             self._training_factors.append(np.vstack([2.0 * b.T, -np.ones(len(b)),
                                                      -np.einsum("ij,ij->i", b, b)]))
@@ -576,7 +621,8 @@ class Kriging:
             Also return the mean squared error of each prediction.
 
         batch_size : int, optional (default: 1000)
-            Points processed at a time, so that memory stays at batch_size × n floats.
+            Points processed at a time by the exact model, so that memory stays at
+            batch_size × n floats (the Vecchia approximation needs O(m) per point).
 
         Returns
         -------
@@ -609,7 +655,8 @@ class Kriging:
         Xs = (X - self._x_mean) / self._x_scale
         mean = np.empty((len(X), len(self._y_mean)))
         mse = np.empty_like(mean) if return_mse else None
-        step = max(1, int(batch_size))
+        # The Vecchia predictor bounds its own memory and groups neighbouring targets: all at once.
+        step = max(1, len(X) if self.approximation_ == "vecchia" else int(batch_size))
         for start in range(0, len(X), step):
             block = slice(start, start + step)
             self._predict_block(Xs[block], mean[block], None if mse is None else mse[block])
@@ -621,6 +668,13 @@ class Kriging:
     def _predict_block(self, Xs, mean, mse):
         """Fill ``mean`` (and ``mse``) for the standardised points Xs, group by group."""
         f = trend_basis(Xs, self.regression)
+        if self.approximation_ == "vecchia":
+            for cols, state in zip(self._groups, self._states):
+                standard, unit = state.predict(Xs, f, mse is not None)
+                mean[:, cols] = self._y_mean[cols] + self._y_scale[cols] * standard
+                if mse is not None:
+                    mse[:, cols] = unit[:, None] * (state.sigma2 * self._y_scale[cols] ** 2)
+            return
         for cols, state, factor in zip(self._groups, self._states, self._training_factors):
             r = self._cross_correlation(Xs, state.theta, factor)
             standard = f @ state.beta + r @ state.alpha
@@ -689,7 +743,7 @@ class Kriging:
         if not hasattr(self, "_states"):
             raise not_fitted("Kriging model", "fit(X, Y)")
         theta = np.atleast_2d(self.theta_)
-        return {
+        document = {
             "format": FORMAT,
             "version": FORMAT_VERSION,
             "settings": {
@@ -698,6 +752,8 @@ class Kriging:
                 "theta_bounds": [float(b) for b in self.theta_bounds],
                 "nugget": self.nugget if isinstance(self.nugget, str) else float(self.nugget),
                 "shared_theta": bool(self.shared_theta),
+                "approximation": self.approximation,
+                "neighbours": None if self.neighbours is None else int(self.neighbours),
             },
             "y_is_vector": bool(self._y_is_vector),
             "X": self._X_train.tolist(),
@@ -707,6 +763,12 @@ class Kriging:
             "jitter": self.jitter_.tolist(),
             "diagnostics": list(self.diagnostics_),
         }
+        if self._order is not None:
+            # What the Vecchia fit conditioned on: its ordering of the training rows and its
+            # number of neighbours (the neighbours themselves follow from θ).
+            document["vecchia"] = {"neighbours": int(self._states[0].neighbours),
+                                   "order": self._order.tolist()}
+        return document
 
     @classmethod
     def from_dict(cls, document):
@@ -742,12 +804,11 @@ class Kriging:
                 and np.all(np.isfinite(np.concatenate([theta.ravel(), nugget, jitter])))):
             raise damaged("Kriging model", "theta, nugget or jitter is negative or not finite")
         try:
-            data = _Training(X, Y, model.regression, model.correlation)
+            data = _Training(X, Y, model.regression, model.correlation, *parts["vecchia"])
         except InputError as error:
             raise damaged("Kriging model", str(error)) from None
         # The stored jitter is tried first, so the factorisation is the one the fit ended with.
-        states = [data.problem.condition(theta[i], nugget[cols[0]], data.Ys[:, cols],
-                                         start_jitter=jitter[cols[0]])
+        states = [data.problem.final(theta[i], nugget[cols[0]], data.Ys[:, cols], start_jitter=jitter[cols[0]])
                   for i, cols in enumerate(groups)]
         model._install(data, y_is_vector, groups, states, parts["diagnostics"])
         return model
@@ -758,13 +819,16 @@ def _read_document(cls, document):
     arrays and plain values, or a FileFormatError saying what is missing or malformed."""
     try:
         settings = document["settings"]
+        # Documents written before the Vecchia approximation existed are exact fits.
         model = cls(regression=settings["regression"], correlation=settings["correlation"],
                     theta_bounds=tuple(settings["theta_bounds"]), nugget=settings["nugget"],
-                    shared_theta=settings["shared_theta"])
+                    shared_theta=settings["shared_theta"], approximation=settings.get("approximation", "auto"),
+                    neighbours=settings.get("neighbours"))
         parts = {"X": as_matrix(document["X"], "X"), "Y": as_matrix(document["Y"], "Y")}
         parts.update((key, np.array(document[key], dtype=float))
                      for key in ("theta", "nugget", "jitter"))
         parts.update((key, document[key]) for key in ("y_is_vector", "diagnostics"))
+        parts["vecchia"] = _read_vecchia(document.get("vecchia"), len(parts["X"]))
     except (KeyError, TypeError, ValueError) as error:  # InputError is a ValueError
         raise damaged("Kriging model", error) from None
     if not isinstance(parts["y_is_vector"], bool) or not isinstance(parts["diagnostics"], list):
@@ -777,10 +841,26 @@ def _read_document(cls, document):
     return model, parts
 
 
-class _Training:
-    """Training data, their standardisation and the likelihood problem built on them."""
+def _read_vecchia(entry, n):
+    """(True, neighbours, order) of a document's "vecchia" entry, (False, None, None) without
+    one; ValueError if it is malformed."""
+    if entry is None:
+        return False, None, None
+    neighbours, order = entry["neighbours"], entry["order"]
+    if not (isinstance(neighbours, int) and not isinstance(neighbours, bool) and neighbours >= 1):
+        raise ValueError(f"'vecchia' 'neighbours' must be a whole number >= 1, got {neighbours!r}")
+    order = np.asarray(order)
+    if order.shape != (n,) or order.dtype.kind not in "iu" or not np.array_equal(np.sort(order), np.arange(n)):
+        raise ValueError("'vecchia' 'order' must list every training row once")
+    return True, neighbours, order
 
-    def __init__(self, X, Y, regression, correlation):
+
+class _Training:
+    """Training data, their standardisation and the likelihood problem built on them: exact,
+    or with ``vecchia`` the Vecchia approximation with ``neighbours`` (None: its default),
+    conditioning in ``order`` (None: its own ordering)."""
+
+    def __init__(self, X, Y, regression, correlation, vecchia=False, neighbours=None, order=None):
         self.X, self.Y = X, Y
         self.x_mean, self.x_scale = standard_scaler(X)
         self.y_mean, self.y_scale = standard_scaler(Y)
@@ -791,4 +871,10 @@ class _Training:
             raise InputError(f"the {regression} trend cannot be estimated from these points (an "
                              f"input is constant or the points lie on a lower-dimensional "
                              f"surface): use a lower-order trend or drop that input")
-        self.problem = _Problem(Xs, F, correlation)
+        if not vecchia:
+            self.problem, self.order = _Problem(Xs, F, correlation), None
+        else:
+            from .vecchia import VecchiaProblem
+
+            self.problem = VecchiaProblem.of(Xs, F, correlation, neighbours, order)
+            self.order = self.problem.order

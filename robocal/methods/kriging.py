@@ -7,7 +7,7 @@ import numpy as np
 from ..compensation import Compensator
 from ..errors import FileFormatError
 from ..estimation.joint_kriging import JointKriging
-from ..estimation.kriging import Kriging
+from ..estimation.kriging import APPROXIMATIONS, AUTO_VECCHIA_ABOVE, Kriging
 from ..estimation.metrics import error_stats
 from ..kinematics.ik import solve_ik
 from .base import (ERROR_MODEL_INPUTS, RANDOM_STATE, REGISTER, Method, Setting, one_of, require_distinct,
@@ -22,14 +22,17 @@ SHARED_THETA = Setting("shared_theta", False, "--shared-theta", "one theta for t
 INPUTS = Setting("inputs", "position", "--inputs",
                  "what the error is modelled over: position (the TCP position), joints, or sincos "
                  "(sines and cosines of the revolute joints)")
-KRIGING_SETTINGS = (INPUTS, TREND, CORRELATION, NUGGET, SHARED_THETA, RANDOM_STATE)
+KRIGING = Setting("kriging", "auto", "--kriging",
+                  f"exact Kriging, or its vecchia approximation (nearest-neighbour conditioning, for large data); "
+                  f"auto: exact up to {AUTO_VECCHIA_ABOVE:,} training poses")
+KRIGING_SETTINGS = (INPUTS, TREND, CORRELATION, NUGGET, SHARED_THETA, KRIGING, RANDOM_STATE)
 DOCUMENT_TYPE = "kriging"
 
 
 def kriging_of(method):
     """The unfitted :class:`Kriging` of a method's Kriging settings (checked in its ``fit``)."""
     return Kriging(regression=method.trend, correlation=method.correlation, nugget=method.nugget,
-                   shared_theta=method.shared_theta, random_state=method.random_state)
+                   shared_theta=method.shared_theta, random_state=method.random_state, approximation=method.kriging)
 
 
 def fit_error_model(method, chain, joints, errors, like=None):
@@ -120,6 +123,7 @@ class KrigingResidual:
 
     def _check_inputs(self):
         one_of(self.inputs, ERROR_MODEL_INPUTS, "inputs")
+        one_of(self.kriging, APPROXIMATIONS, "kriging")
 
     def error_model_document(self):
         return kriging_document(self.compensator_.error_model, self.inputs)
@@ -168,7 +172,8 @@ class KrigingResidual:
 class KrigingMethod(KrigingResidual, Method):
     """Kriging of the position error of the nominal robot (registered in the measurement
     frame when needed) over its TCP position, or over the joints (``inputs``).  Settings:
-    register, inputs, trend, correlation, nugget, shared_theta, random_state (see
+    register, inputs, trend, correlation, nugget, shared_theta, kriging (exact, vecchia or
+    auto), random_state (see
     :class:`~robocal.estimation.kriging.Kriging` and
     :class:`~robocal.estimation.joint_kriging.JointKriging`)."""
 
