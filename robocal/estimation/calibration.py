@@ -7,7 +7,7 @@ robot is calibrated in its own parameterisation: DH and modified DH carry Hayati
 parallel axes, which removes the DH singularity there, and export needs no conversion.
 """
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -16,7 +16,7 @@ from ..kinematics.compliant import with_compliance
 from .identifiability import NEAR_PARALLEL, analyse
 from .identification import (Analysis, FittedCalibration, IdentifiedResult, check_iterations, check_payload,
                              identified_parameters, identify, one_of)
-from .least_squares import levenberg_marquardt
+from .least_squares import blocked_r_factor, held_in_blocks, levenberg_marquardt
 from .least_squares import residual as residual_of
 from .metrics import error_stats
 from .registration import register_base_and_tool
@@ -429,12 +429,31 @@ class KinematicCalibration(FittedCalibration):
         position (and orientation) rows, the Levenberg–Marquardt fit with the robust loss, and
         the weighted rows at a fit for the covariance."""
         rows = weights.shape[1]
+        # Large data never hold the whole Jacobian (robocal.estimation.least_squares): the
+        # identifiability analysis, the fit and the standard errors work over blocks of poses.
+        blocked = held_in_blocks(len(q))
+
+        def weighted_jacobian(chain, names, w):
+            """The weighted identification Jacobian (3 or 6 rows per pose, P), or for large
+            data its R factor (P, P), accumulated over blocks of poses."""
+            def rows_of(poses):
+                jac = chain.identification_jacobian(q[poses], names)[:, :rows, :] * w[poses][:, :, None]
+                return jac.reshape(-1, len(names))
+            return blocked_r_factor(rows_of, len(q), len(names)) if blocked else rows_of(slice(None))
 
         def analyse_at(chain, candidates):
-            jac = chain.identification_jacobian(q, candidates)[:, :rows, :]
-            scaled = (jac * weights[:, :, None]).reshape(-1, len(candidates))
+            scaled = weighted_jacobian(chain, candidates, weights)
             _, report = analyse(chain, scaled, candidates, explain=False)
-            return Analysis(report.identified, lambda: analyse(chain, scaled, candidates)[1])
+
+            def explain():
+                report = analyse(chain, scaled, candidates)[1]
+                if not blocked:
+                    return report
+                # The R factor has P rows where the Jacobian has one per equation: O1 is per
+                # root of the number of equations.
+                count = len(q) * rows
+                return replace(report, rows=count, o1=report.o1 * np.sqrt(report.rows / count))
+            return Analysis(report.identified, explain)
 
         def fit(chain, names):
             return levenberg_marquardt(chain, q, target, names, rotations=rotations, weights=weights,
@@ -442,10 +461,10 @@ class KinematicCalibration(FittedCalibration):
                                        tolerance=self.tolerance)
 
         def linearise(fitted, names):
+            # The covariance needs the residual and JᵀJ only: the R factor serves for large data.
             w = weights * fitted.pose_weights[:, None]
-            jac = fitted.chain.identification_jacobian(q, names)[:, :rows, :] * w[:, :, None]
             r = residual_of(fitted.chain, q, target, rotations) * w
-            return r.reshape(-1), jac.reshape(-1, len(names))
+            return r.reshape(-1), weighted_jacobian(fitted.chain, names, w)
 
         return {"analyse": analyse_at, "fit": fit, "linearise": linearise}
 
