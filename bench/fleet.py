@@ -98,6 +98,30 @@ def load():
     return "load average {:.2f} {:.2f} {:.2f}".format(*os.getloadavg())
 
 
+def spin(steps):
+    """Pure-Python arithmetic: CPU and nothing else."""
+    total = 0
+    for k in range(steps):
+        total += k * k
+    return total
+
+
+def ceiling(workers, steps=30_000_000):
+    """How many times the work of one process ``workers`` processes got done in the same wall
+    time just now: what the machine (shared, perhaps) offers a run of that many workers."""
+    from multiprocessing import get_context
+
+    with get_context("spawn").Pool(workers) as pool:
+        pool.map(spin, [1] * workers)  # the processes started
+        start = time.perf_counter()
+        pool.map(spin, [steps])
+        one = time.perf_counter() - start
+        start = time.perf_counter()
+        pool.map(spin, [steps] * workers, chunksize=1)
+        many = time.perf_counter() - start
+    return workers * one / many
+
+
 def run(fleet, out, workers):
     """``robocal fleet`` with a local cluster of ``workers``: (wall s, CPU s of its processes)."""
     print(f"  {workers} worker(s): before, {load()}", flush=True)
@@ -158,7 +182,9 @@ def main():
                 folder / f"out-{first}")) for model in (folder / f"out-{first}").glob("*/model.json"))
             print(f"  model files of {first} and {workers} worker(s) the same: {same}")
             print(f"  speed-up {first} -> {workers} workers: {times[first][0] / times[workers][0]:.2f}x wall "
-                  f"({times[first][0]:.1f} s / {times[workers][0]:.1f} s)")
+                  f"({times[first][0]:.1f} s / {times[workers][0]:.1f} s); {workers} processes of pure arithmetic "
+                  f"got {ceiling(workers) / ceiling(first):.2f}x the work of {first} done just after: the most this "
+                  f"machine offered ({load()})")
         print("  per robot (first run): " + ", ".join(f"{row['name']} {row['method']} {row['mean_mm'] or '-'} mm"
                                                      for row in rows[first]))
 
