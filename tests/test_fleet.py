@@ -363,8 +363,9 @@ def test_only_module_level_functions_and_plain_data_cross_to_workers():
 def test_an_active_executor_runs_map_jobs_on_its_cluster():
     with parallel.executor(jobs=1) as chosen:
         assert parallel.current() is chosen and chosen.workers == 1
-        address = chosen.client.scheduler.address
-        assert address.startswith("tcp://127.0.0.1:")
+        # The scheduler and every worker listen on the loopback address only.
+        addresses = [chosen.client.scheduler.address, *chosen.client.scheduler_info()["workers"]]
+        assert len(addresses) == 2 and all(a.startswith("tcp://127.0.0.1:") for a in addresses), addresses
         results = parallel.map_jobs(square_plus, [{"x": k} for k in range(4)])
         assert [r["value"] for r in results] == [0, 1, 4, 9]
         assert [list(r["array"]) for r in results][3] == [0, 1, 2]
