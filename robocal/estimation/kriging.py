@@ -169,9 +169,14 @@ class _Problem:
         # matrix-vector product each over them.  Memory: 8·d·n² bytes (216 MB at n = 3000).
         self.sqdiff = ((X[:, None, :] - X[None, :, :]) ** 2).reshape(n * n, d).T.copy()
 
+    ROUNDS = 1  # runs of the optimiser per start (see Kriging._minimise)
+
     def search_problem(self):
         """The problem the hyperparameter search runs on: this one (see the Vecchia problem's)."""
         return self
+
+    def focus(self, theta):
+        """Nothing: the exact likelihood conditions on every point (see the Vecchia problem's)."""
 
     def final(self, theta, nugget, Y, start_jitter=0.0):
         """The state a fit ends with, or a saved model is rebuilt from, at θ and the nugget."""
@@ -513,16 +518,25 @@ class Kriging:
         # The exact problem searches on itself; the Vecchia one on a space-filling part of
         # its points, then refines that optimum on all of them (robocal.estimation.vecchia).
         search = problem.search_problem()
-        starts = self._starting_points(
-            d, n, rng, lambda params: search.condition(*unpack(params), Y).log_likelihood.sum())
+
+        def screened(params):
+            theta, nugget = unpack(params)
+            search.focus(theta)
+            return search.condition(theta, nugget, Y).log_likelihood.sum()
+
+        starts = self._starting_points(d, n, rng, screened)
         best = self._minimise(search, Y, starts, unpack, OPTIONS)
         if search is not problem:
-            problem.focus(unpack(best)[0])
             best = self._minimise(problem, Y, [best], unpack, problem.REFINE_OPTIONS)
         return problem.final(*unpack(best), Y)
 
     def _minimise(self, problem, Y, starts, unpack, options):
-        """L-BFGS-B from each start on the summed concentrated likelihood: the best parameters."""
+        """L-BFGS-B from each start on the summed concentrated likelihood: the best parameters.
+
+        A Vecchia problem conditions on neighbours in the metric of θ (``focus``): each run
+        starts with the neighbours of its start, and runs again from its end with the
+        neighbours found there (``problem.ROUNDS`` runs in all, one for the exact problem);
+        the ends are compared each with its own neighbours."""
         d = problem.X.shape[1]
         estimate_nugget = self.nugget == "estimate"
         scale = 1.0 / (len(problem.X) * Y.shape[1])  # an objective per value keeps tolerances n-independent
@@ -536,8 +550,14 @@ class Kriging:
         bounds = list(zip(*self._log_bounds(d)))
         best_value, best_params = np.inf, starts[0]
         for start in starts:
-            result = minimize(objective, start, jac=True, method="L-BFGS-B", bounds=bounds,
-                              options=options)
+            for _ in range(problem.ROUNDS):
+                problem.focus(unpack(start)[0])
+                result = minimize(objective, start, jac=True, method="L-BFGS-B", bounds=bounds,
+                                  options=options)
+                start = result.x
+            if problem.ROUNDS > 1:
+                problem.focus(unpack(result.x)[0])
+                result.fun = objective(result.x)[0]
             if result.fun < best_value:
                 best_value, best_params = result.fun, result.x
         return best_params

@@ -70,6 +70,7 @@ BORDER = 1e200
 # that refines that optimum on all points, with the neighbours found in the metric of the
 # search's θ.
 SEARCH_POINTS = 2000
+SEARCH_ROUNDS = 2
 REFINE_OPTIONS = {"maxiter": 15, "ftol": 1e-6, "gtol": 1e-4, "maxls": 5}
 
 
@@ -220,6 +221,7 @@ class VecchiaProblem:
     """
 
     REFINE_OPTIONS = REFINE_OPTIONS
+    ROUNDS = SEARCH_ROUNDS
 
     def __init__(self, X, F, correlation, neighbours, rows):
         self.X, self.F = X, F
@@ -252,9 +254,11 @@ class VecchiaProblem:
             self._focus_key = key
 
     def search_problem(self):
-        """The problem the hyperparameter search runs on: the first SEARCH_POINTS points of
-        the order (all of them if fewer), neighbours in the standardised inputs."""
-        count = min(len(self.X), SEARCH_POINTS)
+        """The problem the hyperparameter search runs on: this one up to SEARCH_POINTS
+        points, else the first SEARCH_POINTS points of the order, which spread over the box."""
+        if len(self.X) <= SEARCH_POINTS:
+            return self
+        count = SEARCH_POINTS
         return VecchiaProblem(self.X[:count], self.F[:count], self.correlation, self.neighbours,
                               self.rows[:count])
 
