@@ -29,7 +29,7 @@ from .. import __version__
 from ..errors import InputError, RobocalError, RobocalWarning
 from ..estimation.calibration import LOSSES, PARAMETER_SETS
 from ..estimation.constraint import PAIRINGS
-from ..estimation.kriging import CORRELATIONS, REGRESSIONS
+from ..estimation.kriging import APPROXIMATIONS, AUTO_VECCHIA_ABOVE, CORRELATIONS, REGRESSIONS
 from ..kinematics.chain import CONVENTIONS
 from ..methods import DEFAULT_METHOD, get_method, make_method, method_names
 from ..methods.ann import BASE_MODELS, REFINERS, TRAINERS
@@ -533,6 +533,7 @@ def calibrate(
     nugget: str = typer.Option(None, parser=_nugget, metavar="<estimate|float>", help="kriging/hybrid: nugget, 'estimate' (default) or a number >= 0."),
     shared_theta: bool = typer.Option(False, "--shared-theta", help="kriging/hybrid: one theta for the three outputs."),
     inputs: str = typer.Option(None, help="kriging/hybrid: what the error is modelled over: position (the TCP position, default), joints, or sincos (the sines and cosines of the joints).", **_choice(ERROR_MODEL_INPUTS)),
+    kriging: str = typer.Option(None, help=f"kriging/hybrid: exact Kriging, or vecchia (its nearest-neighbour approximation, for large data); auto (default) is exact up to {AUTO_VECCHIA_ABOVE:,} training poses.", **_choice(APPROXIMATIONS)),
     parameters: str = typer.Option(None, help="kinematic/hybrid/constraint (ann with --base-model kinematic): parameter set, offsets, full (default), full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains; frames: frames (default) or frames+offsets.", **_choice(PARAMETER_SETS + FRAME_PARAMETERS)),
     loss: str = typer.Option(None, help="kinematic/hybrid: the loss (default linear; the others are robust to outliers).", **_choice(LOSSES)),
     payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (default: 0 if the robot file gives link masses, else the rated payload of a robot of that size).", **_number(at_least=0)),
@@ -560,8 +561,8 @@ def calibrate(
 
     settings = _method_settings(
         method, seed=seed, nugget=nugget, hidden=hidden, shared_theta=shared_theta, register=register, trend=trend,
-        correlation=correlation, inputs=inputs, parameters=parameters, loss=loss, payload=payload, generations=generations,
-        trainer=trainer, refine=refine, base_model=base_model, pairs=pairs)
+        correlation=correlation, inputs=inputs, kriging=kriging, parameters=parameters, loss=loss, payload=payload,
+        generations=generations, trainer=trainer, refine=refine, base_model=base_model, pairs=pairs)
     if method == FRAMES:
         return _reregister(robot, measurements, out_file, settings, beyond_limits, as_json, root=root, tip=tip,
                            fixture=fixture)
