@@ -46,6 +46,10 @@ REGRESSIONS = ("constant", "linear", "quadratic")
 CORRELATIONS = ("gaussian", "matern52")
 # The exact model, or the Vecchia approximation of its likelihood and predictor
 # (robocal.estimation.vecchia); "auto" takes the approximation above AUTO_VECCHIA_ABOVE points.
+# Measured on the UR10's residual after kinematic calibration (series A, one core, 3 outputs,
+# nugget estimated; held-out mean on 3,000 other poses): n = 750 exact 3.2 s, Vecchia 5.1 s;
+# n = 1,000: 9.5 s against 6.2 s; n = 1,500: 17.5 s against 9.4 s, the held-out errors
+# within 2 % of each other at every size.  Exact fits of 1,000 points or fewer stay as they were.
 APPROXIMATIONS = ("exact", "vecchia", "auto")
 AUTO_VECCHIA_ABOVE = 1000
 

@@ -51,13 +51,17 @@ from scipy.spatial import cKDTree
 from .kriging import JITTER_START, MAX_CONDITION, correlation_from_squared, matern52_slope
 
 # Neighbours m of every point in the likelihood and of every target in prediction.  Measured
-# on the smooth simulated field (n = 2,000, held-out RMS against exact Kriging): m = 10: 1.9x,
-# m = 20: 1.03x, m = 30: 1.00x the exact error; on UR10 B's hybrid residual every m from 10 on
-# was within 1 %.  The cost grows as m³ (fit at n = 10,000: m = 20 half the time of m = 30).
+# on the bench's smooth field with 0.01 mm noise (n = 2,000, 3 outputs, one core; held-out
+# RMS, exact Kriging 2.2e-3 mm; a one-round search): m = 10, 20, 30, 40 in the likelihood
+# (30 in prediction): fit 0.9, 2.0, 4.6, 7.2 s, RMS 6.8e-3, 5.2e-3, 5.2e-3, 5.3e-3 mm; in
+# prediction (30 in the likelihood) 15, 20, 30, 40 neighbours: 6.9e-3, 6.0e-3, 5.2e-3,
+# 4.9e-3 mm at 1, 1.5, 2.9 and 5.8 times the time of 15.  On the UR10's residuals m = 30
+# lands within 2 % of exact Kriging.
 NEIGHBOURS = 30
-PREDICTION_NEIGHBOURS = None
 # Prediction targets that share one set of neighbours (see VecchiaState.predict), and targets
-# per batch of factorisations.
+# per batch of factorisations.  100,000 predictions of 3 outputs from n = 2,000 (m = 30): one
+# target a set 7.4 s, 16 a set 1.9 s, 32 4.1 s, 64 6.0 s (more targets fall outside the set's
+# reach and go alone), the held-out error unchanged.
 PREDICTION_GROUP = 16
 PREDICTION_BLOCK = 4096
 # Points factorised at once: (BLOCK, m + 1 + r, m + 1 + r) doubles per array, 8 MB at m = 30.
@@ -416,7 +420,7 @@ class VecchiaState:
         scale = np.sqrt(self.theta)
         if self._tree is None:
             self._tree = cKDTree(self._X * scale)
-        k = min(self.neighbours if PREDICTION_NEIGHBOURS is None else PREDICTION_NEIGHBOURS, len(self._X))
+        k = min(self.neighbours, len(self._X))
         Z = Xs * scale
         mean = f @ self.beta
         mse = np.empty(len(Xs)) if with_mse else None

@@ -1,0 +1,268 @@
+"""Vecchia approximation of Kriging: exact with enough neighbours, close on noisy fields,
+the model file, the auto switch, the methods and the command line."""
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from robocal.errors import FileFormatError, InputError, RobocalWarning
+from robocal.estimation import Kriging
+from robocal.estimation import kriging as kriging_module
+from robocal.estimation.joint_kriging import JointKriging
+from robocal.estimation.kriging import _Problem, trend_basis
+from robocal.estimation.vecchia import VecchiaProblem, coarse_to_fine_order, previous_neighbours
+
+
+def latin_hypercube(n, d, rng):
+    strata = np.argsort(rng.random((n, d)), axis=0)
+    return (strata + rng.random((n, d))) / n
+
+
+def wavy(X):
+    return np.column_stack([np.sin(6 * X[:, 0]) * np.cos(4 * X[:, 1]) + np.sin(5 * X[:, 2]),
+                            np.cos(3 * X[:, 0] + X[:, 2]) + 0.5 * X[:, 1]])
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(2024)
+
+
+def standardised(X, Y):
+    return (X - X.mean(0)) / X.std(0, ddof=1), (Y - Y.mean(0)) / Y.std(0, ddof=1)
+
+
+# ----------------------------------------------------------------- ordering, neighbours
+
+def test_the_ordering_is_a_permutation_that_spreads_its_first_points(rng):
+    X = rng.random((3000, 3))
+    order = coarse_to_fine_order(X)
+    assert np.array_equal(np.sort(order), np.arange(len(X)))
+    # The first 50 points of the order are far apart, 50 random points much less so.
+    def closest_pair(P):
+        d = np.linalg.norm(P[:, None] - P[None], axis=2) + np.eye(len(P)) * 9
+        return d.min()
+    assert closest_pair(X[order[:50]]) > 2 * closest_pair(X[:50])
+
+
+def test_neighbours_are_the_nearest_earlier_points(rng):
+    Z = rng.random((400, 2))
+    m = 7
+    found = previous_neighbours(Z, m)
+    for i in range(len(Z)):
+        earlier = np.arange(i)
+        nearest = earlier[np.argsort(np.linalg.norm(Z[earlier] - Z[i], axis=1))][:m]
+        assert set(found[i][found[i] >= 0]) == set(nearest), i
+
+
+# --------------------------------------------------------------- exact with m ≥ n − 1
+
+@pytest.mark.parametrize("correlation", ["gaussian", "matern52"])
+@pytest.mark.parametrize("regression", ["constant", "quadratic"])
+def test_all_earlier_neighbours_give_the_exact_likelihood_and_gradient(rng, correlation, regression):
+    X, Y = standardised(*(lambda X: (X, wavy(X)))(rng.random((60, 3))))
+    F = trend_basis(X, regression)
+    theta, nugget = np.array([0.8, 1.3, 0.5]), 1e-3
+    exact = _Problem(X, F, correlation).condition(theta, nugget, Y, gradient=True)
+    approx = VecchiaProblem.of(X, F, correlation, len(X) - 1).condition(theta, nugget, Y, gradient=True)
+    assert np.allclose(approx.log_likelihood, exact.log_likelihood, rtol=1e-10, atol=1e-8)
+    assert np.allclose(approx.gradient[0], exact.gradient[0], rtol=1e-8, atol=1e-8)
+    assert approx.gradient[1] == pytest.approx(exact.gradient[1], rel=1e-8, abs=1e-10)
+    assert np.allclose(approx.beta, exact.beta, rtol=1e-8, atol=1e-10)
+
+
+@pytest.mark.parametrize("correlation", ["gaussian", "matern52"])
+def test_the_gradient_of_the_approximation_is_its_derivative(rng, correlation):
+    X, Y = standardised(*(lambda X: (X, wavy(X)))(rng.random((150, 3))))
+    problem = VecchiaProblem.of(X, trend_basis(X, "linear"), correlation, 8)
+    theta, nugget = np.array([0.8, 1.3, 0.5]), 1e-3
+
+    def value(log_theta, log_nugget):
+        return problem.condition(np.exp(log_theta), np.exp(log_nugget), Y).log_likelihood.sum()
+
+    state = problem.condition(theta, nugget, Y, gradient=True)
+    step = 1e-6
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = step
+        numeric = (value(np.log(theta) + e, np.log(nugget)) - value(np.log(theta) - e, np.log(nugget))) / (2 * step)
+        assert state.gradient[0][k] == pytest.approx(numeric, rel=1e-5, abs=1e-5)
+    numeric = (value(np.log(theta), np.log(nugget) + step) - value(np.log(theta), np.log(nugget) - step)) / (2 * step)
+    assert state.gradient[1] == pytest.approx(numeric, rel=1e-5, abs=1e-6)
+
+
+@pytest.mark.parametrize("nugget", [0.0, 1e-3])
+def test_all_training_points_as_neighbours_give_the_exact_predictions(rng, nugget):
+    X = rng.random((80, 3))
+    Y = wavy(X)
+    settings = dict(theta0=[3.0, 2.0, 5.0], n_starts=0, nugget=nugget, regression="linear")
+    exact = Kriging(approximation="exact", **settings).fit(X, Y)
+    approx = Kriging(approximation="vecchia", neighbours=80, **settings).fit(X, Y)
+    assert exact.approximation_ == "exact" and approx.approximation_ == "vecchia"
+    targets = rng.random((700, 3))
+    mean_e, mse_e = exact.predict(targets, return_mse=True)
+    mean_a, mse_a = approx.predict(targets, return_mse=True)
+    assert np.allclose(mean_a, mean_e, atol=1e-9)
+    assert np.allclose(mse_a, mse_e, rtol=1e-7, atol=1e-12)
+    assert np.allclose(approx.log_likelihood_, exact.log_likelihood_, rtol=1e-10)
+
+
+# --------------------------------------------------------------------------- accuracy
+
+def test_vecchia_is_within_five_percent_of_exact_kriging_held_out_on_real_robot_residuals():
+    # What the hybrid models: the UR10's error left by its kinematic calibration, over the TCP
+    # position; 400 random poses of series B train, the other 1,095 are held out.
+    from robocal.estimation.calibration import KinematicCalibration
+    from robocal.io.datasets import ipa_ur10
+
+    chain, data = ipa_ur10("B")
+    q, P = chain.joints_from_file(data.joints), data.positions
+    order = np.random.default_rng(0).permutation(len(q))
+    train, test = order[:400], order[400:]
+    calibrated = KinematicCalibration().fit(chain, q[train], P[train]).chain_
+    X, residual = calibrated.fk_positions(q), P - calibrated.fk_positions(q)
+    errors = {}
+    for approximation in ("exact", "vecchia"):
+        model = Kriging(nugget="estimate", approximation=approximation, random_state=0).fit(X[train], residual[train])
+        errors[approximation] = np.linalg.norm(residual[test] - model.predict(X[test]), axis=1).mean()
+    assert errors["vecchia"] <= 1.05 * errors["exact"], errors
+    assert errors["vecchia"] < 0.9 * np.linalg.norm(residual[test], axis=1).mean()  # it does learn
+
+
+@pytest.mark.xfail(strict=True, reason="a field smooth over many data spacings, measured with noise: exact Kriging "
+                                       "averages the noise over hundreds of points, the Vecchia predictor over its m "
+                                       "neighbours (1.6 to 1.9 times the exact error at n = 600 to 2,000)")
+def test_vecchia_is_within_five_percent_of_exact_kriging_on_a_noisy_smooth_field(rng):
+    def field(X):
+        return np.column_stack([np.sin(2.5 * X[:, 0] + X[:, 1]), np.cos(2 * X[:, 1] - X[:, 2])])
+    X = latin_hypercube(400, 3, rng)
+    Y = field(X) + rng.normal(scale=0.05, size=(len(X), 2))
+    targets = rng.random((1000, 3))
+    errors = {}
+    for approximation in ("exact", "vecchia"):
+        model = Kriging(nugget="estimate", approximation=approximation, random_state=0).fit(X, Y)
+        errors[approximation] = np.sqrt(np.mean((model.predict(targets) - field(targets)) ** 2))
+    assert errors["vecchia"] <= 1.05 * errors["exact"], errors
+
+
+# ------------------------------------------------------------------- files, settings
+
+def test_the_model_file_round_trip_predicts_the_same(rng):
+    X = rng.random((150, 3))
+    Y = wavy(X) + rng.normal(scale=0.01, size=(150, 2))
+    model = Kriging(nugget="estimate", approximation="vecchia", neighbours=12, random_state=0).fit(X, Y)
+    document = json.loads(json.dumps(model.to_dict()))
+    assert document["vecchia"]["neighbours"] == 12 and sorted(document["vecchia"]["order"]) == list(range(150))
+    loaded = Kriging.from_dict(document)
+    targets = rng.random((300, 3))
+    for got, expected in zip(loaded.predict(targets, return_mse=True), model.predict(targets, return_mse=True)):
+        assert np.array_equal(got, expected)
+    assert loaded.approximation_ == "vecchia" and loaded.neighbours == 12
+
+
+def test_documents_without_the_vecchia_entry_read_as_exact(rng):
+    X = rng.random((40, 3))
+    model = Kriging(random_state=0).fit(X, wavy(X))
+    document = json.loads(json.dumps(model.to_dict()))
+    assert "vecchia" not in document  # never written for exact fits
+    for key in ("approximation", "neighbours"):  # as written before the approximation existed
+        del document["settings"][key]
+    loaded = Kriging.from_dict(document)
+    assert loaded.approximation_ == "exact"
+    assert np.array_equal(loaded.predict(X[:5]), model.predict(X[:5]))
+
+
+@pytest.mark.parametrize("damage", [{"neighbours": 0}, {"neighbours": "30"}, {"order": "reversed"},
+                                    {"order": [0, 0, 1]}, "missing order"])
+def test_a_damaged_vecchia_entry_is_a_file_format_error(rng, damage):
+    X = rng.random((30, 3))
+    document = json.loads(json.dumps(Kriging(approximation="vecchia", random_state=0).fit(X, wavy(X)).to_dict()))
+    if damage == "missing order":
+        del document["vecchia"]["order"]
+    else:
+        document["vecchia"].update(damage)
+    with pytest.raises(FileFormatError) as caught:
+        Kriging.from_dict(document)
+    assert "\n" not in str(caught.value)
+
+
+def test_auto_is_exact_up_to_the_switch_and_vecchia_above(rng, monkeypatch):
+    monkeypatch.setattr(kriging_module, "AUTO_VECCHIA_ABOVE", 50)
+    X = rng.random((51, 3))
+    Y = wavy(X)
+    assert Kriging(random_state=0).fit(X[:50], Y[:50]).approximation_ == "exact"
+    above = Kriging(random_state=0).fit(X, Y)
+    assert above.approximation_ == "vecchia"
+    # Hyperparameters kept on other data (cross-validation) follow the same rule.
+    assert above.conditioned_on(X[:50], Y[:50]).approximation_ == "exact"
+    kept = above.conditioned_on(X, Y)
+    assert kept.approximation_ == "vecchia" and np.array_equal(kept.theta_, above.theta_)
+
+
+def test_bad_settings_are_refused_in_one_line(rng):
+    X = rng.random((20, 3))
+    with pytest.raises(InputError, match="approximation"):
+        Kriging(approximation="sparse").fit(X, wavy(X))
+    with pytest.raises(InputError, match="neighbours"):
+        Kriging(approximation="vecchia", neighbours=0).fit(X, wavy(X))
+
+
+def test_joint_kriging_passes_the_approximation_on(rng):
+    from robocal.io.library import builtin
+    from robocal.simulation import uniform_joints
+
+    chain = builtin("ur5")
+    q = uniform_joints(chain, 120, rng)
+    errors = 0.1 * np.column_stack([np.sin(q[:, 1]), np.cos(q[:, 2]), np.sin(q[:, 0] + q[:, 3])])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RobocalWarning)
+        model = JointKriging("sincos", Kriging(approximation="vecchia", neighbours=20, nugget="estimate",
+                                               random_state=0)).fit(chain, q, errors)
+    assert model.kriging_.approximation_ == "vecchia"
+    assert np.sqrt(np.mean((model.predict(q) - errors) ** 2)) < 0.02
+    assert JointKriging.from_dict(json.loads(json.dumps(model.to_dict()))).kriging_.approximation_ == "vecchia"
+
+
+# ------------------------------------------------------------ methods, command line
+
+@pytest.fixture
+def simulated(tmp_path):
+    from robocal.interfaces.jobs import simulate_job
+
+    path = tmp_path / "meas.csv"
+    simulate_job("kr150-2", str(path), n=120, sampling="lhs", errors="liu2022", noise=0.01, seed=3)
+    return path
+
+
+def test_calibrate_kriging_vecchia_from_the_command_line(simulated, tmp_path):
+    from typer.testing import CliRunner
+
+    from robocal.interfaces.cli import app
+    from robocal.io.model_file import load_model
+    from robocal.methods import fitted_from_model_file
+
+    runner = CliRunner()
+    out = tmp_path / "model.json"
+    result = runner.invoke(app, ["calibrate", "kr150-2", str(simulated), "--method", "hybrid", "--kriging", "vecchia",
+                                 "--out", str(out), "--json"])
+    assert result.exit_code == 0, result.output
+    model = load_model(str(out))
+    assert model.options["kriging"] == "vecchia" and "vecchia" in model.error_model["parameters"]
+    fitted = fitted_from_model_file(model, str(out))
+    assert fitted.compensator_.error_model.approximation_ == "vecchia"
+    assert np.all(np.isfinite(fitted.uncertainty(np.zeros((2, 6)) + 0.3)))
+    refused = runner.invoke(app, ["calibrate", "kr150-2", str(simulated), "--method", "kriging", "--kriging", "sparse",
+                                  "--out", str(tmp_path / "x.json")])
+    assert refused.exit_code == 2 and "--kriging" in refused.output
+
+
+def test_the_kriging_setting_is_checked_by_the_method(simulated):
+    from robocal.io.observations import read_observations
+    from robocal.io.library import builtin
+    from robocal.methods import make_method
+
+    chain = builtin("kr150-2")
+    observations = read_observations(str(simulated), chain)
+    with pytest.raises(InputError, match="--kriging must be one of exact, vecchia, auto"):
+        make_method("kriging", kriging="sparse").fit(chain, observations)
