@@ -232,6 +232,12 @@ def _calibrate_options(method, options, where):
 
 
 # --------------------------------------------------------------------------- one robot (worker side)
+def failed_row(task):
+    """The summary row of a robot that has not (yet) succeeded."""
+    return {"name": task["name"], "status": FAILED, "method": task["method"], "n_train": None, "n_test": None,
+            "mean_mm": None, "max_mm": None, "message": "", "seconds": None}
+
+
 def run_robot(task):
     """Calibrate one robot, evaluate it on its test file, write its report: the task of a
     fleet, run on a worker.  ``task`` is :meth:`FleetRobot.task`; returns its summary row
@@ -352,12 +358,6 @@ def fleet_job(fleet_file, out_dir, *, jobs=None, scheduler=None, on_robot=None):
     failed = sum(row["status"] != OK for row in rows)
     return {"fleet": str(fleet_file), "out": str(out), "ran_on": where, "workers": workers,
             "robots": rows, "ok": len(rows) - failed, "failed": failed, **written}
-
-
-def failed_row(task):
-    """The summary row of a robot that has not (yet) succeeded."""
-    return {"name": task["name"], "status": FAILED, "method": task["method"], "n_train": None, "n_test": None,
-            "mean_mm": None, "max_mm": None, "message": "", "seconds": None}
 
 
 def _robot_folder(out, name):
