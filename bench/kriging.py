@@ -1,4 +1,5 @@
-"""Kriging error model of robocal beside SMT's KRG and scikit-learn's GaussianProcessRegressor.
+"""Kriging error model of robocal beside SMT's KRG and scikit-learn's GaussianProcessRegressor,
+and robocal's Vecchia approximation beside exact Kriging and GPBoost's Vecchia GP.
 
 The data are a smooth positioning-error field of the size a geometrically miscalibrated robot
 shows: errors of about 1 mm over a 1000 mm box, built from the linear part small joint-offset
@@ -10,7 +11,21 @@ held-out points.  Every model is one per error component, the paper's way; roboc
 variant is shown too.  A peer's fit runs in a child process and is stopped after 60 s; the
 output then says so and that peer is not tried at larger n.
 
-    python bench/kriging.py            # --quick: n = 50 and 200 only
+The large section (``--large``, or after the small one) fits n = 2,000, 10,000 and 100,000
+points: robocal's exact Kriging (n ≤ 3,000: its memory grows as n²) and its Vecchia
+approximation (``approximation="vecchia"``), scikit-learn's exact GPR and, when it installs
+(``pip install gpboost``; optional, never a dependency), GPBoost's Gaussian process with its
+Vecchia approximation (ARD Matérn 5/2, 30 neighbours, one thread).  Each fit runs in its own
+child process, so its peak memory (the whole process) is its own; the peers' fits are stopped
+after ``--budget`` seconds.  It prints wall and CPU seconds (the machine may be shared), then
+the same at n = 2,000 with 0.01 mm noise on the readings (nugget estimated), and the UR10
+comparison: Kriging and the hybrid on 2,000 random series-A poses, held out on the other
+9,911, exact against Vecchia, and the hybrid on all 1,495 series-B poses as
+``calibrate --method hybrid`` fits it (``--kriging auto``).
+
+    python bench/kriging.py            # both sections, about 25 min on one core
+    python bench/kriging.py --quick    # n = 50 and 200 only
+    python bench/kriging.py --large    # the large section only
 """
 import os
 
@@ -20,6 +35,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import argparse  # noqa: E402
 import multiprocessing  # noqa: E402
 import queue  # noqa: E402
+import resource  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
 
@@ -30,6 +46,10 @@ from robocal.estimation import Kriging  # noqa: E402
 
 SIZES = (50, 200, 1000, 3000)
 QUICK_SIZES = (50, 200)
+LARGE_SIZES = (2000, 10_000, 100_000)
+EXACT_UP_TO = 3000  # robocal's exact Kriging holds d·n² squared differences: 216 MB at 3,000
+NOISE_MM = 0.01  # tracker noise of the noisy comparison
+UR10_TRAIN = 2000
 BOX_LOW = np.array([1000.0, -500.0, 500.0])  # mm: a 1000 mm cube in front of the robot
 BOX_SIZE = 1000.0
 N_TEST = 1000
@@ -60,16 +80,23 @@ def timed(func):
     return result, time.perf_counter() - t0
 
 
+def peak_mb():
+    """The peak resident memory of this process so far, MB."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
 class RobocalModel:
-    def __init__(self, shared):
-        self.name = "robocal shared θ" if shared else "robocal"
-        self.shared = shared
+    def __init__(self, shared, approximation="exact", nugget=0.0):
+        self.name = ("robocal shared θ" if shared else "robocal") + ("" if approximation == "exact" else
+                                                                     f" {approximation}")
+        self.shared, self.approximation, self.nugget = shared, approximation, nugget
 
     def fit(self, X, Y):
         with warnings.catch_warnings():
             # Jitter on these very smooth fields is expected; diagnostics_ keeps the notes.
             warnings.simplefilter("ignore", RobocalWarning)
-            self.model = Kriging(shared_theta=self.shared, random_state=0).fit(X, Y)
+            self.model = Kriging(shared_theta=self.shared, random_state=0, approximation=self.approximation,
+                                 nugget=self.nugget).fit(X, Y)
 
     def predict(self, X):
         return self.model.predict(X)
@@ -129,12 +156,43 @@ class SklearnModel:
                 np.column_stack([std ** 2 for _, std in pairs]))
 
 
+class GPBoostModel:
+    """GPBoost's GPModel with its Vecchia approximation: ARD Matérn 5/2 (its closest to the
+    Gaussian correlation that still conditions well), 30 neighbours, its default prediction
+    (conditioning on the observed points only), one thread; inputs standardised as robocal's."""
+
+    name = "GPBoost vecchia"
+
+    def fit(self, X, Y):
+        import gpboost
+
+        self.mean, self.scale = X.mean(axis=0), X.std(axis=0)
+        self.models = []
+        for j in range(Y.shape[1]):
+            model = gpboost.GPModel(gp_coords=(X - self.mean) / self.scale, cov_function="matern_ard",
+                                    cov_fct_shape=2.5, gp_approx="vecchia", num_neighbors=30,
+                                    num_parallel_threads=1, seed=0)
+            model.fit(y=Y[:, j], X=np.ones((len(X), 1)))
+            self.models.append(model)
+
+    def _predict(self, X, variance):
+        Z = (X - self.mean) / self.scale
+        out = [m.predict(gp_coords_pred=Z, X_pred=np.ones((len(Z), 1)), predict_var=variance) for m in self.models]
+        return np.column_stack([o["mu"] for o in out]), (np.column_stack([o["var"] for o in out]) if variance else None)
+
+    def predict(self, X):
+        return self._predict(X, False)[0]
+
+    def predict_mse(self, X):
+        return self._predict(X, True)
+
+
 def _chunked(predict, X):
     return np.concatenate([np.ravel(predict(X[i:i + PEER_CHUNK]))
                            for i in range(0, len(X), PEER_CHUNK)])
 
 
-def available_peers():
+def available_peers(large=False):
     peers = []
     try:
         import smt  # noqa: F401
@@ -146,18 +204,28 @@ def available_peers():
         peers.append(SklearnModel())
     except ImportError:
         print("scikit-learn is not installed: pip install scikit-learn to compare")
+    if large:
+        peers = [p for p in peers if not isinstance(p, SMTModel)]
+        try:
+            import gpboost  # noqa: F401
+            peers.append(GPBoostModel())
+        except ImportError:
+            print("GPBoost is not installed: pip install gpboost to compare a scalable GP")
     return peers
 
 
 def run(model, X, Y, X_test, Y_test, X_predict, report=None):
-    """Fit time, predict times, RMS and max error; ``report(fit_time)`` is told when fitted."""
+    """Fit time, predict times, RMS and max error, then fit CPU time, mean error and this
+    process's peak memory (MB); ``report(fit_time)`` is told when fitted."""
+    cpu = time.process_time()
     _, fit_time = timed(lambda: model.fit(X, Y))
+    cpu = time.process_time() - cpu
     if report:
         report(fit_time)
     _, predict_time = timed(lambda: model.predict(X_predict))
     _, mse_time = timed(lambda: model.predict_mse(X_predict[:N_MSE]))
     error = np.linalg.norm(model.predict(X_test) - Y_test, axis=1)  # mm, per test point
-    return fit_time, predict_time, mse_time, np.sqrt(np.mean(error ** 2)), error.max()
+    return fit_time, predict_time, mse_time, np.sqrt(np.mean(error ** 2)), error.max(), cpu, error.mean(), peak_mb()
 
 
 def _run_in_child(results, *args):
@@ -169,8 +237,8 @@ def _run_in_child(results, *args):
         results.put(("failed", f"{type(error).__name__}: {error}"))
 
 
-def run_with_budget(*args):
-    """``run`` in a child process whose fit is stopped after PEER_BUDGET s.
+def run_with_budget(*args, budget=PEER_BUDGET):
+    """``run`` in a child process whose fit is stopped after ``budget`` s.
 
     Returns the row, or a string saying why there is none."""
     context = multiprocessing.get_context("fork")
@@ -178,25 +246,33 @@ def run_with_budget(*args):
     child = context.Process(target=_run_in_child, args=(results, *args))
     child.start()
     try:
-        kind, value = results.get(timeout=PEER_BUDGET)
+        kind, value = results.get(timeout=budget)
         if kind == "fitted":
             kind, value = results.get()
     except queue.Empty:
         child.terminate()
-        kind, value = "stopped", f"its fit did not finish in {PEER_BUDGET:.0f} s (stopped)"
+        kind, value = "stopped", f"its fit did not finish in {budget:.0f} s (stopped)"
     child.join()
     return value if kind == "row" else f"skipped: {value}"
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="n = 50 and 200 only")
-    sizes = QUICK_SIZES if parser.parse_args().quick else SIZES
+def rule(header):
+    """Print a table's header and a rule under it."""
+    print(header)
+    print("-" * len(header))
 
+
+def test_data():
+    """The held-out points, their errors and the 100,000 prediction points (fixed seed)."""
     rng = np.random.default_rng(2024)
     X_test = latin_hypercube(N_TEST, rng)
     Y_test = error_field(X_test)
     X_predict = BOX_LOW + BOX_SIZE * rng.random((N_PREDICT, 3))
+    return rng, X_test, Y_test, X_predict
+
+
+def small_benchmark(sizes):
+    rng, X_test, Y_test, X_predict = test_data()
     before = np.linalg.norm(Y_test, axis=1)
     print(f"error field before compensation: RMS {np.sqrt(np.mean(before ** 2)):.3f} mm, "
           f"max {before.max():.3f} mm over {N_TEST} test points (3 components, 1000 mm box)")
@@ -204,8 +280,7 @@ def main():
           "one core\n")
     header = (f"{'n':>5}  {'model':<17}{'fit s':>9}{'predict 100k s':>16}{'+MSE 10k s':>12}"
               f"{'RMS mm':>11}{'max mm':>11}")
-    print(header)
-    print("-" * len(header))
+    rule(header)
 
     models = [RobocalModel(shared=False), RobocalModel(shared=True)] + available_peers()
     given_up = {}  # peer name -> n at which its fit was stopped or failed
@@ -225,9 +300,93 @@ def main():
                 given_up[model.name] = n
                 print(f"{n:>5}  {model.name:<17}{row}")
                 continue
-            fit_time, predict_time, mse_time, rms, worst = row
+            fit_time, predict_time, mse_time, rms, worst = row[:5]
             print(f"{n:>5}  {model.name:<17}{fit_time:>9.3f}{predict_time:>16.3f}"
                   f"{mse_time:>12.3f}{rms:>11.2e}{worst:>11.2e}", flush=True)
+
+
+def large_benchmark(budget):
+    _, X_test, Y_test, X_predict = test_data()
+    print(f"\nlarge data: every fit in its own process (peak memory: that whole process); peers stopped "
+          f"after {budget:.0f} s; one core")
+    header = (f"{'n':>7}  {'model':<26}{'fit s':>9}{'(CPU s)':>9}{'peak MB':>9}{'predict 100k s':>16}"
+              f"{'+MSE 10k s':>12}{'RMS mm':>10}{'mean mm':>10}{'max mm':>10}")
+    rule(header)
+    peers = available_peers(large=True)
+    given_up = {}
+    cases = [(LARGE_SIZES[0], 0.0), (LARGE_SIZES[0], NOISE_MM)] + [(n, 0.0) for n in LARGE_SIZES[1:]]
+    for n, noise in cases:
+        rng = np.random.default_rng(n)
+        X = latin_hypercube(n, rng)
+        Y = error_field(X) + noise * rng.normal(size=(n, 3))
+        nugget = "estimate" if noise else 0.0
+        models = ([RobocalModel(False, "exact", nugget)] if n <= EXACT_UP_TO else []) + \
+            [RobocalModel(False, "vecchia", nugget)] + peers
+        label = f"{n:>7,}" + (f"  with {noise} mm noise" if noise else "")
+        if noise:
+            print(label)
+            label = " " * 7
+        for model in models:
+            if model.name in given_up:
+                print(f"{label}  {model.name:<26}skipped: it did not finish at n = {given_up[model.name]:,}")
+                continue
+            robocal = isinstance(model, RobocalModel)
+            row = run_with_budget(model, X, Y, X_test, Y_test, X_predict, budget=3600.0 if robocal else budget)
+            if isinstance(row, str):
+                given_up[model.name] = n
+                print(f"{label}  {model.name:<26}{row}")
+                continue
+            fit_time, predict_time, mse_time, rms, worst, cpu, mean, peak = row
+            print(f"{label}  {model.name:<26}{fit_time:>9.1f}{cpu:>9.1f}{peak:>9.0f}{predict_time:>16.2f}"
+                  f"{mse_time:>12.2f}{rms:>10.2e}{mean:>10.2e}{worst:>10.2e}", flush=True)
+
+
+def ur10_benchmark():
+    from robocal.errors import InputError
+    from robocal.io.datasets import ipa_ur10
+    from robocal.io.observations import Observations
+    from robocal.methods import make_method
+
+    print(f"\nUR10 (ipa), series A: {UR10_TRAIN:,} random poses train, the others held out (mm); one core")
+    header = f"{'method':<9}{'kriging':<9}{'fit s':>8}{'(CPU s)':>9}{'mean':>9}{'RMS':>9}{'max':>9}"
+    rule(header)
+    try:
+        chain, data = ipa_ur10("A")
+    except InputError as why:
+        print(f"skipped: {why}")
+        return
+    q, P = chain.joints_from_file(data.joints), data.positions
+    order = np.random.default_rng(0).permutation(len(q))
+    train, test = order[:UR10_TRAIN], order[UR10_TRAIN:]
+    for method in ("kriging", "hybrid"):
+        for approximation in ("exact", "vecchia"):
+            cpu = time.process_time()
+            fitted, seconds = timed(lambda: make_method(method, kriging=approximation).fit(
+                chain, Observations.of(q[train], P[train])))
+            cpu = time.process_time() - cpu
+            error = np.linalg.norm(P[test] - fitted.predict(q[test]), axis=1)
+            print(f"{method:<9}{approximation:<9}{seconds:>8.1f}{cpu:>9.1f}{error.mean():>9.4f}"
+                  f"{np.sqrt(np.mean(error ** 2)):>9.4f}{error.max():>9.4f}", flush=True)
+    chain, data = ipa_ur10("B")
+    observations = Observations.of(chain.joints_from_file(data.joints), data.positions, sigmas=data.sigmas)
+    cpu = time.process_time()
+    fitted, seconds = timed(lambda: make_method("hybrid").fit(chain, observations))
+    cpu = time.process_time() - cpu
+    used = fitted.compensator_.error_model.approximation_
+    print(f"\nhybrid (--kriging auto: {used}) on all {data.n_poses:,} series-B poses: {seconds:.1f} s ({cpu:.1f} s CPU)")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="n = 50 and 200 only")
+    parser.add_argument("--large", action="store_true", help="only n = 2,000, 10,000 and 100,000, and UR10")
+    parser.add_argument("--budget", type=float, default=600.0, help="seconds a peer's large fit may take")
+    args = parser.parse_args()
+    if not args.large:
+        small_benchmark(QUICK_SIZES if args.quick else SIZES)
+    if not args.quick:
+        large_benchmark(args.budget)
+        ur10_benchmark()
 
 
 if __name__ == "__main__":

@@ -191,17 +191,17 @@ def _bordered_factor(R, diagonal_add, border_columns, border_point=None):
 def _factor_in_prediction(R, diagonal_add, border_columns):
     """:func:`_bordered_factor` of a block of prediction targets, adding jitter (as the fit
     does, from JITTER_START·k up by tens) while a target's neighbours leave it singular: they
-    are not the sets the fit factorised.  Returns (L, the jitter added)."""
+    are not the sets the fit factorised."""
     extra = 0.0
     while True:
         try:
-            return _bordered_factor(R, diagonal_add + extra, border_columns), extra
+            return _bordered_factor(R, diagonal_add + extra, border_columns)
         except np.linalg.LinAlgError:
             extra = JITTER_START * (R.shape[1] + 1) if extra == 0 else extra * 10.0
 
 
 def _back_substitute(L, rhs):
-    """A⁻¹-part of a solve: x with Lᵀx = rhs for the lower-triangular L (B, m, m), rhs (B, m, c)."""
+    """x with Lᵀx = rhs for the lower-triangular L (B, m, m) and rhs (B, m, c), row by row."""
     x = np.empty_like(rhs)
     m = L.shape[1]
     for j in range(m - 1, -1, -1):
@@ -233,8 +233,7 @@ class VecchiaProblem:
         self.neighbours = int(neighbours)
         self.rows = np.asarray(rows)
         self._focus_key = None
-        self._nb = None
-        self.focus(None)
+        self._nb = None  # found by focus, at the latest when first conditioned
 
     @classmethod
     def of(cls, X, F, correlation, neighbours=None, order=None):
@@ -278,6 +277,8 @@ class VecchiaProblem:
         nugget, summed over the columns) when asked for."""
         theta = np.asarray(theta, dtype=float)
         Y = Y[self.rows]
+        if self._nb is None:
+            self.focus(None)
         m = self._nb.shape[1]
         jitter, first_condition = start_jitter, None
         while True:
@@ -445,7 +446,7 @@ class VecchiaState:
     def _predict_groups(self, Z, f, targets, neighbours, mean, mse):
         """Fill ``mean`` (and ``mse``) at the rows ``targets`` (G, g) of Z, each group of g
         conditioned on its training points ``neighbours`` (G, k)."""
-        G, g = targets.shape
+        groups, g = targets.shape
         k = neighbours.shape[1]
         q = self._residual.shape[1]
         centre = Z[targets].mean(axis=1, keepdims=True)  # coordinates relative to it: less rounding
@@ -457,13 +458,13 @@ class VecchiaState:
                  - 2.0 * training @ np.swapaxes(points, 1, 2))
         r = correlation_from_squared(np.maximum(cross, 0.0, out=cross), self._correlation)  # (G, k, g)
         borders = [r, self._residual[neighbours]] + ([self._F[neighbours]] if mse is not None else [])
-        L, _ = _factor_in_prediction(A, self.nugget + self.jitter, np.concatenate(borders, axis=2))
+        L = _factor_in_prediction(A, self.nugget + self.jitter, np.concatenate(borders, axis=2))
         v = L[:, k:k + g, :k]  # (L⁻¹r_t)ᵀ per target
         mean[targets] += np.einsum("gtk,gck->gtc", v, L[:, k + g:k + g + q, :k])
         if mse is not None:
             u = np.einsum("gtk,gck->gtc", v, L[:, k + g + q:, :k]) - f[targets]  # F_NᵀA⁻¹r − f
-            w = np.linalg.solve(self.G.T, u.reshape(G * g, -1).T)  # uᵀ(GᵀG)⁻¹u = |w|²
-            mse[targets] = np.maximum(1.0 + np.einsum("ij,ij->j", w, w).reshape(G, g)
+            w = np.linalg.solve(self.G.T, u.reshape(groups * g, -1).T)  # uᵀ(GᵀG)⁻¹u = |w|²
+            mse[targets] = np.maximum(1.0 + np.einsum("ij,ij->j", w, w).reshape(groups, g)
                                       - np.einsum("gtk,gtk->gt", v, v), 0.0)
 
 
