@@ -305,16 +305,16 @@ def small_benchmark(sizes):
                   f"{mse_time:>12.3f}{rms:>11.2e}{worst:>11.2e}", flush=True)
 
 
-def large_benchmark(budget):
+def large_benchmark(budget, sizes=LARGE_SIZES, with_peers=True):
     _, X_test, Y_test, X_predict = test_data()
     print(f"\nlarge data: every fit in its own process (peak memory: that whole process); peers stopped "
           f"after {budget:.0f} s; one core")
     header = (f"{'n':>7}  {'model':<26}{'fit s':>9}{'(CPU s)':>9}{'peak MB':>9}{'predict 100k s':>16}"
               f"{'+MSE 10k s':>12}{'RMS mm':>10}{'mean mm':>10}{'max mm':>10}")
     rule(header)
-    peers = available_peers(large=True)
+    peers = available_peers(large=True) if with_peers else []
     given_up = {}
-    cases = [(LARGE_SIZES[0], 0.0), (LARGE_SIZES[0], NOISE_MM)] + [(n, 0.0) for n in LARGE_SIZES[1:]]
+    cases = [(sizes[0], 0.0), (sizes[0], NOISE_MM)] + [(n, 0.0) for n in sizes[1:]]
     for n, noise in cases:
         rng = np.random.default_rng(n)
         X = latin_hypercube(n, rng)
@@ -381,11 +381,12 @@ def main():
     parser.add_argument("--quick", action="store_true", help="n = 50 and 200 only")
     parser.add_argument("--large", action="store_true", help="only n = 2,000, 10,000 and 100,000, and UR10")
     parser.add_argument("--budget", type=float, default=600.0, help="seconds a peer's large fit may take")
+    parser.add_argument("--without-peers", action="store_true", help="robocal only in the large section")
     args = parser.parse_args()
     if not args.large:
         small_benchmark(QUICK_SIZES if args.quick else SIZES)
     if not args.quick:
-        large_benchmark(args.budget)
+        large_benchmark(args.budget, with_peers=not args.without_peers)
         ur10_benchmark()
 
 

@@ -531,16 +531,17 @@ class Kriging:
         starts = self._starting_points(d, n, rng, screened)
         best = self._minimise(search, Y, starts, unpack, OPTIONS)
         if search is not problem:
-            best = self._minimise(problem, Y, [best], unpack, problem.REFINE_OPTIONS)
+            best = self._minimise(problem, Y, [best], unpack, problem.REFINE_OPTIONS, rounds=1)
         return problem.final(*unpack(best), Y)
 
-    def _minimise(self, problem, Y, starts, unpack, options):
+    def _minimise(self, problem, Y, starts, unpack, options, rounds=None):
         """L-BFGS-B from each start on the summed concentrated likelihood: the best parameters.
 
         A Vecchia problem conditions on neighbours in the metric of θ (``focus``): each run
         starts with the neighbours of its start, and runs again from its end with the
-        neighbours found there (``problem.ROUNDS`` runs in all, one for the exact problem);
-        the ends are compared each with its own neighbours."""
+        neighbours found there (``rounds`` runs in all, by default ``problem.ROUNDS``: one for
+        the exact problem); the ends are compared each with its own neighbours."""
+        rounds = problem.ROUNDS if rounds is None else rounds
         d = problem.X.shape[1]
         estimate_nugget = self.nugget == "estimate"
         scale = 1.0 / (len(problem.X) * Y.shape[1])  # an objective per value keeps tolerances n-independent
@@ -554,12 +555,12 @@ class Kriging:
         bounds = list(zip(*self._log_bounds(d)))
         best_value, best_params = np.inf, starts[0]
         for start in starts:
-            for _ in range(problem.ROUNDS):
+            for _ in range(rounds):
                 problem.focus(unpack(start)[0])
                 result = minimize(objective, start, jac=True, method="L-BFGS-B", bounds=bounds,
                                   options=options)
                 start = result.x
-            if problem.ROUNDS > 1:
+            if rounds > 1:
                 problem.focus(unpack(result.x)[0])
                 result.fun = objective(result.x)[0]
             if result.fun < best_value:
