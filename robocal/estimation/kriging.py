@@ -174,6 +174,7 @@ class _Problem:
         self.sqdiff = ((X[:, None, :] - X[None, :, :]) ** 2).reshape(n * n, d).T.copy()
 
     ROUNDS = 1  # runs of the optimiser per start (see Kriging._minimise)
+    least_starts = 1  # the fewest starts of a search left to its default (see the Vecchia problem's)
 
     def search_problem(self):
         """The problem the hyperparameter search runs on: this one (see the Vecchia problem's)."""
@@ -478,7 +479,7 @@ class Kriging:
                              f"column), got {self.theta0!r}")
         return np.broadcast_to(theta0, (d,)).copy()
 
-    def _starting_points(self, d, n, rng, log_likelihood):
+    def _starting_points(self, d, n, rng, log_likelihood, least=1):
         """Rows of [log θ (, log nugget)] to start L-BFGS-B from: theta0, then the best of a
         Latin hypercube of candidates by ``log_likelihood``.  A value without gradient costs a
         third of one with it, and runs from good points converge in fewer steps: measured,
@@ -489,7 +490,7 @@ class Kriging:
         if self.nugget == "estimate":
             first = np.append(first, math.log(1e-6))
         n_starts = int(self.n_starts) if self.n_starts is not None else \
-            4 if n <= 400 else 2 if n <= 1500 else 1
+            max(least, 4 if n <= 400 else 2 if n <= 1500 else 1)
         if n_starts == 1:
             return np.clip(first, lower, upper)[None, :]
         candidates = latin_hypercube(max(SCREENED_CANDIDATES, 2 * n_starts), lower, upper, rng)
@@ -528,7 +529,7 @@ class Kriging:
             search.focus(theta)
             return search.condition(theta, nugget, Y).log_likelihood.sum()
 
-        starts = self._starting_points(d, n, rng, screened)
+        starts = self._starting_points(d, n, rng, screened, least=problem.least_starts)
         best = self._minimise(search, Y, starts, unpack, OPTIONS)
         if search is not problem:
             best = self._minimise(problem, Y, [best], unpack, problem.REFINE_OPTIONS, rounds=1)
