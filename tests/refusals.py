@@ -1,6 +1,7 @@
 """The one check every table of hostile command lines applies: the command is refused with a
 non-zero exit and one error line (plus at most the usage hint), no traceback, no file left
-behind (no ``.tmp`` either) and no input rewritten."""
+behind (no ``.tmp`` either) and no input rewritten; and its counterpart, :func:`run_ok`, for
+the command lines that must succeed."""
 import shutil
 import warnings
 
@@ -9,6 +10,13 @@ from typer.testing import CliRunner
 from robocal.interfaces.cli import app
 
 runner = CliRunner()
+
+
+def run_ok(*args):
+    """Run ``robocal ARGS`` (each turned into text); assert it exits with 0; the result."""
+    result = runner.invoke(app, [str(a) for a in args])
+    assert result.exit_code == 0, result.output
+    return result
 
 
 def copy_inputs(files, folder, monkeypatch):

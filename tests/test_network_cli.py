@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from refusals import run_ok
 from robocal.compensation import Compensator
 from robocal.interfaces.cli import app
 from robocal.io.model_file import load_model
@@ -17,36 +18,30 @@ from robocal.spatial import compose_pose
 runner = CliRunner()
 
 
-def _run(*args):
-    result = runner.invoke(app, [str(a) for a in args])
-    assert result.exit_code == 0, result.output
-    return result
-
-
 @pytest.fixture(scope="module")
 def trained(tmp_path_factory):
     folder = tmp_path_factory.mktemp("ann")
-    _run("simulate", "kr150-2", "--n", 700, "--seed", 5, "--out", folder / "all.csv", "--truth", folder / "truth.json")
+    run_ok("simulate", "kr150-2", "--n", 700, "--seed", 5, "--out", folder / "all.csv", "--truth", folder / "truth.json")
     lines = (folder / "all.csv").read_text().splitlines(keepends=True)
     (folder / "train.csv").write_text("".join(lines[:501]))
     (folder / "test.csv").write_text("".join(lines[:1] + lines[501:]))
-    _run("calibrate", "kr150-2", folder / "train.csv", "--method", "ann", "--register", "yes",
+    run_ok("calibrate", "kr150-2", folder / "train.csv", "--method", "ann", "--register", "yes",
          "--out", folder / "ann.json")
     return folder
 
 
 def test_network_predicts_held_out_errors_and_reports_its_training(trained, tmp_path):
-    evaluated = json.loads(_run("evaluate", trained / "ann.json", trained / "test.csv", "--json").stdout)
+    evaluated = json.loads(run_ok("evaluate", trained / "ann.json", trained / "test.csv", "--json").stdout)
     # 500 poses of a robot with backlash are few for 6-D joint space (the network's own tests
     # show the 5x with more data); it must still predict part of the held-out error.
     assert evaluated["mean_mm"] < 0.85 * evaluated["nominal"]["mean_mm"]
-    report = json.loads(_run("report", trained / "ann.json", trained / "test.csv", "--out", tmp_path / "r.html",
+    report = json.loads(run_ok("report", trained / "ann.json", trained / "test.csv", "--out", tmp_path / "r.html",
                              "--json").stdout)
     assert "Genetic algorithm" in report["figures"] and report["mean_mm"] == evaluated["mean_mm"]
 
 
 def test_joint_space_commands_bring_the_true_robot_closer(trained, tmp_path):
-    _run("compensate", trained / "ann.json", "examples/kr150-targets.csv", "--out", tmp_path / "ann.csv")
+    run_ok("compensate", trained / "ann.json", "examples/kr150-targets.csv", "--out", tmp_path / "ann.csv")
     truth = read_truth(trained / "truth.json")
     model = load_model(trained / "ann.json")
     targets = read_targets("examples/kr150-targets.csv", n_joints=6)
@@ -67,7 +62,7 @@ def test_network_refusals(trained, tmp_path):
     too_big = runner.invoke(app, ["calibrate", "kr150-2", str(trained / "train.csv"), "--method", "ann",
                                   "--hidden", "64,64", "--out", str(tmp_path / "m.json")])
     assert too_big.exit_code == 2 and "poses" in too_big.output and "smaller hidden layers" in too_big.output
-    _run("simulate", "panda", "--n", 20, "--out", tmp_path / "panda.csv")
+    run_ok("simulate", "panda", "--n", 20, "--out", tmp_path / "panda.csv")
     other_robot = runner.invoke(app, ["evaluate", str(trained / "ann.json"), str(tmp_path / "panda.csv")])
     assert other_robot.exit_code == 2 and "Traceback" not in other_robot.output
     assert not (tmp_path / "m.json").exists()

@@ -7,18 +7,13 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from refusals import run_ok
 from robocal.interfaces.cli import app
 from robocal.io.library import builtin
 from robocal.io.tables import write_measurements
 from robocal.simulation import make_true_robot, uniform_joints
 
 runner = CliRunner()
-
-
-def _run(*args):
-    result = runner.invoke(app, [str(a) for a in args])
-    assert result.exit_code == 0, result.output
-    return result
 
 
 @pytest.fixture(scope="module")
@@ -48,11 +43,11 @@ def test_a_reregistered_model_file_works_on_the_new_set_up(setups, method):
     root, files = setups
     model, moved = root / f"{method}.json", root / f"{method}_moved.json"
     extra = ["--inputs", "sincos"] if method == "hybrid" else []
-    _run("calibrate", "ur5", files["train"], "--method", method, *extra, "--out", model)
-    as_it_stood = json.loads(_run("evaluate", model, files["test"], "--json").output)
-    shown = _run("calibrate", model, files["new"], "--method", "frames", "--out", moved).output
+    run_ok("calibrate", "ur5", files["train"], "--method", method, *extra, "--out", model)
+    as_it_stood = json.loads(run_ok("evaluate", model, files["test"], "--json").output)
+    shown = run_ok("calibrate", model, files["new"], "--method", "frames", "--out", moved).output
     assert "re-registered" in shown and "condition number" in shown
-    after = json.loads(_run("evaluate", moved, files["test"], "--json").output)
+    after = json.loads(run_ok("evaluate", moved, files["test"], "--json").output)
     # As it stood the model is metres off (the tracker moved); re-registered on 25 poses it is
     # as good on the new set-up's held-out poses as the fitted model on the old one's noise,
     # and far better than the nominal registered to the new poses.
@@ -68,7 +63,7 @@ def test_a_reregistered_model_file_works_on_the_new_set_up(setups, method):
 def test_frames_takes_one_option(setups):
     root, files = setups
     model = root / "plain.json"
-    _run("calibrate", "ur5", files["train"], "--out", model)
+    run_ok("calibrate", "ur5", files["train"], "--out", model)
     for args, says in ((["--loss", "huber"], "leave out --loss"),
                        (["--parameters", "full"], "frames+offsets"),):
         result = runner.invoke(app, ["calibrate", str(model), str(files["new"]), "--method", "frames", *args,
