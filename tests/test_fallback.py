@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from refusals import assert_refused, copy_inputs
 from robocal.errors import InputError
 from robocal.interfaces.cli import app
 from robocal.io.library import load_robot
@@ -89,6 +90,26 @@ def test_a_fallback_entry_without_a_domain_is_refused_as_damaged(half_range, tmp
     model_file.save_model(document, path)
     with pytest.raises(FileFormatError, match="records no domain"):
         fitted_from_model_file(load_model(path), path)
+
+
+def test_the_command_line_refuses_a_fallback_model_it_cannot_use_with_one_line(half_range, tmp_path,
+                                                                               monkeypatch):
+    """Re-registering an auto model with a fallback, and a fallback entry whose file lost its
+    domain: exit status 2, one line, no traceback, nothing written."""
+    chain, truth, _, _, _, model, q = half_range
+    inputs = tmp_path / "inputs"
+    inputs.mkdir()
+    save_model(model.to_model_file(chain), inputs / "auto.json")
+    damaged = model.to_model_file(chain)
+    damaged.domain = None
+    save_model(damaged, inputs / "no_domain.json")
+    write_measurements(inputs / "new.csv", truth.measurements(q[:25], np.random.default_rng(12)))
+    folder = tmp_path / "work"
+    folder.mkdir()
+    before = copy_inputs(inputs, folder, monkeypatch)
+    assert_refused(["calibrate", "auto.json", "new.csv", "--method", "frames", "--out", "moved.json"],
+                   "calibrate --method auto again", folder, before)
+    assert_refused(["evaluate", "no_domain.json", "new.csv"], "records no domain", folder, before)
 
 
 def test_reregistering_a_model_with_a_fallback_is_refused_with_one_line(half_range):
