@@ -890,7 +890,7 @@ def design(
     n: int = typer.Option(..., "--n", help="Number of poses to measure.", **_number(whole=True, at_least=1, at_most=100_000)),
     out_file: str = typer.Option(..., "--out", help="Poses CSV to write: pose, q1..qN (deg, the joint columns of a measurement file), x_nominal, y_nominal, z_nominal.", **_output(".csv")),
     seed: int = typer.Option(0, help="Seed of the candidates drawn (and of the random selections the summary compares with).", **_number(whole=True, at_least=0)),
-    criterion: str = typer.Option("prediction", help="prediction (default: the mean squared error of the calibrated TCP over the targets; what a calibration is for), d-optimal (log det of the parameters' information) or space-filling (spread over configuration space, for the kriging, hybrid and ann residual models).", **_choice(("prediction", "d-optimal", "space-filling"))),
+    criterion: str = typer.Option("prediction", help="prediction (default: the mean squared error of the calibrated TCP over the targets; what a calibration is for), d-optimal (log det of the parameters' information), space-filling (spread over configuration space) or variance (one pose at a time where a Gaussian-process prior over the joints' sines and cosines is least certain; hyperparameters from --existing measurements when given); the last two for the kriging, hybrid and ann residual models. With --fixture: prediction or d-optimal.", **_choice(("prediction", "d-optimal", "space-filling", "variance"))),
     parameters: str = typer.Option("full", help="The parameter set the calibration will identify (as calibrate --parameters).", **_choice(PARAMETER_SETS)),
     candidates: str = typer.Option(None, help="CSV of your own candidate configurations (q1..qN, deg): reachable poses of an offline program, or an earlier campaign's."),
     pool: int = typer.Option(10_000, help="Candidate configurations to draw (without --candidates).", **_number(whole=True, at_least=10, at_most=1_000_000)),
@@ -908,6 +908,11 @@ def design(
     payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (as calibrate --payload).", **_number(at_least=0)),
     tip: str = typer.Option(None, help="URDF only: the tip link."),
     root: str = typer.Option(None, help="URDF only: the root link."),
+    fixture: str = typer.Option(None, help="Ball in sockets: the fixture TOML file; the design then chooses placements and, per socket, configurations for the constraint calibration (the robot's tool is the ball centre), and --n counts configurations in all."),
+    placements: str = typer.Option(None, help="With --fixture: CSV of candidate fixture placements, x,y,z (mm), rx,ry,rz (deg) of the fixture frame in the robot base frame, and optionally a fixture column naming them."),
+    region: str = typer.Option(None, help="With --fixture, instead of --placements: where the fixture may stand level, xmin,xmax,ymin,ymax,zmin,zmax in mm (robot base frame).", **_numbers(count=6)),
+    per_socket: int = typer.Option(None, "--per-socket", help="With --fixture: configurations per socket (default: --n spread over every reachable placement); fewer placements are then chosen.", **_number(whole=True, at_least=2)),
+    max_tilt: float = typer.Option(None, "--max-tilt", help="With --fixture: the largest angle between the tool axis and the fixture normal, deg (default 30).", **_number(at_least=0, at_most=89)),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Choose which poses to measure for a calibration, and predict what they will give.
@@ -920,20 +925,58 @@ def design(
     Example: robocal design kr150-2 --n 30 --out poses.csv
 
     Augment a campaign: robocal design ur5 --n 10 --existing measured.csv --out next.csv
+
+    Ball in sockets: robocal design panda --fixture plate.toml --placements where.csv --n 72 --per-socket 8 --out plan.csv
     """
-    from ..planning.job import design_job
+    from ..planning.job import design_job, socket_job
 
     if noise is not None and noise <= 0:
         raise InputError(f"--noise is a standard deviation and must be > 0 mm, got {noise}")
-    result = design_job(robot, out_file, n=n, seed=seed, criterion=criterion, parameters=parameters,
-                        candidates=candidates, pool=pool, sampling=sampling, box=box, rpy=rpy, hint=hint, tool=tool,
-                        margin=margin, existing=existing, targets=targets, noise=noise, tracker=tracker,
-                        payload=payload, order=order, root=root, tip=tip)
+    socket_options = {"--placements": placements, "--region": region, "--per-socket": per_socket, "--max-tilt": max_tilt}
+    if fixture is None and any(v is not None for v in socket_options.values()):
+        given = [k for k, v in socket_options.items() if v is not None]
+        raise InputError(f"{', '.join(given)} plan a ball-in-socket campaign: give --fixture too, or leave "
+                         f"{'it' if len(given) == 1 else 'them'} out")
+    if fixture is not None:
+        pose_options = {"--candidates": candidates, "--box": box, "--rpy": rpy, "--hint": hint, "--existing": existing,
+                        "--targets": targets, "--tracker": tracker, "--payload": payload,
+                        "--parameters": parameters if parameters != "full" else None,
+                        "--order": order if order != "tour" else None}
+        given = [k for k, v in pose_options.items() if v is not None]
+        if given:
+            raise InputError(f"{', '.join(given)} do not apply to a ball-in-socket design (--fixture): leave "
+                             f"{'it' if len(given) == 1 else 'them'} out")
+        if criterion not in ("prediction", "d-optimal"):
+            raise InputError(f"--criterion {criterion} is for residual models over poses; a ball-in-socket design "
+                             "takes prediction or d-optimal")
+        result = socket_job(robot, out_file, fixture=fixture, n=n, placements=placements, region=region,
+                            per_socket=per_socket, criterion=criterion, seed=seed, tool=tool, noise=noise,
+                            margin=margin, max_tilt=max_tilt, root=root, tip=tip)
+    else:
+        result = design_job(robot, out_file, n=n, seed=seed, criterion=criterion, parameters=parameters,
+                            candidates=candidates, pool=pool, sampling=sampling, box=box, rpy=rpy, hint=hint,
+                            tool=tool, margin=margin, existing=existing, targets=targets, noise=noise,
+                            tracker=tracker, payload=payload, order=order, root=root, tip=tip)
     if as_json:
         print(json.dumps(result, indent=2))
         return
     predicted = result["predicted"]
     versus = predicted["random_model_rms_mm"]
+    if fixture is not None:
+        table = Table(title=f"{result['configurations']} configurations in {len(result['placements'])} placements of "
+                            f"fixture {result['fixture']} ({result['criterion']}) -> {out_file}", show_header=False)
+        for key, value in (("robot", result["robot"]), ("candidate placements", result["placements_from"]),
+                           ("reachable placements", result["reachable_placements"]),
+                           ("chosen placements", ", ".join(result["placements"])),
+                           ("configurations per socket", result["per_socket"]),
+                           ("candidate configurations", result["candidates"]),
+                           ("ball-centre error after calibration", f"{predicted['model_rms_mm']:.4f} mm RMS predicted"
+                            + ("" if versus is None else f" (random choices of the same number: {versus:.4f} mm)")),
+                           ("identifiable parameters", len(result["identifiable"])),
+                           ("exchanges", result["exchanges"])):
+            table.add_row(key, str(value))
+        out.print(table)
+        return
     table = Table(title=f"{result['poses']} poses of {result['candidates']} candidates ({result['criterion']}) -> {out_file}",
                   show_header=False)
     for key, value in (("robot", result["robot"]), ("candidates", result["candidates_from"]),
@@ -949,6 +992,9 @@ def design(
                                 f"({result['order_of_choice_deg']:.0f} in the order of choice)"),
                        ("exchanges after the greedy selection", str(result["exchanges"]))):
         table.add_row(key, str(value))
+    if "variance" in result:
+        table.add_row("largest predictive variance left", f"{result['variance']['max_relative']:.3g} of the prior's "
+                                                            f"({result['variance']['prior']})")
     out.print(table)
     parameters_table = Table(title=f"predicted standard errors ({len(result['std_errors'])} identifiable parameters)")
     for column in ("parameter", "std. error", "unit"):
