@@ -30,14 +30,33 @@ sum of d_ij^-p over the pairs of chosen configurations (p = SPACING_POWER; maxim
 as p grows), in joint space scaled to [0, 1] per joint.  Adding or removing a pose changes
 the sum by its own row of distances, so both are exact and vectorised.
 
+A residual model can also be designed by ``variance`` (:class:`VarianceState`): a Gaussian
+process prior over the joints' sines and cosines (the ``sincos`` inputs of robocal's
+joint-space Kriging, :class:`~robocal.estimation.joint_kriging.JointFeatures`) and, one pose
+at a time, the candidate where its predictive variance given the poses chosen so far (and
+those measured before) is largest.  Conditioning on one more pose i is a rank-one update of
+every candidate's variance,
+
+    u = (k(., i) - U^T U[:, i]) / sqrt(v_i + nugget),  v <- v - u^2,  U <- [U; u],
+
+(U the rows of the earlier updates: a pivoted Cholesky factor), one correlation column and
+one (k x N) product per step.  The choice is sequential, without exchange: a removal would
+need a downdate, and the greedy choice already bounds the largest variance left (it is
+farthest-point sampling in the kernel's metric).
+
 Every state exposes ``score`` (larger is better), ``gains_of_adding(mask)`` (N,),
-``gains_of_removing()`` (one per removable chosen pose), ``add(i)`` and ``remove(i)``.
+``gains_of_removing()`` (one per removable chosen pose), ``add(i)`` and ``remove(i)``
+(:class:`VarianceState` only the first three).
 """
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..errors import InputError
+from ..estimation.joint_kriging import JointFeatures, moving_joints
+from ..estimation.kriging import correlation_from_squared
 
-CRITERIA = ("prediction", "d-optimal", "space-filling")
+CRITERIA = ("prediction", "d-optimal", "space-filling", "variance")
 DEFAULT_CRITERION = "prediction"
 # The ridge that makes M invertible before the design has P poses, relative to the
 # information of one average pose: small enough to vanish once the parameters are
@@ -45,6 +64,13 @@ DEFAULT_CRITERION = "prediction"
 RIDGE = 1e-6
 # Morris–Mitchell exponent of the space-filling criterion.
 SPACING_POWER = 10
+# The variance criterion's fixed hyperparameters when no measured data give them: theta =
+# VARIANCE_THETA / d on inputs standardised over the candidates (Kriging's own starting
+# value: a correlation of about 1/e between typical pairs of points) and a nugget (noise
+# variance relative to the process variance) of VARIANCE_NUGGET, a tracker's 0.02 mm against
+# residual errors of about 0.1 mm.
+VARIANCE_THETA = 0.5
+VARIANCE_NUGGET = 0.04
 
 
 def check_criterion(criterion):
@@ -186,3 +212,91 @@ class SpacingState:
         self.chosen.remove(int(i))
         self._near -= self._repulsion(self.points[i][None], own=i)[0]
         self.total -= self._near[i]
+
+
+@dataclass(frozen=True)
+class VarianceKernel:
+    """The Gaussian-process prior of the ``variance`` criterion.
+
+    joints: indices of the joints whose sines and cosines are the inputs; mean, scale: (d,)
+    the inputs' standardisation; theta: (d,) Gaussian-correlation weights on the standardised
+    inputs (R = exp(-sum theta_k (x_k - x'_k)^2)); nugget: noise variance relative to the
+    process variance; source: where the values came from (for the summary)."""
+
+    joints: np.ndarray
+    mean: np.ndarray
+    scale: np.ndarray
+    theta: np.ndarray
+    nugget: float
+    source: str
+
+    @classmethod
+    def default(cls, chain, candidates):
+        """The fixed prior (VARIANCE_THETA, VARIANCE_NUGGET) over the joints that move the TCP
+        across ``candidates`` (N, n) rad, standardised over them."""
+        joints = moving_joints(chain, candidates)
+        if not len(joints):
+            raise InputError("no joint moves the TCP across the candidates: the variance criterion needs candidates "
+                             "that differ in the joints")
+        x = JointFeatures("sincos", joints, chain.revolute).transform(candidates)
+        mean, scale = x.mean(axis=0), x.std(axis=0)
+        d = x.shape[1]
+        return cls(joints, mean, np.where(scale > 0, scale, 1.0), np.full(d, VARIANCE_THETA / d), VARIANCE_NUGGET,
+                   f"fixed: theta = {VARIANCE_THETA:g}/d on standardised sin/cos inputs, nugget {VARIANCE_NUGGET:g}")
+
+    @classmethod
+    def of_kriging(cls, joint_kriging, source):
+        """The prior of a fitted ``sincos`` :class:`~robocal.estimation.joint_kriging.JointKriging`:
+        its inputs, the geometric mean of its outputs' theta, the largest nugget."""
+        features, model = joint_kriging.features_, joint_kriging.kriging_
+        theta = np.exp(np.mean(np.log(np.atleast_2d(model.theta_)), axis=0))
+        return cls(features.joints, model._x_mean, model._x_scale, theta, float(np.max(model.nugget_)), source)
+
+    def points(self, chain, joints):
+        """(N, d) standardised inputs of configurations ``joints`` (N, n) rad."""
+        x = JointFeatures("sincos", self.joints, chain.revolute).transform(joints)
+        return (x - self.mean) / self.scale
+
+
+class VarianceState:
+    """Largest predictive variance (see the module notes).
+
+    points: (N, d) standardised inputs of the candidates; kernel: a :class:`VarianceKernel`;
+    before: (k, d) inputs of the poses measured before (conditioned on first, never chosen).
+    ``variance`` (N,) is each candidate's predictive variance relative to the process
+    variance; the score is minus its maximum.
+    """
+
+    def __init__(self, points, kernel, before=None):
+        self.kernel = kernel
+        self.count = len(points)
+        self._all = points if before is None or not len(before) else np.concatenate([points, before])
+        self._variance = np.ones(len(self._all))
+        self._rows = np.zeros((0, len(self._all)))
+        self.chosen = []
+        for i in range(self.count, len(self._all)):
+            self._condition(i)
+
+    @property
+    def variance(self):
+        return self._variance[:self.count]
+
+    def _condition(self, i):
+        squared = ((self._all - self._all[i]) ** 2) @ self.kernel.theta
+        column = correlation_from_squared(squared, "gaussian")
+        column -= self._rows[:, i] @ self._rows
+        row = column / np.sqrt(self._variance[i] + self.kernel.nugget)
+        # Rounding can take a variance a hair below zero at a chosen point.
+        self._variance = np.maximum(self._variance - row ** 2, 0.0)
+        self._rows = np.vstack([self._rows, row])
+
+    @property
+    def score(self):
+        return -float(self.variance.max())
+
+    def gains_of_adding(self, available):
+        return np.where(available, self.variance, -np.inf)
+
+    def add(self, i):
+        self.chosen.append(int(i))
+        self._condition(int(i))

@@ -9,21 +9,23 @@ calibration cannot model are averaged as the targets will see them.  ``d-optimal
 of the information of the identifiable, scaled parameters) treats every parameter alike and
 beats random poses held out by less.  ``space-filling``
 spreads the poses over configuration space, for residual models (Kriging, hybrid, network)
-that learn the error as a function of the joints.  See :mod:`robocal.planning.criteria`.
+that learn the error as a function of the joints; ``variance`` serves them too, choosing one
+pose at a time where a Gaussian-process prior over the joints' sines and cosines is least
+certain given the poses before.  See :mod:`robocal.planning.criteria`.
 
 Whatever the criterion, the summary is that of the parametric calibration: the predicted
 standard error of each identifiable parameter, O1 and the noise amplification index of the
 chosen poses, and the predicted held-out error propagated from the covariance with the
 stated noise, beside the median of random selections of the same size.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..errors import InputError
 from ..estimation.identifiability import analyse
-from .criteria import (CRITERIA, DEFAULT_CRITERION, InformationState, SpacingState, check_criterion,
-                       information_start)
+from .criteria import (CRITERIA, DEFAULT_CRITERION, InformationState, SpacingState, VarianceKernel, VarianceState,
+                       check_criterion, information_start)
 from .exchange import select, select_stratified, strata
 from .information import information_model, noise_of
 from .tour import path_length, tour
@@ -56,7 +58,9 @@ class Design:
     when the candidates are too few to draw from); o1, noise_amplification, condition_number:
     of the chosen poses (with those measured before); tour_length / given_length: the
     largest-joint motion along the order written (the tour, or a random order) and along the
-    order of choice (deg; mm on prismatic joints).
+    order of choice (deg; mm on prismatic joints); max_variance, variance_prior (``variance``
+    only): the largest predictive variance left over the candidates, relative to the process
+    variance, and where the prior's hyperparameters came from.
     """
 
     joints: np.ndarray
@@ -80,6 +84,8 @@ class Design:
     given_length: float
     n_candidates: int
     n_existing: int
+    max_variance: float | None = None
+    variance_prior: str | None = None
 
     def to_dict(self):
         return {
@@ -93,6 +99,8 @@ class Design:
                            for n, s, f, u in zip(self.names, self.std_errors, self.file_units, self.units)},
             "fixed": dict(self.fixed),
             "tour_deg": self.tour_length, "order_of_choice_deg": self.given_length,
+            **({} if self.max_variance is None else {
+                "variance": {"max_relative": self.max_variance, "prior": self.variance_prior}}),
         }
 
 
@@ -139,11 +147,14 @@ def _model_rms(info, W, chosen_blocks, start):
 
 
 def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, parameters="full", noise=0.02,
-                 tracker=None, targets=None, existing=None, payload=None, refine=True, seed=0, order="tour"):
+                 tracker=None, targets=None, existing=None, payload=None, refine=True, seed=0, order="tour",
+                 kernel=None):
     """Choose ``count`` of ``candidates`` (N, n) rad to measure for a calibration of
     ``parameters`` (a parameter set) and predict the result.
 
-    criterion: ``prediction`` (default), ``d-optimal`` or ``space-filling`` (module notes).
+    criterion: ``prediction`` (default), ``d-optimal``, ``space-filling`` or ``variance``
+    (module notes); kernel: the ``variance`` criterion's prior (a
+    :class:`~robocal.planning.criteria.VarianceKernel`; default its fixed hyperparameters).
     noise: standard deviation of a position reading per coordinate (mm); say here what the
     model will not explain (tracker noise plus the robot's unmodelled errors, e.g. an earlier
     calibration's residual RMS / sqrt(3)) and the predicted errors become held-out figures.
@@ -180,6 +191,9 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
     if criterion == "space-filling":
         points, points_before = spacing_points(chain, q, before)
         state = SpacingState(points, points_before)
+    elif criterion == "variance":
+        kernel = VarianceKernel.default(chain, q) if kernel is None else kernel
+        state = VarianceState(kernel.points(chain, q), kernel, None if before is None else kernel.points(chain, before))
     else:
         state = InformationState(info.blocks, start, W if criterion == "prediction" else None)
     available = np.ones(len(q), dtype=bool)
@@ -187,6 +201,9 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
         points, target_points = spacing_points(chain, q, None if targets is None else target_q)
         labels = strata(points, count, seed, target_points)
         chosen, steps = select_stratified(state, count, available, labels, points, refine=refine)
+    elif criterion == "variance":
+        # Sequential by definition (module notes of .criteria): no exchange.
+        chosen, steps = select(state, count, available, refine=False)
     else:
         chosen, steps = select(state, count, available, refine=refine)
     if order not in ORDERS:
@@ -196,8 +213,11 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
     else:
         order = np.random.default_rng(seed).permutation(len(chosen))
     chosen_in_order = chosen[order]
-    return _summary(chain, info, q, chosen_in_order, chosen, criterion, steps, W, start, before, before_blocks,
-                    noise, seed)
+    design = _summary(chain, info, q, chosen_in_order, chosen, criterion, steps, W, start, before, before_blocks,
+                      noise, seed)
+    if criterion == "variance":
+        design = replace(design, max_variance=-state.score, variance_prior=kernel.source)
+    return design
 
 
 def _summary(chain, info, q, chosen, order_of_choice, criterion, steps, W, start, before, before_blocks, noise, seed):

@@ -119,6 +119,25 @@ def select(state, count, available, *, refine=True, max_steps=None):
     return np.array(state.chosen, dtype=int), steps
 
 
+def swap_within(state, available, old, allowed):
+    """Replace the chosen pose ``old`` by the best candidate that is ``available`` and
+    ``allowed`` ((N,) bool), if that improves the criterion; ``available`` is updated in
+    place.  Returns the pose chosen in its place (``old`` when nothing was better)."""
+    before = state.score
+    state.remove(old)
+    available[old] = True
+    best = int(np.argmax(state.gains_of_adding(available & allowed)))
+    state.add(best)
+    available[best] = False
+    if best != old and not _improved(state.score, before):
+        state.remove(best)
+        available[best] = True
+        state.add(old)
+        available[old] = False
+        best = old
+    return best
+
+
 def strata(points, count, seed=0, reference=None):
     """(N,) stratum of each candidate: k-means (seeded, k-means++ start) of ``reference``
     (the targets' points, default ``points`` themselves) into ``count`` clusters, each of
@@ -153,19 +172,7 @@ def select_stratified(state, count, available, labels, points, *, refine=True, m
     for _ in range(max_sweeps if refine else 0):
         changed = False
         for stratum, old in list(owner.items()):
-            before = state.score
-            state.remove(old)
-            available[old] = True
-            gains = state.gains_of_adding(available & (labels == stratum))
-            best = int(np.argmax(gains))
-            state.add(best)
-            available[best] = False
-            if best != old and not _improved(state.score, before):
-                state.remove(best)
-                available[best] = True
-                state.add(old)
-                available[old] = False
-                best = old
+            best = swap_within(state, available, old, labels == stratum)
             if best != old:
                 owner[stratum] = best
                 changed = True

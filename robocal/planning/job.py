@@ -5,7 +5,16 @@ The poses CSV is the joint part of a measurement file: ``pose`` (the order to me
 ``q1`` … ``qN`` in the controller's degrees (mm for prismatic joints) and ``x_nominal,
 y_nominal, z_nominal``, where the nominal model puts the TCP (mm, robot base frame; a check
 for the operator, which ``calibrate`` ignores).  Add the measured ``x, y, z`` and it is a
-measurement file; ball-in-socket designs also carry ``fixture, socket``.
+measurement file.
+
+Ball-in-socket designs (:func:`socket_job`) write ``pose, q1 … qN, x_nominal, y_nominal,
+z_nominal, fixture, socket``: the ``fixture`` column names the placement and ``socket`` the
+fixture file's socket id, as a constraint measurement file holds them, so the file measured
+as it stands (the ball seated where each row says) is the constraint calibration's input.
+Candidate placements come from a placements CSV: ``x, y, z, rx, ry, rz``, the fixture frame
+in the robot base frame (mm; deg, roll-pitch-yaw as every robocal pose), and optionally a
+``fixture`` column naming each placement (default P1, P2, …); or from a region (a box of the
+base frame, mm) where the fixture may stand level.
 """
 import csv
 import io
@@ -19,7 +28,7 @@ from ..io.observations import check_robot_in_mm, read_observations, read_target_
 from ..kinematics.ik import solve_ik
 from ..spatial import compose_pose, rpy_to_matrix
 from .candidates import DEFAULT_COUNT, MARGIN_DEG, box_candidates, joint_candidates
-from .criteria import DEFAULT_CRITERION
+from .criteria import DEFAULT_CRITERION, VarianceKernel
 from .design import design_poses
 
 # Joint values in a file that all lie within this (and spread by at least RADIAN_SPREAD over
@@ -49,6 +58,25 @@ def _table(path):
     return [name.strip() for name in rows[0]], rows[1:]
 
 
+def _numbers(path, header, rows, names, unit=""):
+    """(len(rows), len(names)) values of the named columns; FileFormatError naming the first
+    cell that is empty, not a number, NaN or infinite."""
+    index = [header.index(name) for name in names]
+    values = np.empty((len(rows), len(names)))
+    for r, row in enumerate(rows):
+        for c, k in enumerate(index):
+            cell = row[k].strip() if k < len(row) else ""
+            try:
+                values[r, c] = float(cell)
+            except ValueError:
+                values[r, c] = np.nan
+            if not np.isfinite(values[r, c]):
+                shown = repr(cell) if cell else "empty"
+                raise FileFormatError(f"{path} row {r + 2}, column {names[c]}: {shown} is not a finite number{unit}; "
+                                      "fix or remove that row")
+    return values
+
+
 def read_joints(path, chain, what="configurations"):
     """Joint values of a CSV (columns q1 … qN in deg, mm on prismatic joints; others
     ignored) -> ((N, n) rad, header).  One-line errors for missing columns, empty, non-numeric
@@ -62,19 +90,7 @@ def read_joints(path, chain, what="configurations"):
                               "prismatic joints)")
     if not rows:
         raise FileFormatError(f"{path} has a header but no rows of {what}")
-    index = [header.index(name) for name in names]
-    values = np.empty((len(rows), len(names)))
-    for r, row in enumerate(rows):
-        for c, k in enumerate(index):
-            cell = row[k].strip() if k < len(row) else ""
-            try:
-                values[r, c] = float(cell)
-            except ValueError:
-                values[r, c] = np.nan
-            if not np.isfinite(values[r, c]):
-                shown = repr(cell) if cell else "empty"
-                raise FileFormatError(f"{path} row {r + 2}, column {names[c]}: {shown} is not a finite number (deg); "
-                                      "fix or remove that row")
+    values = _numbers(path, header, rows, names, " (deg)")
     revolute = values[:, chain.revolute]
     if (len(values) >= RADIAN_ROWS and revolute.size and np.abs(revolute).max() < RADIAN_BOUND
             and np.ptp(revolute, axis=0).max() >= RADIAN_SPREAD):
@@ -151,6 +167,30 @@ def _noise_from(path, chain, parameters, payload):
     return float(np.sqrt(np.sum(residual ** 2) / (equations - count)))
 
 
+def _variance_kernel(path, chain, parameters, payload):
+    """The variance criterion's prior fitted to the poses measured before (``path`` with x, y,
+    z): a ``sincos`` joint-space Kriging of the residual a calibration of ``parameters``
+    leaves, as the residual models fit it; None (the fixed prior) when the file has no
+    positions or too few poses to fit."""
+    from ..estimation.calibration import KinematicCalibration
+    from ..estimation.joint_kriging import JointKriging
+    from ..estimation.kriging import Kriging
+
+    header, _ = _table(path)
+    if not {"x", "y", "z"} <= set(header):
+        return None
+    observations = read_observations(path, chain)
+    try:
+        fit = KinematicCalibration(parameters, payload=payload).fit(
+            chain, observations.joints, observations.positions, sigmas=observations.sigmas)
+        errors = observations.positions - fit.predict(observations.joints)
+        model = JointKriging("sincos", Kriging(nugget="estimate", random_state=0)).fit(
+            fit.chain_, observations.joints, errors)
+    except InputError:
+        return None
+    return VarianceKernel.of_kriging(model, f"a sincos Kriging of the residual of a calibration of {path}")
+
+
 def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters="full", candidates=None,
                pool=DEFAULT_COUNT, sampling="uniform", box=None, rpy=None, hint=None, tool=None,
                margin=MARGIN_DEG, existing=None, targets=None, noise=None, tracker=None, payload=None,
@@ -195,10 +235,86 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
             if fitted is not None:
                 noise, noise_note = fitted, f"the residual of a calibration of {existing}"
     target_q = None if targets is None else _targets(targets, chain)
+    kernel = None
+    if criterion == "variance" and existing is not None:
+        kernel = _variance_kernel(existing, chain, parameters, payload)
     design = design_poses(chain, n, q, criterion=criterion, parameters=parameters,
                           noise=0.02 if noise is None else noise, tracker=tracker, targets=target_q,
-                          existing=before, payload=payload, seed=seed, order=order)
+                          existing=before, payload=payload, seed=seed, order=order, kernel=kernel)
     _write_poses(out, chain, design.joints)
     return {"robot": chain.name, "out": str(out), "candidates_from": source, "noise_from": noise_note,
             "targets": "the candidates" if targets is None else f"{len(target_q)} configurations of {targets}",
             **design.to_dict()}
+
+
+def _placements(path):
+    """(K, 4, 4) fixture poses (robot base frame, mm) and their ids from a placements CSV
+    (module notes)."""
+    header, rows = _table(path)
+    columns = ["x", "y", "z", "rx", "ry", "rz"]
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise FileFormatError(f"{path} lacks column{'s' if len(missing) > 1 else ''} {', '.join(missing)}: a placements "
+                              "file gives the fixture frame in the robot base frame as x, y, z (mm), rx, ry, rz (deg)")
+    if not rows:
+        raise FileFormatError(f"{path} has a header but no placements")
+    values = _numbers(path, header, rows, columns)
+    names = ([row[header.index("fixture")].strip() if header.index("fixture") < len(row) else "" for row in rows]
+             if "fixture" in header else [f"P{k + 1}" for k in range(len(rows))])
+    if any(not name for name in names) or len(set(names)) < len(names):
+        raise FileFormatError(f"{path}: every placement needs its own non-empty id in the fixture column")
+    poses = np.stack([compose_pose(v[:3], np.radians(v[3:])) for v in values])
+    return poses, names
+
+
+def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_socket=None, criterion="prediction",
+               seed=0, tool=None, noise=None, margin=MARGIN_DEG, max_tilt=None, root=None, tip=None):
+    """Design a ball-in-socket campaign of ``n`` configurations in all for ``robot`` (its
+    tool: the ball centre) and ``fixture`` (a fixture TOML file), from candidate
+    ``placements`` (a placements CSV) or a ``region`` (xmin, xmax, ymin, ymax, zmin, zmax mm);
+    ``per_socket`` configurations per socket (default: spread over every candidate placement
+    reached).  Writes the poses CSV with fixture and socket columns to ``out`` and returns the
+    JSON-ready result."""
+    from ..io.fixtures import read_fixture
+    from .sockets import MAX_TILT_DEG, design_sockets, region_placements, socket_candidates
+
+    check_outputs([out], [robot, fixture, placements])
+    if (placements is None) == (region is None):
+        raise InputError("a ball-in-socket design needs where the fixture may go: give --placements FILE.csv or "
+                         "--region xmin,xmax,ymin,ymax,zmin,zmax (mm), one of them")
+    chain = load_robot(robot, root=root, tip=tip)
+    if tool is not None:
+        chain = chain.replace(tool=compose_pose(np.asarray(tool, dtype=float), np.zeros(3)))
+    check_robot_in_mm(chain)
+    rig = read_fixture(fixture)
+    if placements is not None:
+        poses, names = _placements(placements)
+        source = f"{len(poses)} placements of {placements}"
+    else:
+        poses, names = region_placements(rig, region[0::2], region[1::2], seed=seed), None
+        source = f"{len(poses)} level placements drawn in the region"
+    candidates = socket_candidates(chain, rig, poses, names, seed=seed, margin_deg=margin,
+                                   max_tilt_deg=MAX_TILT_DEG if max_tilt is None else max_tilt)
+    sockets = len(rig.ids)
+    places = len(candidates.poses)
+    if per_socket is None:
+        per_socket = n // (sockets * places)
+        if per_socket < 2:
+            raise InputError(f"--n {n} configurations over {places} reachable placements x {sockets} sockets leave "
+                             f"fewer than 2 per socket: ask for at least {2 * sockets * places}, or give --per-socket "
+                             "to use fewer placements")
+        count = places
+    else:
+        count = n // (sockets * per_socket)
+    if count * sockets * per_socket != n:
+        whole = max(count, 1) * sockets * per_socket
+        raise InputError(f"--n {n} is not a whole number of placements x {sockets} sockets x {per_socket} per socket: "
+                         f"ask for {whole}" + (f" or {whole + sockets * per_socket}" if count >= 1 else ""))
+    design = design_sockets(chain, candidates, per_socket, count, criterion=criterion,
+                            noise=0.02 if noise is None else noise, seed=seed)
+    _write_poses(out, chain, design.joints, {"fixture": list(design.placement), "socket": list(design.socket)})
+    return {"robot": chain.name, "out": str(out), "fixture": rig.name, "placements_from": source,
+            "reachable_placements": places,
+            "placement_poses": {k: {"xyz_mm": [round(float(v), 3) for v in pose[:3, 3]]} for k, pose in
+                                design.poses.items()},
+            "noise_from": "as stated (--noise)" if noise is not None else "the default 0.02 mm", **design.to_dict()}
