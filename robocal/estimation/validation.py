@@ -39,10 +39,7 @@ def k_fold(n_poses, fit, measured, k=5, seed=0):
     k = _count(k, "k", minimum=2)
     if k > n_poses:
         raise InputError(f"k = {k} folds need at least {k} poses, got {n_poses}: use k <= {n_poses}")
-    order = np.random.default_rng(seed).permutation(n_poses)
-    fold_of = np.empty(n_poses, dtype=int)
-    for fold, members in enumerate(np.array_split(order, k)):
-        fold_of[members] = fold
+    fold_of = fold_assignment(n_poses, k, seed)
     predicted = np.empty((n_poses, 3))
     folds = []
     for fold in range(k):
@@ -54,6 +51,16 @@ def k_fold(n_poses, fit, measured, k=5, seed=0):
     errors = measured - predicted
     return {"k": k, "folds": folds, "pooled": error_stats(errors), "fold_of": fold_of,
             "predicted": predicted, "errors": errors}
+
+
+def fold_assignment(n_poses, k, seed=0):
+    """(n_poses,) int: the fold of each pose in :func:`k_fold` (random, sizes differing by one
+    at most)."""
+    order = np.random.default_rng(seed).permutation(n_poses)
+    fold_of = np.empty(n_poses, dtype=int)
+    for fold, members in enumerate(np.array_split(order, k)):
+        fold_of[members] = fold
+    return fold_of
 
 
 def learning_curve(n_poses, fit, measured, sizes, test_fraction=0.3, repeats=3, seed=0):

@@ -12,6 +12,7 @@ import functools
 import inspect
 import json
 import math
+import os
 import re
 import signal
 import sys
@@ -25,7 +26,7 @@ from rich.table import Table
 from rich.text import Text
 from typer.core import TyperCommand, TyperGroup
 
-from .. import __version__
+from .. import __version__, parallel
 from ..errors import InputError, RobocalError, RobocalWarning
 from ..estimation.calibration import LOSSES, PARAMETER_SETS
 from ..estimation.constraint import PAIRINGS
@@ -503,6 +504,10 @@ def _method_settings(method, *, seed=None, nugget=None, hidden=None, shared_thet
 
 METHOD_HELP = "The method; 'robocal methods' describes them and lists their options."
 BEYOND_LIMITS_HELP = "Accept joint values beyond the robot's limits (by more than 0.5 deg) instead of refusing those rows."
+JOBS_HELP = ("Run the independent fits (the folds) on a local Dask cluster of this many workers, "
+             "listening on 127.0.0.1 (needs pip install 'robocal[fleet]'); default: one after the other here.")
+SCHEDULER_HELP = ("Run the independent fits on the workers of a running Dask scheduler instead (they must run this "
+                  "robocal version).")
 SEED_HELP = "Seed of the Kriging multi-start search and of the network's training (kriging, hybrid, ann)."
 
 
@@ -778,6 +783,8 @@ def compare(
     tip: str = typer.Option(None, help="URDF only: the tip link."),
     root: str = typer.Option(None, help="URDF only: the root link."),
     beyond_limits: bool = typer.Option(False, "--beyond-limits", help=BEYOND_LIMITS_HELP),
+    jobs: int = typer.Option(None, help=JOBS_HELP, **_number(whole=True, at_least=1, at_most=1024)),
+    scheduler: str = typer.Option(None, metavar="<tcp://HOST:PORT>", help=SCHEDULER_HELP),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Which model to trust: every method and parameter set scored on poses it never saw.
@@ -793,7 +800,8 @@ def compare(
     """
     from .progress import progress
 
-    with progress("comparing the methods, fit", None, enabled=not as_json) as advance:
+    with parallel.executor(jobs=jobs, scheduler=scheduler), \
+            progress("comparing the methods, fit", None, enabled=not as_json) as advance:
         comparison = compare_job(robot, measurements, folds=folds, seed=seed, fixture=fixture, network=network,
                                  root=root, tip=tip, on_fit=advance, beyond_limits=beyond_limits)
     result = comparison.to_dict()
@@ -819,6 +827,8 @@ def validate(
     pairs: str = typer.Option(None, help="constraint: all pairs (default) or spanning.", **_choice(PAIRINGS)),
     payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg.", **_number(at_least=0)),
     beyond_limits: bool = typer.Option(False, "--beyond-limits", help=BEYOND_LIMITS_HELP),
+    jobs: int = typer.Option(None, help=JOBS_HELP, **_number(whole=True, at_least=1, at_most=1024)),
+    scheduler: str = typer.Option(None, metavar="<tcp://HOST:PORT>", help=SCHEDULER_HELP),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Held-out accuracy of a method: k-fold cross-validation and an optional learning curve.
@@ -837,7 +847,8 @@ def validate(
     by_placement = get_method(method).data_kind == "sockets"
     # Each fold fits the method and the registered nominal; each size of the curve 3 times.
     fits = None if by_placement else 2 * folds + 3 * len(size_list or [])
-    with progress("fitting", fits, enabled=not as_json) as advance, _options_named({"k": "--folds"}):
+    with parallel.executor(jobs=jobs, scheduler=scheduler), progress("fitting", fits, enabled=not as_json) as advance, \
+            _options_named({"k": "--folds"}):
         result = validate_job(robot, measurements, method=method, settings=settings, folds=folds, sizes=size_list,
                               beyond_limits=beyond_limits,
                               seed=seed, fixture=fixture, on_fit=advance)
@@ -1075,10 +1086,28 @@ def fleet(
         raise typer.Exit(1)
 
 
+# Variables by which a user sets how many threads the linear algebra library runs.
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
+
+
+def _one_blas_thread():
+    """Limit the linear algebra library (OpenBLAS, MKL) to one thread unless the user set how
+    many it runs.  robocal's fits are many small solves (a Kriging search, one calibration per
+    fold), which threads do not speed up, and on a machine whose cores are busy the library's
+    threads wait for each other: ``compare`` on 200 UR5 poses took 137 s with OpenBLAS's
+    default threads on a loaded 2-core machine and 8 s with one.  Parallel work is --jobs."""
+    if any(name in os.environ for name in THREAD_VARIABLES):
+        return None
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 def main():
     """Console entry point."""
     warnings.showwarning = _show_warning
     np.seterr(all="ignore")  # NaNs are checked explicitly where they matter
+    _one_blas_thread()
     with interruptible():
         app()
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..spatial import compose_pose, pose_to_xyz_rpy, rpy_to_matrix
-from .fixtures import Fixture, read_fixture
+from .fixtures import Fixture, fixture_from_dict, fixture_to_dict, read_fixture
 from .library import load_robot
 from .tables import Measurements, read_measurements, read_targets, write_commands
 
@@ -129,6 +129,20 @@ class Observations:
     def n_poses(self) -> int:
         """Number of observed configurations."""
         return len(self.joints)
+
+    def to_plain(self) -> dict:
+        """The observations as plain data (arrays, text, a dict for the fixture): what crosses
+        to another process (:mod:`robocal.parallel`); :meth:`from_plain` reads it back exactly."""
+        arrays = ("joints", "positions", "rotations", "sigmas", "placement", "socket", "rows", "times")
+        plain = {name: getattr(self, name) for name in arrays}
+        return {**plain, "path": self.path, "kind": self.kind,
+                "fixture": None if self.fixture is None else fixture_to_dict(self.fixture)}
+
+    @classmethod
+    def from_plain(cls, plain) -> Observations:
+        """The observations :meth:`to_plain` made."""
+        fixture = plain["fixture"]
+        return cls(**{**plain, "fixture": None if fixture is None else fixture_from_dict(fixture, plain["path"])})
 
     def subset(self, index) -> Observations:
         """The observations selected by ``index`` (integer indices or a boolean mask)."""

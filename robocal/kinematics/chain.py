@@ -18,7 +18,7 @@ as FANUC's J2/J3 off it).  A joint's gain g (parameter ``gain<k>``) scales its r
 by e^g: a transmission-ratio or encoder-scale error, g = ln of the row's length, so that a
 deviation of 1e-4 is 100 ppm.
 """
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 
 import numpy as np
@@ -117,6 +117,16 @@ class Chain:
             if masses.shape != (n,) or not np.all(np.isfinite(masses)) or np.any(masses < 0):
                 raise InputError(f"robot {self.name!r}: masses must be {n} finite values >= 0 kg, got {masses.tolist()}")
             set_(self, "masses", masses)
+
+    def to_plain(self) -> dict:
+        """The chain as plain data (its fields: text and arrays in internal units), exactly:
+        what crosses to another process (:mod:`robocal.parallel`); :meth:`from_plain` reads it."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_plain(cls, plain):
+        """The chain :meth:`to_plain` made."""
+        return cls(**plain)
 
     # ----------------------------------------------------------------- basic facts
     @property

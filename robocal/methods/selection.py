@@ -35,9 +35,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import parallel
 from ..errors import InputError, RobocalWarning
 from ..estimation.constraint import socket_deviations
 from ..estimation.metrics import error_stats
+from ..kinematics.chain import Chain
+from ..io.observations import Observations
 from . import make_method
 from .frames import registered_nominal
 from .domain import Domain, arm_branches
@@ -524,10 +527,87 @@ def outside_choice(comparison_scores, candidate_list, split_list, recommended):
                     f"{why}")
 
 
+def _groups(candidate_list, split_list):
+    """The comparison's independent pieces of work, longest first (a cluster starts them in
+    this order): [(candidates, splits)].  A hybrid goes with the kinematic candidate of its
+    parameter set, whose fold fits it reuses (:class:`_Refits`); a Kriging-based model is one
+    piece, since it keeps the hyperparameters of its first fold; the network, which fits every
+    fold from scratch, one piece per split; the registered nominal one piece."""
+    pieces = []
+    for candidate in candidate_list:
+        if candidate.method == "ann":
+            pieces += [([candidate], [split]) for split in split_list]
+            continue
+        base = next((piece for piece in pieces if piece[0][0].label == candidate.base), None)
+        if base is not None:
+            base[0].append(candidate)
+        else:
+            pieces.append(([candidate], split_list))
+
+    def length(piece):  # the network, then anything with a Kriging fit, then the rest
+        methods = {c.method for c in piece[0]}
+        return 0 if "ann" in methods else 1 if methods & {"kriging", "hybrid"} else 2
+
+    return sorted(pieces, key=length)
+
+
+def _score_group(chain, observations, candidates_, split_list, on_fit=None):
+    """({label: {split name: Score}}, {label: s}) of ``candidates_`` on ``split_list``, fitted
+    one after the other with one :class:`_Refits`."""
+    refits, scores, seconds = _Refits(chain), {}, {}
+    for candidate in candidates_:
+        start = time.perf_counter()
+        scores[candidate.label] = {split.name: score(candidate, observations, split, refits, on_fit=on_fit)
+                                   for split in split_list}
+        seconds[candidate.label] = time.perf_counter() - start
+    return scores, seconds
+
+
+def score_task(task):
+    """A piece of :func:`compare` run by a worker of :mod:`robocal.parallel`: ``task`` and
+    the result are plain data (the robot and the observations as their ``to_plain`` gives
+    them, splits and candidates as dicts; the scores as the fields of :class:`Score`)."""
+    chain = Chain.from_plain(task["robot"])
+    observations = Observations.from_plain(task["observations"])
+    split_list = [Split(s["name"], s["kind"], tuple(s["tests"]), tuple(s["fold_names"])) for s in task["splits"]]
+    scores, seconds = _score_group(chain, observations, [Candidate(**c) for c in task["candidates"]], split_list)
+    return {"scores": {label: {name: vars(one) for name, one in by_split.items()} for label, by_split in scores.items()},
+            "seconds": seconds}
+
+
+def _score_all(chain, observations, candidate_list, split_list, on_fit):
+    """({label: {split name: Score}}, {label: s}) of every candidate (the registered nominal
+    first): here, one fit after the other, or on the active executor of
+    :mod:`robocal.parallel` (``robocal compare --jobs N``), one :func:`_groups` piece a task."""
+    everything = [Candidate(NOMINAL, "nominal", {})] + candidate_list
+    runner = parallel.current()
+    if runner.client is None:
+        return _score_group(chain, observations, everything, split_list, on_fit)
+    groups = _groups(everything, split_list)
+    robot, plain = chain.to_plain(), observations.to_plain()
+    tasks = [{"robot": robot, "observations": plain, "candidates": [vars(c) for c in group],
+              "splits": [{"name": s.name, "kind": s.kind, "tests": list(s.tests), "fold_names": list(s.fold_names)}
+                         for s in splits_]} for group, splits_ in groups]
+
+    def done(index, result):
+        if on_fit is not None:
+            on_fit(len(groups[index][0]) * sum(len(s.tests) for s in groups[index][1]))
+
+    results = runner.map(score_task, tasks, on_done=done)
+    scores, seconds = {c.label: {} for c in everything}, dict.fromkeys((c.label for c in everything), 0.0)
+    for result in results:
+        for label, by_split in result["scores"].items():
+            scores[label].update({name: Score(**fields) for name, fields in by_split.items()})
+            seconds[label] += result["seconds"][label]
+    # In the order of the splits, as the serial path gives them.
+    return {label: {s.name: scores[label][s.name] for s in split_list} for label in scores}, seconds
+
+
 def compare(chain, observations, *, folds=FOLDS, seed=0, network=None, on_fit=None, only=None):
     """Score every :func:`candidates` model (``only``: a list of labels to keep) on every
     :func:`splits` split of ``observations`` of ``chain``, beside the registered nominal, and
-    recommend one (:func:`recommend`).  ``on_fit()`` is called after every fit.  Returns a
+    recommend one (:func:`recommend`).  ``on_fit(steps=1)`` is called as fits finish.  The
+    fits run on the active :func:`robocal.parallel.executor` when there is one.  Returns a
     :class:`Comparison`."""
     if folds < 2:
         raise InputError(f"--folds must be at least 2, got {folds}")
@@ -540,12 +620,7 @@ def compare(chain, observations, *, folds=FOLDS, seed=0, network=None, on_fit=No
             raise InputError(f"no candidate model is called {', '.join(unknown)}; the candidates are "
                              f"{', '.join(c.label for c in candidate_list)}")
         candidate_list = [c for c in candidate_list if c.label in only]
-    scores, seconds, refits = {}, {}, _Refits(chain)
-    for candidate in [Candidate(NOMINAL, "nominal", {})] + candidate_list:
-        start = time.perf_counter()
-        scores[candidate.label] = {split.name: score(candidate, observations, split, refits, on_fit=on_fit)
-                                   for split in split_list}
-        seconds[candidate.label] = time.perf_counter() - start
+    scores, seconds = _score_all(chain, observations, candidate_list, split_list, on_fit)
     chosen, reasons, dropped = recommend(scores, candidate_list, split_list)
     outside, why = outside_choice(scores, candidate_list, split_list, chosen)
     if why:

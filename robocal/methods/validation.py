@@ -3,10 +3,14 @@ on position data, leave-one-placement-out on ball-in-socket data, each beside th
 robot scored the same way (registered on the same training folds)."""
 import numpy as np
 
+from .. import parallel
 from ..errors import InputError
 from ..estimation.constraint import socket_deviations
 from ..estimation.metrics import error_stats
-from ..estimation.validation import k_fold, learning_curve
+from ..estimation.validation import fold_assignment, k_fold, learning_curve
+from ..io.observations import Observations
+from ..kinematics.chain import Chain
+from . import make_method
 from .frames import registered_nominal
 
 
@@ -43,6 +47,42 @@ def nominal_fitter(chain, observations, on_fit=None):
     return fit
 
 
+def fold_task(task):
+    """One fold of :func:`cross_validate` run by a worker of :mod:`robocal.parallel` (plain
+    data in and out): ``task`` holds the robot and observations (their ``to_plain``), the
+    ``method`` name ("nominal": the nominal robot registered) and its ``settings``, and the
+    ``train`` and ``test`` indices; returns the (len(test), 3) held-out predictions, mm."""
+    chain = Chain.from_plain(task["robot"])
+    observations = Observations.from_plain(task["observations"])
+    train, test = np.asarray(task["train"]), np.asarray(task["test"])
+    if task["method"] == "nominal":
+        return nominal_fitter(chain, observations)(train)(test)
+    method = make_method(task["method"], **task["settings"])
+    return method_fitter(method, chain, observations)(train)(test)
+
+
+def _fitted_on_executor(method, chain, observations, fold_of, runner, on_fit):
+    """(fitter of ``method``, fitter of the registered nominal) whose folds (``fold_of``, as
+    :func:`k_fold` draws them) were all fitted beforehand on ``runner``, two fits a fold at a
+    time on its workers."""
+    robot, plain = chain.to_plain(), observations.to_plain()
+    folds = range(int(fold_of.max()) + 1)
+    tasks = [{"robot": robot, "observations": plain, "method": name, "settings": settings,
+              "train": np.flatnonzero(fold_of != fold), "test": np.flatnonzero(fold_of == fold)}
+             for name, settings in ((method.name, method.get_settings()), ("nominal", {})) for fold in folds]
+    predictions = runner.map(fold_task, tasks, on_done=None if on_fit is None else lambda index, result: on_fit())
+
+    def fitter(offset):
+        by_train = {tasks[offset + fold]["train"].tobytes(): predictions[offset + fold] for fold in folds}
+
+        def fit(train):
+            predicted = by_train[np.asarray(train).tobytes()]
+            return lambda test: predicted
+        return fit
+
+    return fitter(0), fitter(len(folds))
+
+
 def _summary(cv):  # the per-pose arrays stay out of the JSON
     return {key: cv[key] for key in ("k", "folds", "pooled")}
 
@@ -52,8 +92,9 @@ def cross_validate(method, chain, observations, *, folds=5, sizes=None, seed=0, 
 
     Position data: ``folds``-fold cross-validation with the random fold assignment of
     ``seed``, and a learning curve when ``sizes`` lists training sizes.  Ball-in-socket data:
-    each fixture placement left out in turn.  ``on_fit()`` is called after every fit.
-    Returns the JSON-ready dict ``robocal validate --json`` prints.
+    each fixture placement left out in turn.  ``on_fit()`` is called after every fit.  The
+    folds run on the active :func:`robocal.parallel.executor` when there is one (the learning
+    curve and the placements here).  Returns the JSON-ready dict ``robocal validate --json`` prints.
     """
     if method.data_kind == "sockets":
         if sizes:
@@ -64,11 +105,16 @@ def cross_validate(method, chain, observations, *, folds=5, sizes=None, seed=0, 
         raise InputError(f"{observations.path} has no x, y, z columns: the {method.name} method needs measured "
                          "positions")
     n, measured = observations.n_poses, observations.positions
-    fitter = method_fitter(method, chain, observations, on_fit)
+    fitter, nominal = method_fitter(method, chain, observations, on_fit), nominal_fitter(chain, observations, on_fit)
+    runner = parallel.current()
+    if runner.client is not None and 2 <= folds <= n:
+        fold_fitter, nominal = _fitted_on_executor(method, chain, observations, fold_assignment(n, folds, seed),
+                                                   runner, on_fit)
+    else:
+        fold_fitter = fitter
     result = {"method": method.name, "file": observations.path, "poses": n, "folds": folds,
-              "cross_validation": _summary(k_fold(n, fitter, measured, k=folds, seed=seed)),
-              "nominal_cross_validation": _summary(k_fold(n, nominal_fitter(chain, observations, on_fit), measured,
-                                                          k=folds, seed=seed))}
+              "cross_validation": _summary(k_fold(n, fold_fitter, measured, k=folds, seed=seed)),
+              "nominal_cross_validation": _summary(k_fold(n, nominal, measured, k=folds, seed=seed))}
     if sizes:
         result["learning_curve"] = learning_curve(n, fitter, measured, sizes, seed=seed)
     return result
