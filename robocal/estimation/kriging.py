@@ -292,8 +292,9 @@ class Kriging:
         earlier points, O(n m³) time, O(n m) memory); "auto" is exact up to
         AUTO_VECCHIA_ABOVE training points and Vecchia above.
     neighbours : int ≥ 1 or None
-        Vecchia only: the neighbours m each point is conditioned on, in the likelihood and in
-        prediction; None is ``vecchia.NEIGHBOURS``.  With m ≥ n − 1 the approximation is exact.
+        Vecchia only: the neighbours m each point is conditioned on in the likelihood (the
+        local predictors take ⌈4m/3⌉, ``vecchia.PREDICTION_SET_FACTOR``); None is
+        ``vecchia.NEIGHBOURS``.  With m ≥ n − 1 the approximation is exact.
 
     Attributes
     ----------
@@ -520,8 +521,9 @@ class Kriging:
         if not Y.any():  # constant outputs: the likelihood does not depend on θ
             nugget = NUGGET_BOUNDS[0] if estimate_nugget else float(self.nugget)
             return problem.final(self._theta0(d), nugget, Y)
-        # The exact problem searches on itself; the Vecchia one on a space-filling part of
-        # its points, then refines that optimum on all of them (robocal.estimation.vecchia).
+        # The exact problem searches on itself; the Vecchia one on the exact likelihood or a
+        # space-filling part of its points, then refines that optimum on all of them
+        # (robocal.estimation.vecchia).
         search = problem.search_problem()
 
         def screened(params):
@@ -531,7 +533,7 @@ class Kriging:
 
         starts = self._starting_points(d, n, rng, screened, least=problem.least_starts)
         best = self._minimise(search, Y, starts, unpack, OPTIONS)
-        if search is not problem:
+        if len(search.X) < len(problem.X):
             best = self._minimise(problem, Y, [best], unpack, problem.REFINE_OPTIONS, rounds=1)
         return problem.final(*unpack(best), Y)
 
@@ -681,7 +683,7 @@ class Kriging:
         Xs = (X - self._x_mean) / self._x_scale
         mean = np.empty((len(X), len(self._y_mean)))
         mse = np.empty_like(mean) if return_mse else None
-        # The Vecchia predictor bounds its own memory and groups neighbouring targets: all at once.
+        # The Vecchia predictor bounds its own memory (blocks of targets): all at once.
         step = max(1, len(X) if self.approximation_ == "vecchia" else int(batch_size))
         for start in range(0, len(X), step):
             block = slice(start, start + step)
