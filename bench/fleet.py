@@ -18,6 +18,11 @@ beside its wall time.
     python bench/fleet.py                 # 1 and 2 workers, in a temporary folder
     python bench/fleet.py --work /tmp/f   # keep the data and the outputs there
     python bench/fleet.py --workers 1,2,4
+    python bench/fleet.py --compare       # robocal compare on the 1,000 UR5 poses instead
+
+``--compare`` times ``robocal compare ur5.toml ur5.csv --json`` (the real UR5, 1,000 poses,
+5 folds, every method) with no cluster, and with ``--jobs N`` for each worker count, each a
+process of its own; the printed figures of every run must be the same (fit times aside).
 """
 import argparse
 import csv
@@ -125,13 +130,8 @@ def ceiling(workers, steps=30_000_000):
 def run(fleet, out, workers):
     """``robocal fleet`` with a local cluster of ``workers``: (wall s, CPU s of its processes)."""
     print(f"  {workers} worker(s): before, {load()}", flush=True)
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "robocal.interfaces.cli", "fleet", str(fleet), "--out", str(out),
-                           "--jobs", str(workers), "--json"], capture_output=True, text=True)
-    wall = time.perf_counter() - start
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    wall, cpu, done = timed([sys.executable, "-m", "robocal.interfaces.cli", "fleet", str(fleet), "--out", str(out),
+                             "--jobs", str(workers), "--json"])
     if done.returncode != 1:  # 1: some robot failed, as one must here
         sys.exit(f"robocal fleet exited with {done.returncode}:\n{done.stderr}")
     tasks = [row["seconds"] for row in json.loads(done.stdout)["robots"] if row["seconds"] is not None]
@@ -141,6 +141,50 @@ def run(fleet, out, workers):
           f"tasks {sum(tasks):.1f} s in all, the longest {max(tasks):.1f} s, the workers busy "
           f"{100 * sum(tasks) / (wall * workers):.0f} % of the wall time; after, {load()}", flush=True)
     return wall, cpu
+
+
+def timed(command):
+    """(wall s, CPU s of the process and its children, completed process) of ``command``."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    done = subprocess.run(command, capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), done
+
+
+def figures(printed):
+    """compare's JSON without its fit times: what must not depend on where the fits ran."""
+    result = json.loads(printed)
+    for model in result["models"]:
+        model.pop("seconds")
+        for split in model["scores"].values():
+            split.pop("fit_seconds")
+    return result
+
+
+def compare_runs(folder, counts):
+    """robocal compare on the real UR5 with no cluster and with each worker count."""
+    exported = subprocess.run([sys.executable, "-m", "robocal.interfaces.cli", "dataset", "ur5-tsinghua", "--out",
+                               str(folder / "ur5"), "--json"], capture_output=True, text=True)
+    if exported.returncode:
+        sys.exit(exported.stderr)
+    command = [sys.executable, "-m", "robocal.interfaces.cli", "compare", str(folder / "ur5.toml"),
+               str(folder / "ur5.csv"), "--json"]
+    print(f"robocal compare, real UR5, 1,000 poses, 5 folds, every method; {os.cpu_count()} CPUs; {load()}")
+    walls, results = {}, {}
+    for workers in [None] + counts:
+        wall, cpu, done = timed(command + ([] if workers is None else ["--jobs", str(workers)]))
+        if done.returncode:
+            sys.exit(f"robocal compare exited with {done.returncode}:\n{done.stderr}")
+        walls[workers], results[workers] = wall, figures(done.stdout)
+        print(f"  {'no cluster' if workers is None else f'--jobs {workers}'}: {wall:.1f} s wall, {cpu:.1f} s CPU; "
+              f"after, {load()}", flush=True)
+    print(f"  the same figures in every run: {all(r == results[None] for r in results.values())}")
+    for workers in counts[1:]:
+        print(f"  speed-up --jobs {counts[0]} -> {workers}: {walls[counts[0]] / walls[workers]:.2f}x; no cluster -> "
+              f"--jobs {workers}: {walls[None] / walls[workers]:.2f}x; {workers} processes of pure arithmetic got "
+              f"{ceiling(workers) / ceiling(counts[0]):.2f}x the work of {counts[0]} done just after ({load()})")
 
 
 def check(out):
@@ -161,11 +205,15 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--work", type=Path, help="folder for the data and outputs (default: a temporary one)")
     parser.add_argument("--workers", default="1,2", help="worker counts to time, e.g. 1,2")
+    parser.add_argument("--compare", action="store_true", help="time robocal compare on the real UR5 instead")
     args = parser.parse_args()
     counts = [int(n) for n in args.workers.split(",")]
     with tempfile.TemporaryDirectory() as temporary:
         folder = args.work or Path(temporary)
         folder.mkdir(parents=True, exist_ok=True)
+        if args.compare:
+            compare_runs(folder, counts)
+            return
         print(f"robocal fleet, {len(PLAN)} simulated robots ({N_TRAIN} training / {N_TEST} test poses; "
               f"ball-in-socket robots 48 / 24), one damaged file; {os.cpu_count()} CPUs; {load()}")
         start = time.perf_counter()
