@@ -19,8 +19,8 @@ Vecchia approximation (ARD Matérn 5/2, 30 neighbours, one thread).  Each fit ru
 child process, so its peak memory (the whole process) is its own; the peers' fits are stopped
 after ``--budget`` seconds.  It prints wall and CPU seconds of the fit and of the 100,000
 predictions (the machine may be shared) and, where robocal's exact Kriging ran, each RMS
-relative to exact Kriging's (the UR10 table: the mean error relative to it), then
-the same at n = 2,000 with 0.01 mm noise on the readings (nugget estimated), and the UR10
+relative to exact Kriging's (the UR10 table: the mean error relative to it); at n = 2,000
+and 10,000 also with 0.01 mm noise on the readings (nugget estimated); then the UR10
 comparison: Kriging and the hybrid on 2,000 random series-A poses, held out on the other
 9,911, exact against Vecchia, and the hybrid on all 1,495 series-B poses as
 ``calibrate --method hybrid`` fits it (``--kriging auto``).
@@ -28,6 +28,7 @@ comparison: Kriging and the hybrid on 2,000 random series-A poses, held out on t
     python bench/kriging.py            # both sections, about 25 min on one core
     python bench/kriging.py --quick    # n = 50 and 200 only
     python bench/kriging.py --large    # the large section only
+    python bench/kriging.py --large --without-peers --sizes 10000 --without-ur10   # one row
 """
 import os
 
@@ -51,6 +52,7 @@ QUICK_SIZES = (50, 200)
 LARGE_SIZES = (2000, 10_000, 100_000)
 EXACT_UP_TO = 3000  # robocal's exact Kriging holds d·n² squared differences: 216 MB at 3,000
 NOISE_MM = 0.01  # tracker noise of the noisy comparison
+NOISY_UP_TO = 10_000  # the noisy comparison at every n up to this (and at the first n)
 UR10_TRAIN = 2000
 BOX_LOW = np.array([1000.0, -500.0, 500.0])  # mm: a 1000 mm cube in front of the robot
 BOX_SIZE = 1000.0
@@ -320,7 +322,7 @@ def large_benchmark(budget, sizes=LARGE_SIZES, with_peers=True):
     rule(header)
     peers = available_peers(large=True) if with_peers else []
     given_up = {}
-    cases = [(sizes[0], 0.0), (sizes[0], NOISE_MM)] + [(n, 0.0) for n in sizes[1:]]
+    cases = [(n, noise) for n in sizes for noise in ((0.0, NOISE_MM) if n == sizes[0] or n <= NOISY_UP_TO else (0.0,))]
     for n, noise in cases:
         rng = np.random.default_rng(n)
         X = latin_hypercube(n, rng)
@@ -396,12 +398,16 @@ def main():
     parser.add_argument("--large", action="store_true", help="only n = 2,000, 10,000 and 100,000, and UR10")
     parser.add_argument("--budget", type=float, default=600.0, help="seconds a peer's large fit may take")
     parser.add_argument("--without-peers", action="store_true", help="robocal only in the large section")
+    parser.add_argument("--sizes", type=int, nargs="+", default=list(LARGE_SIZES),
+                        help="the large section's n (the first also with noise)")
+    parser.add_argument("--without-ur10", action="store_true", help="no UR10 comparison")
     args = parser.parse_args()
     if not args.large:
         small_benchmark(QUICK_SIZES if args.quick else SIZES)
     if not args.quick:
-        large_benchmark(args.budget, with_peers=not args.without_peers)
-        ur10_benchmark()
+        large_benchmark(args.budget, sizes=tuple(args.sizes), with_peers=not args.without_peers)
+        if not args.without_ur10:
+            ur10_benchmark()
 
 
 if __name__ == "__main__":
