@@ -145,3 +145,29 @@ def test_the_command_line_runs_one_blas_thread_unless_told(monkeypatch):
         limits.restore_original_limits()
     monkeypatch.setenv("OPENBLAS_NUM_THREADS", "2")
     assert cli._one_blas_thread() is None
+
+
+@pytest.mark.parametrize("approximation", ["exact", "vecchia"])
+def test_kriging_searches_its_components_on_a_cluster_as_it_does_here(approximation, cluster):
+    from robocal.estimation.kriging import Kriging
+
+    rng = np.random.default_rng(7)
+    X = rng.uniform(-1.0, 1.0, (150, 3))
+    Y = np.column_stack([np.sin(3 * X[:, 0]), X[:, 1] * X[:, 2], np.cos(2 * X[:, 2])]) + 0.01 * rng.normal(size=(150, 3))
+    settings = dict(random_state=3, nugget="estimate", n_starts=3, approximation=approximation, neighbours=20)
+    # One BLAS thread on both sides, as the command line runs (the final factorisation is here).
+    with threadpool_limits(1, user_api="blas"):
+        there = Kriging(**settings).fit(X, Y)
+        with parallel.executor():
+            here = Kriging(**settings).fit(X, Y)
+    np.testing.assert_array_equal(there.theta_, here.theta_)
+    np.testing.assert_array_equal(there.nugget_, here.nugget_)
+    with threadpool_limits(1, user_api="blas"):
+        np.testing.assert_array_equal(there.predict(X[:20]), here.predict(X[:20]))
+
+
+def test_calibrate_takes_jobs_only_where_there_is_something_to_spread(files, tmp_path, monkeypatch):
+    before = copy_inputs(files, tmp_path, monkeypatch)
+    for method in ("kinematic", "ann"):
+        assert_refused(["calibrate", "ur5", "meas.csv", "--method", method, "--jobs", "2", "--out", "m.json"],
+                       f"the {method} method has none", tmp_path, before)

@@ -38,6 +38,7 @@ import numpy as np
 from scipy.linalg import lapack
 from scipy.optimize import minimize
 
+from .. import parallel
 from ..errors import InputError, RobocalWarning
 from .arrays import (as_matrix, check_choice, check_flag, check_header, check_random_state,
                      check_whole, damaged, is_real, not_fitted, standard_scaler)
@@ -383,8 +384,12 @@ class Kriging:
         fixed = getattr(self, "_fixed_states", None)  # see conditioned_on
         if fixed is not None and len(fixed) != len(groups):
             raise InputError(f"the hyperparameters are of {len(fixed)} outputs, the data have {Y.shape[1]}")
-        states = ([data.problem.final(theta, nugget, data.Ys[:, cols]) for cols, (theta, nugget) in zip(groups, fixed)]
-                  if fixed is not None else [self._optimise(data.problem, data.Ys[:, cols], rng) for cols in groups])
+        if fixed is None:
+            # Each group's random candidates are drawn here, in order, so that the searches
+            # are independent and give the same result wherever they run.
+            drawn = [self._candidates(data.problem, data.Ys[:, cols], rng) for cols in groups]
+            fixed = self._search(data, groups, drawn)
+        states = [data.problem.final(theta, nugget, data.Ys[:, cols]) for cols, (theta, nugget) in zip(groups, fixed)]
         self._install(data, y_is_vector, groups, states, diagnostics)
         self._report(groups, states)
         return self
@@ -480,9 +485,25 @@ class Kriging:
                              f"column), got {self.theta0!r}")
         return np.broadcast_to(theta0, (d,)).copy()
 
-    def _starting_points(self, d, n, rng, log_likelihood, least=1):
-        """Rows of [log θ (, log nugget)] to start L-BFGS-B from: theta0, then the best of a
-        Latin hypercube of candidates by ``log_likelihood``.  A value without gradient costs a
+    def _n_starts(self, n, least=1):
+        """How many L-BFGS-B runs a search makes: ``n_starts``, or by default 4 up to 400
+        points, 2 up to 1,500, then 1 (at least ``least``)."""
+        if self.n_starts is not None:
+            return int(self.n_starts)
+        return max(least, 4 if n <= 400 else 2 if n <= 1500 else 1)
+
+    def _candidates(self, problem, Y, rng):
+        """The Latin hypercube of [log θ (, log nugget)] a search of outputs ``Y`` screens for
+        its starts (drawn from ``rng``), or None when it has no random starts."""
+        n, d = problem.X.shape
+        n_starts = self._n_starts(n, problem.least_starts)
+        if self.n_starts == 0 or not Y.any() or n_starts == 1:
+            return None
+        return latin_hypercube(max(SCREENED_CANDIDATES, 2 * n_starts), *self._log_bounds(d), rng)
+
+    def _starting_points(self, d, n, candidates, log_likelihood, least=1):
+        """Rows of [log θ (, log nugget)] to start L-BFGS-B from: theta0, then the best of the
+        Latin hypercube ``candidates`` by ``log_likelihood``.  A value without gradient costs a
         third of one with it, and runs from good points converge in fewer steps: measured,
         25 % less time at n = 1000 for the same optimum.  theta0 always gets a run: on small
         designs (n = 50) the best optimum was often reached only from there."""
@@ -490,13 +511,24 @@ class Kriging:
         first = np.log(self._theta0(d))
         if self.nugget == "estimate":
             first = np.append(first, math.log(1e-6))
-        n_starts = int(self.n_starts) if self.n_starts is not None else \
-            max(least, 4 if n <= 400 else 2 if n <= 1500 else 1)
-        if n_starts == 1:
+        if candidates is None:
             return np.clip(first, lower, upper)[None, :]
-        candidates = latin_hypercube(max(SCREENED_CANDIDATES, 2 * n_starts), lower, upper, rng)
-        best = np.argsort([-log_likelihood(c) for c in candidates])[:n_starts - 1]
+        best = np.argsort([-log_likelihood(c) for c in candidates])[:self._n_starts(n, least) - 1]
         return np.vstack([np.clip(first, lower, upper), candidates[best]])
+
+    def _search(self, data, groups, drawn):
+        """[(θ, nugget)] of each group of outputs (:meth:`_optimise`): one after the other
+        here, or one group a task on the active :func:`robocal.parallel.executor` (``--jobs``)
+        when there are several."""
+        runner = parallel.current()
+        if runner.client is None or len(groups) == 1:
+            return [self._optimise(data.problem, data.Ys[:, cols], candidates)
+                    for cols, candidates in zip(groups, drawn)]
+        settings = {name: getattr(self, name) for name in ("regression", "correlation", "theta0", "theta_bounds",
+                                                          "nugget", "n_starts")}
+        tasks = [{"settings": settings, "problem": data.plain(), "Y": data.Ys[:, cols], "candidates": candidates}
+                 for cols, candidates in zip(groups, drawn)]
+        return [(np.asarray(theta), nugget) for theta, nugget in runner.map(search_task, tasks)]
 
     def _log_bounds(self, d):
         lo, hi = (float(b) for b in self.theta_bounds)
@@ -506,8 +538,9 @@ class Kriging:
             upper = np.append(upper, math.log(NUGGET_BOUNDS[1]))
         return lower, upper
 
-    def _optimise(self, problem, Y, rng):
-        """Maximise the summed concentrated likelihood of the columns of Y: the best `_State`."""
+    def _optimise(self, problem, Y, candidates):
+        """Maximise the summed concentrated likelihood of the columns of Y from theta0 and the
+        best of ``candidates`` (:meth:`_candidates`): the best (θ, nugget)."""
         n, d = problem.X.shape
         estimate_nugget = self.nugget == "estimate"
 
@@ -517,10 +550,9 @@ class Kriging:
             return theta, nugget
 
         if self.n_starts == 0:
-            return problem.final(self._theta0(d), float(self.nugget), Y)
+            return self._theta0(d), float(self.nugget)
         if not Y.any():  # constant outputs: the likelihood does not depend on θ
-            nugget = NUGGET_BOUNDS[0] if estimate_nugget else float(self.nugget)
-            return problem.final(self._theta0(d), nugget, Y)
+            return self._theta0(d), NUGGET_BOUNDS[0] if estimate_nugget else float(self.nugget)
         # The exact problem searches on itself; the Vecchia one on the exact likelihood or a
         # space-filling part of its points, then refines that optimum on all of them
         # (robocal.estimation.vecchia).
@@ -531,11 +563,11 @@ class Kriging:
             search.focus(theta)
             return search.condition(theta, nugget, Y).log_likelihood.sum()
 
-        starts = self._starting_points(d, n, rng, screened, least=problem.least_starts)
+        starts = self._starting_points(d, n, candidates, screened, least=problem.least_starts)
         best = self._minimise(search, Y, starts, unpack, OPTIONS)
         if len(search.X) < len(problem.X):
             best = self._minimise(problem, Y, [best], unpack, problem.REFINE_OPTIONS, rounds=1)
-        return problem.final(*unpack(best), Y)
+        return unpack(best)
 
     def _minimise(self, problem, Y, starts, unpack, options, rounds=None):
         """L-BFGS-B from each start on the summed concentrated likelihood: the best parameters.
@@ -895,6 +927,7 @@ class _Training:
         Xs = (X - self.x_mean) / self.x_scale
         self.Ys = (Y - self.y_mean) / self.y_scale
         F = trend_basis(Xs, regression)
+        self._inputs = (Xs, F, correlation, vecchia, neighbours)
         if np.linalg.matrix_rank(F) < F.shape[1]:
             raise InputError(f"the {regression} trend cannot be estimated from these points (an "
                              f"input is constant or the points lie on a lower-dimensional "
@@ -906,3 +939,26 @@ class _Training:
 
             self.problem = VecchiaProblem.of(Xs, F, correlation, neighbours, order)
             self.order = self.problem.order
+
+    def plain(self):
+        """What rebuilds :attr:`problem` exactly (:func:`problem_of`), as plain data."""
+        Xs, F, correlation, vecchia, neighbours = self._inputs
+        return {"Xs": Xs, "F": F, "correlation": correlation, "vecchia": vecchia, "neighbours": neighbours,
+                "order": self.order}
+
+
+def problem_of(plain):
+    """The likelihood problem :meth:`_Training.plain` describes."""
+    if not plain["vecchia"]:
+        return _Problem(plain["Xs"], plain["F"], plain["correlation"])
+    from .vecchia import VecchiaProblem
+
+    return VecchiaProblem.of(plain["Xs"], plain["F"], plain["correlation"], plain["neighbours"], plain["order"])
+
+
+def search_task(task):
+    """One group's likelihood search (:meth:`Kriging._optimise`) on a worker of
+    :mod:`robocal.parallel`: plain data in (the settings, the problem, the standardised
+    outputs, the drawn candidates), [θ, nugget] out."""
+    theta, nugget = Kriging(**task["settings"])._optimise(problem_of(task["problem"]), task["Y"], task["candidates"])
+    return [np.asarray(theta), float(nugget)]

@@ -553,6 +553,8 @@ def calibrate(
     tip: str = typer.Option(None, help="URDF only: the tip link."),
     root: str = typer.Option(None, help="URDF only: the root link."),
     beyond_limits: bool = typer.Option(False, "--beyond-limits", help=BEYOND_LIMITS_HELP),
+    jobs: int = typer.Option(None, help="kriging, hybrid, auto: " + JOBS_HELP.replace("the independent fits (the folds)", "the independent fits (each error component's likelihood search; auto's comparison)"), **_number(whole=True, at_least=1, at_most=1024)),
+    scheduler: str = typer.Option(None, metavar="<tcp://HOST:PORT>", help="kriging, hybrid, auto: " + SCHEDULER_HELP),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Fit a calibration / error model to measurements and save it as a model file.
@@ -574,13 +576,17 @@ def calibrate(
     if parameters in FRAME_PARAMETERS:
         raise InputError(f"--parameters {parameters} re-registers a model file: give --method frames and the model "
                          "file in place of the robot")
+    if (jobs is not None or scheduler is not None) and method not in ("kriging", "hybrid", AUTO):
+        given = "--jobs" if jobs is not None else "--scheduler"
+        raise InputError(f"{given} spreads Kriging's likelihood searches and auto's comparison over workers: the "
+                         f"{method} method has none; leave {given} out")
     if method == AUTO:
         fitter, label, total = AUTO, "comparing the methods, fit", None
     else:
         fitter = make_method(method, **settings)
         label = fitter.progress_label if fitter.progress_total() else f"fitting the {method} model"
         total = fitter.progress_total()
-    with progress(label, total, enabled=not as_json) as advance:
+    with parallel.executor(jobs=jobs, scheduler=scheduler), progress(label, total, enabled=not as_json) as advance:
         result = calibrate_job(robot, measurements, out_file, method=fitter, settings=settings if method == AUTO else None,
                                fixture=fixture, progress=advance, beyond_limits=beyond_limits, root=root, tip=tip)
     if method == AUTO and not as_json:

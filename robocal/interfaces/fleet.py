@@ -61,7 +61,8 @@ REQUIRED_KEYS = ("name", "robot", "train")
 OPTIONAL_KEYS = ("test", "method", "fixture", "options")
 # calibrate's parameters that a robot's options do not take: its files and its method have
 # keys of their own, and the fleet decides what is written and printed.
-NOT_OPTIONS = ("robot", "measurements", "out_file", "method", "fixture", "as_json", "debug")
+# (--jobs and --scheduler too: the fleet itself is spread; a robot's fits run on its worker.)
+NOT_OPTIONS = ("robot", "measurements", "out_file", "method", "fixture", "as_json", "debug", "jobs", "scheduler")
 # calibrate's options that go to calibrate_job itself; the others are the method's settings.
 JOB_OPTIONS = ("root", "tip", "beyond_limits")
 # A robot's name names its folder: a plain file name, nothing a file system reads as a path.
