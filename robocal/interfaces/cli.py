@@ -576,7 +576,7 @@ def calibrate(
     if parameters in FRAME_PARAMETERS:
         raise InputError(f"--parameters {parameters} re-registers a model file: give --method frames and the model "
                          "file in place of the robot")
-    if (jobs is not None or scheduler is not None) and method not in ("kriging", "hybrid", AUTO):
+    if (jobs is not None or scheduler is not None) and method != AUTO and not get_method(method).spreads_work:
         given = "--jobs" if jobs is not None else "--scheduler"
         raise InputError(f"{given} spreads Kriging's likelihood searches and auto's comparison over workers: the "
                          f"{method} method has none; leave {given} out")

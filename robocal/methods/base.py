@@ -73,6 +73,9 @@ class Method:
     settings: ClassVar[tuple[Setting, ...]] = ()
     # What the command line's progress bar counts while this method fits.
     progress_label: ClassVar[str] = "fitting"
+    # Whether a fit has independent pieces that an active robocal.parallel executor runs on
+    # its workers (calibrate --jobs): Kriging's likelihood search of each error component.
+    spreads_work: ClassVar[bool] = False
 
     def __init__(self, **settings):
         known = {s.name for s in self.settings}

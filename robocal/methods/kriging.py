@@ -121,6 +121,8 @@ class KrigingResidual:
     """What the methods whose error model is a Kriging of the position error share: the
     ``inputs`` it is over, its model-file entry, its uncertainty and its report figure."""
 
+    spreads_work = True  # each error component's likelihood search (Kriging._search)
+
     def _check_inputs(self):
         one_of(self.inputs, ERROR_MODEL_INPUTS, "inputs")
         one_of(self.kriging, APPROXIMATIONS, "kriging")
