@@ -212,7 +212,7 @@ def test_the_command_line_on_a_local_cluster_exits_1_when_a_robot_fails(tmp_path
 
 
 @needs_dask
-def test_a_real_scheduler_and_worker_run_the_fleet_and_give_the_serial_model_files(tmp_path, data, serial_run):
+def test_a_real_scheduler_and_worker_run_the_fleet_and_validate_as_they_run_here(tmp_path, data, serial_run):
     """``dask scheduler`` and ``dask worker`` started as processes of their own on localhost."""
     scheduler_file = tmp_path / "scheduler.json"
     dask_cli = [sys.executable, "-m", "dask"]
@@ -229,6 +229,10 @@ def test_a_real_scheduler_and_worker_run_the_fleet_and_give_the_serial_model_fil
         # Relative paths, from a folder the worker does not run in: they reach it made absolute.
         done = subprocess.run(ROBOCAL + ["fleet", "fleet.toml", "--out", "out", "--scheduler", address, "--json"],
                               capture_output=True, text=True, timeout=300, cwd=tmp_path)
+        # The folds of a cross-validation on the same workers: the figures of a run without them.
+        validate = ROBOCAL + ["validate", "ur5", str(data / "ur5_train.csv"), "--method", "hybrid", "--folds", "3",
+                              "--json"]
+        remote = subprocess.run(validate + ["--scheduler", address], capture_output=True, text=True, timeout=300)
     finally:
         for process in reversed(processes):
             process.terminate()
@@ -242,6 +246,9 @@ def test_a_real_scheduler_and_worker_run_the_fleet_and_give_the_serial_model_fil
     result = json.loads(done.stdout)
     assert result["ran_on"] == f"the Dask cluster at {address}" and result["workers"] == 1
     assert [row["status"] for row in result["robots"]] == ["ok", "ok", "failed"]
+    here = subprocess.run(validate, capture_output=True, text=True, timeout=300)
+    assert remote.returncode == 0 == here.returncode, remote.stderr + here.stderr
+    assert json.loads(remote.stdout) == json.loads(here.stdout)
     serial_out = serial_run[0]
     for name in ("cell1-ur5", "cell2-irb"):
         dask_model, serial_model = tmp_path / "out" / name / "model.json", serial_out / name / "model.json"

@@ -126,11 +126,14 @@ def test_validate_and_compare_with_jobs_print_what_they_print_without(files):
         assert here == there, command[0]
 
 
-def test_jobs_and_scheduler_together_are_refused(files, tmp_path, monkeypatch):
+def test_jobs_and_scheduler_together_or_no_scheduler_are_refused(files, tmp_path, monkeypatch):
     before = copy_inputs(files, tmp_path, monkeypatch)
     for command in ("compare", "validate"):
         assert_refused([command, "ur5", "meas.csv", "--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"], "not both",
                        tmp_path, before)
+    # (Dask tries for CONNECT_SECONDS before it gives up: one command is enough.)
+    assert_refused(["validate", "ur5", "meas.csv", "--scheduler", "tcp://127.0.0.1:1"],
+                   "cannot reach the Dask scheduler", tmp_path, before)
 
 
 def test_the_command_line_runs_one_blas_thread_unless_told(monkeypatch):
