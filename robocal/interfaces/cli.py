@@ -798,9 +798,10 @@ def compare(
     Two kinds of split: random folds, and regions of configuration space left out whole
     (clusters of joint configurations; one side of an arm branch when both were measured;
     the last 20 % in time when the file has a timestamp column; one fixture placement for
-    ball-in-socket data).  The recommendation is conservative: the simplest model, unless a
-    richer one is better on the held-out regions by more than its fold-to-fold spread.
-    'calibrate --method auto' fits it.
+    ball-in-socket data).  The recommendation: the simplest model, unless a richer one is
+    better on the random folds by more than its fold-to-fold spread and not worse on the
+    held-out regions by more than theirs.  'calibrate --method auto' fits it, answering with
+    the kinematic calibration outside its training domain.
 
     Example: robocal compare ur5 meas.csv
     """

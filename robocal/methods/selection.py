@@ -50,7 +50,7 @@ from .frames import registered_nominal
 from .domain import Domain, arm_branches
 from .fallback import wrap
 
-# The parameter sets compared, simplest first (the order of the conservative rule).
+# The parameter sets compared, simplest first (the order in which the rule considers them).
 PARAMETER_SETS = ("full", "full+gains", "full+compliance", "full+compliance+gains")
 # Error models of a residual are compared over the joints' sines and cosines (what holds on
 # another arm branch) and, for Kriging alone, over the TCP position (the paper's form).
