@@ -172,3 +172,41 @@ def test_compliant_chain_declares_its_api_and_its_model_file_entry():
             CompliantChain.from_document(rigid, {k: v for k, v in doc.items() if k != key})
     with pytest.raises(FileFormatError, match="joint_compliance"):
         CompliantChain.from_document(rigid, {**doc, "compliance_urad_per_nm": [0.01] * 5})
+
+
+def test_a_compliance_the_poses_cannot_tell_from_zero_leaves_the_joint_rigid():
+    """A rigid robot measured with noise: the compliance the fit finds is noise, and a joint
+    given a compliance it does not have would bend commands wherever the posture changes."""
+    truth = TrueRobot(nominal=KR150, deviations=_bending_robot(KR150, seed=4).deviations, noise=0.02, seed=4)
+    rng = np.random.default_rng(5)
+    q = uniform_joints(KR150, 200, rng)
+    fitted = KinematicCalibration("full+compliance").fit(KR150, q, truth.measure(q, rng))
+    fixed = {n: why for n, why in fitted.result_.identifiability.fixed.items() if n.startswith("compliance")}
+    assert fixed, "no compliance was left out on a rigid robot"
+    for name, why in fixed.items():
+        assert "not told from zero" in why and "\n" not in why
+        assert name not in fitted.result_.names
+        assert fitted.chain_.compliance[int(name[len("compliance"):]) - 1] == 0.0
+    # A real compliance is kept (the bending robot of the test above identifies joints 2, 3).
+    bending = _bending_robot(KR150, seed=3)
+    real = KinematicCalibration("full+compliance").fit(KR150, q, bending.measure(q, rng))
+    assert {"compliance2", "compliance3"} <= set(real.result_.names)
+
+
+def test_a_compliance_that_would_bend_a_joint_beyond_any_arm_is_refused():
+    from robocal.estimation.identification import MAX_GRAVITY_DEFLECTION_DEG, loose_compliances
+
+    q = KR150.random_configurations(50, rng=3)
+    torque = np.abs(CompliantChain(KR150, default_mass_model(KR150), np.zeros(6)).gravity_torque(q)).max(axis=0)
+    # Joint 2 bent by twice the limit under its largest torque, joint 3 by half of it; both
+    # determined to a tenth of their value.
+    compliance = np.zeros(6)
+    compliance[1:3] = np.radians([2.0, 0.5]) * MAX_GRAVITY_DEFLECTION_DEG / torque[1:3]
+    fitted = CompliantChain(KR150, default_mass_model(KR150), compliance)
+    found = loose_compliances(fitted, ("d2", "compliance2", "compliance3"), np.array([1e-3, *compliance[1:3] / 10]), q)
+    assert list(found) == ["compliance2"] and "would bend the joint by 0.50 deg" in found["compliance2"]
+    # Determined to a third of their value only: both within two standard errors of zero.
+    assert set(loose_compliances(fitted, ("compliance2", "compliance3"), compliance[1:3] / 1.9, q)) == {
+        "compliance2", "compliance3"}
+    # No joints given (a caller that has none): nothing is judged.
+    assert loose_compliances(fitted, ("compliance2",), np.array([1.0]), None) == {}

@@ -394,7 +394,7 @@ class KinematicCalibration(FittedCalibration):
         """Identify from ``start``; returns (identification, residual (N, 3 or 6), failure):
         failure is the message of a fit that is no calibration (residual too large on the poses
         the loss kept, deviations beyond manufacturing), else None."""
-        found = identify(start, names, **self._steps(q, target, rotations, weights, robust_weights))
+        found = identify(start, names, **self._steps(q, target, rotations, weights, robust_weights), joints=q)
         fitted = found.chain
         residual = residual_of(fitted, q, target, rotations)
         kept = found.fit.pose_weights >= OUTLIER_WEIGHT

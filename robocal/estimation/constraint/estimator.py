@@ -267,7 +267,7 @@ class ConstraintCalibration(FittedCalibration):
         if self.compliance:
             start, compliances = with_compliance(start, data.joints, payload)
             candidates += compliances
-        found = identify(start, candidates, **self._steps(data, pairs, spanning))
+        found = identify(start, candidates, **self._steps(data, pairs, spanning), joints=data.joints)
         self.chain_ = found.chain
         self.start_chain_ = start
         self.names_ = found.names
