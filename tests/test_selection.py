@@ -118,13 +118,22 @@ def _socket_observations(placements):
     return Observations.of(joints, placement=placements, socket=np.array(["0", "1"] * (n // 2)), fixture=fixture)
 
 
-def test_socket_data_are_split_by_fixture_placement():
-    placements = np.repeat(["front", "left", "high"], 8)
-    found, _ = splits(load_robot("panda"), _socket_observations(placements))
-    assert [s.name for s in found] == ["fixture placements"] and found[0].kind == "region"
-    for test in found[0].tests:
-        assert len(set(placements[test])) == 1 and len(test) == 8
-    assert sorted(set(placements[t[0]] for t in found[0].tests)) == ["front", "high", "left"]
+def test_socket_data_are_split_at_random_within_sockets_and_by_fixture_placement():
+    placements = np.repeat(["front", "left", "high"], 20)
+    obs = _socket_observations(placements)
+    found, _ = splits(load_robot("panda"), obs)
+    assert [(s.name, s.kind) for s in found] == [("random 5-fold", "random"), ("fixture placements", "region")]
+    random_, by_placement = found
+    # Random folds: every pose held out once, and every held-out pose keeps poses of its own
+    # socket in the training part (they say where that socket is).
+    assert np.array_equal(np.sort(np.concatenate(random_.tests)), np.arange(60))
+    sockets = np.char.add(placements, obs.socket)
+    for test in random_.tests:
+        train = np.setdiff1d(np.arange(60), test)
+        assert set(sockets[test]) <= set(sockets[train]) and 10 <= len(test) <= 14
+    for test in by_placement.tests:
+        assert len(set(placements[test])) == 1 and len(test) == 20
+    assert sorted(set(placements[t[0]] for t in by_placement.tests)) == ["front", "high", "left"]
     with pytest.raises(InputError) as one_placement:
         splits(load_robot("panda"), _socket_observations(np.repeat(["front"], 8)))
     assert "one fixture placement" in str(one_placement.value) and "\n" not in str(one_placement.value)
@@ -365,3 +374,24 @@ def test_calibrate_auto_refuses_a_method_option_with_one_line(measurement_file, 
     assert "--parameters" in result.output and "auto" in result.output
     assert len(result.output.strip().splitlines()) == 1 and "Traceback" not in result.output
     assert not out.exists()
+
+
+def test_held_out_socket_poses_are_scored_against_where_the_training_poses_put_their_socket():
+    placements = np.repeat(["front", "left", "high"], 20)
+    obs = _socket_observations(placements)
+    chain = load_robot("panda")
+    fitted = selection._Nominal(chain).fit(chain, obs)
+    random_, by_placement = splits(chain, obs)[0]
+    balls = chain.fk_positions(obs.joints)
+    sockets = np.char.add(placements, obs.socket)
+    test = random_.tests[0]
+    train = np.setdiff1d(np.arange(60), test)
+    found = selection._held_out_errors(fitted, obs, train, test)
+    expected = [balls[i] - balls[train][sockets[train] == sockets[i]].mean(axis=0) for i in test]
+    np.testing.assert_allclose(found, expected, atol=1e-9)
+    # A placement left out has no training pose at its sockets: each socket's held-out poses
+    # are scored against their own mean.
+    test = by_placement.tests[0]
+    found = selection._held_out_errors(fitted, obs, np.setdiff1d(np.arange(60), test), test)
+    expected = [balls[i] - balls[test][sockets[test] == sockets[i]].mean(axis=0) for i in test]
+    np.testing.assert_allclose(found, expected, atol=1e-9)

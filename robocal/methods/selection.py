@@ -140,10 +140,23 @@ class Split:
     fold_names: tuple
 
 
-def random_split(n, folds=FOLDS, seed=0):
-    """k-fold: the poses in ``folds`` random folds (sizes differing by one at most)."""
-    order = np.random.default_rng(seed).permutation(n)
-    tests = tuple(np.sort(part) for part in np.array_split(order, folds))
+def random_split(n, folds=FOLDS, seed=0, groups=None):
+    """k-fold: the poses in ``folds`` random folds (sizes differing by one at most).  With
+    ``groups`` ((n,) labels), each group's poses are dealt out over the folds in turn, so that
+    every held-out pose keeps poses of its group in the training part (ball-in-socket data:
+    they say where its socket is)."""
+    rng = np.random.default_rng(seed)
+    order = rng.permutation(n)
+    if groups is None:
+        tests = tuple(np.sort(part) for part in np.array_split(order, folds))
+    else:
+        labels = np.unique(np.asarray(groups)[order], return_inverse=True)[1]
+        by_group = np.argsort(labels, kind="stable")
+        rank = np.empty(n, dtype=int)
+        rank[by_group] = np.arange(n) - np.searchsorted(labels[by_group], labels[by_group])
+        # Each group starts at a random fold, so that the folds' sizes stay even.
+        fold = (rank + rng.integers(folds, size=labels.max() + 1)[labels]) % folds
+        tests = tuple(np.sort(order[fold == k]) for k in range(folds))
     return Split(f"random {folds}-fold", "random", tests, tuple(f"fold {k + 1}" for k in range(folds)))
 
 
@@ -226,7 +239,8 @@ def splits(chain, observations, *, folds=FOLDS, seed=0):
         if observations.placement is None or len(set(observations.placement.tolist())) < 2:
             raise InputError(f"{observations.path or 'the data'} has one fixture placement: comparing models on "
                              "ball-in-socket data leaves a placement out and needs two or more")
-        return [placement_split(observations.placement)], notes
+        sockets = np.char.add(np.char.add(observations.placement.astype(str), "/"), observations.socket.astype(str))
+        return [random_split(n, folds, seed, groups=sockets), placement_split(observations.placement)], notes
     if n < 2 * folds or n - n // folds < MIN_TRAINING_POSES:
         raise InputError(f"{observations.path or 'the data'} holds {n} poses: comparing models with {folds} folds "
                          f"needs at least {max(2 * folds, MIN_TRAINING_POSES + MIN_TRAINING_POSES // (folds - 1))}; "
@@ -276,13 +290,25 @@ class Score:
         return np.asarray(self.fold_means, dtype=float), self.pooled["mean_mm"]
 
 
-def _held_out_errors(fitted, observations, test):
-    """(len(test), 3) held-out errors in mm: the position error, or on ball-in-socket data each
-    ball centre's deviation from its socket group's mean."""
+def _held_out_errors(fitted, observations, train, test):
+    """(len(test), 3) held-out errors in mm: the position error; on ball-in-socket data, each
+    ball centre's deviation from where the training poses of its socket put the ball (random
+    folds), or, for a socket with no training pose (a placement left out), from the mean of
+    its held-out poses."""
     held = observations.subset(test)
     if observations.positions is None:
-        deviations, _ = socket_deviations(fitted.kinematics(), held.joints, held.placement, held.socket,
-                                          held.fixture)
+        chain = fitted.kinematics()
+        deviations, centres = socket_deviations(chain, held.joints, held.placement, held.socket, held.fixture)
+        seen = observations.subset(train)
+        keys = np.char.add(np.char.add(seen.placement.astype(str), "/"), seen.socket.astype(str))
+        held_keys = np.char.add(np.char.add(held.placement.astype(str), "/"), held.socket.astype(str))
+        names, group = np.unique(keys, return_inverse=True)
+        balls = chain.fk_positions(seen.joints)
+        means = np.stack([np.bincount(group, weights=balls[:, c], minlength=len(names)) for c in range(3)], axis=1)
+        means /= np.bincount(group, minlength=len(names))[:, None]
+        where = np.searchsorted(names, held_keys).clip(max=len(names) - 1)
+        known = names[where] == held_keys
+        deviations[known] = centres[known] - means[where[known]]
         return deviations
     return held.positions - fitted.predict(held.joints)
 
@@ -378,7 +404,7 @@ def score(candidate, observations, split, refits, *, on_fit=None):
             start = time.perf_counter()
             fitted = refits.fit(candidate, observations.subset(train), (split.name, fold))
             seconds += time.perf_counter() - start
-            error = _held_out_errors(fitted, observations, test)
+            error = _held_out_errors(fitted, observations, train, test)
         if on_fit is not None:
             on_fit()
         errors.append(error)
