@@ -18,7 +18,8 @@ from robocal.io.observations import Observations
 from robocal.io.tables import write_measurements
 from robocal.methods import selection
 from robocal.methods.domain import arm_branches
-from robocal.methods.selection import Candidate, Score, Split, branch_split, cluster_split, compare, recommend, splits
+from robocal.methods.selection import (Candidate, Score, Split, branch_split, cluster_split, compare, outside_choice,
+                                       recommend, splits)
 from robocal.simulation import make_true_robot
 from robocal.simulation.joint_effects import Compliance
 from robocal.simulation.sampling import uniform_joints
@@ -255,6 +256,20 @@ def test_rule_takes_the_model_that_models_more_when_the_random_folds_cannot_tell
     random[compliant.label] = [0.16] * 5
     chosen, _, _ = recommend(_table(random, region), [SIMPLE, RICHER, HYBRID, compliant], [RANDOM, REGION])
     assert chosen is HYBRID
+
+
+def test_differences_no_instrument_resolves_are_ties():
+    # Two parameter sets that differ only where the richer one's compliances were left out:
+    # 1e-4 mm apart on every fold, with no spread.  That is no gain, and no loss either.
+    region = {SIMPLE.label: SIMPLE_REGION, RICHER.label: [m + 1e-4 for m in SIMPLE_REGION]}
+    random = {SIMPLE.label: [0.5] * 5, RICHER.label: [0.5 - 1e-4] * 5}
+    chosen, reasons, _ = recommend(_table(random, region), [SIMPLE, RICHER], [RANDOM, REGION])
+    assert chosen is SIMPLE and not any("not taken" in line for line in reasons)
+    fallback, why = outside_choice(_table(random, region), [SIMPLE, RICHER], [RANDOM, REGION], HYBRID)
+    assert fallback is RICHER and "worse" not in why
+    # A millimetre's hundredth with no spread is a gain.
+    random[RICHER.label] = [0.49] * 5
+    assert recommend(_table(random, region), [SIMPLE, RICHER], [RANDOM, REGION])[0] is RICHER
 
 
 # ---------------------------------------------------------------------------- compare

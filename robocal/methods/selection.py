@@ -78,6 +78,10 @@ MIN_TRAINING_POSES = 30
 TIME_TAIL = 0.2
 # A side of an arm branch must hold this share of the poses to be left out as a region.
 BRANCH_MIN_SHARE = 0.15
+# Differences of held-out mean error below this (mm) are ties whatever their spread: no
+# tracker resolves them, and two models that differ only where a parameter was left out (a
+# compliance not told from zero) otherwise differ by 1e-4 mm with a spread of 0.
+RESOLUTION = 1e-3
 
 
 @dataclass(frozen=True)
@@ -466,6 +470,17 @@ class Comparison:
 NOMINAL = "nominal (registered)"
 
 
+def _behind(scores, label, best, splits_):
+    """(how far ``label`` is behind ``best`` per fold, its spread), mm."""
+    gain, spread = _gain(scores, label, best, splits_)
+    return -gain, spread
+
+
+def _beyond(gain, spread):
+    """Whether a mean ``gain`` (mm) exceeds its fold-to-fold ``spread`` and RESOLUTION."""
+    return gain > max(spread, RESOLUTION)
+
+
 def _gain(scores, better, worse, splits_):
     """Mean and fold-to-fold standard deviation of the per-fold gain (mm) of ``better`` over
     ``worse`` over the folds of ``splits_`` (paired by fold; :meth:`Score.judged` means, folds
@@ -522,14 +537,14 @@ def recommend(comparison_scores, candidate_list, split_list):
     for candidate in eligible[1:]:
         gain, spread = _gain(comparison_scores, candidate.label, simplest.label, [random])
         region_gain, region_spread = _gain(comparison_scores, candidate.label, simplest.label, regions)
-        if region_gain < -region_spread:
-            if gain > spread:
+        if _beyond(-region_gain, region_spread):
+            if _beyond(gain, spread):
                 guarded.append(f"{candidate.label} not taken: {gain:.4f} mm better on {random.name}, but worse on "
                                f"{where} by {-region_gain:.4f} mm, more than the fold-to-fold spread "
                                f"({region_spread:.4f} mm)")
             continue
         unguarded.append(candidate)
-        if gain > spread:
+        if _beyond(gain, spread):
             contenders.append((at_random(candidate.label), candidate, gain, spread))
     reasons = [f"the simplest model, {simplest.label}: {at_random(simplest.label):.4f} mm held out on {random.name}, "
                f"{region(simplest.label):.4f} mm on {where} (judged on the held-out poses inside each fold's "
@@ -547,13 +562,14 @@ def recommend(comparison_scores, candidate_list, split_list):
     # Models the random folds cannot tell from the best: the one that models most of the robot
     # (UR5 and UR10 A: the hybrids differ by 1 % in cross-validation; the richest was the best
     # held out by 3-5 %).
-    ties = [c for c in unguarded if -_gain(comparison_scores, c.label, best.label, [random])[0]
-            <= _gain(comparison_scores, c.label, best.label, [random])[1]]
+    ties = [c for c in unguarded if not _beyond(*_behind(comparison_scores, c.label, best.label, [random]))]
     chosen = max(ties, key=_richness)
     if _richness(chosen) > _richness(best):
         behind, spread = _gain(comparison_scores, best.label, chosen.label, [random])
-        reasons.append(f"{chosen.label} is {behind:.4f} mm behind it on {random.name}, within the fold-to-fold spread "
-                       f"({spread:.4f} mm), and models more of the robot: take it")
+        within = (f"within the fold-to-fold spread ({spread:.4f} mm)" if spread >= RESOLUTION
+                  else f"less than the {RESOLUTION * 1e3:.0f} µm a tracker resolves")
+        reasons.append(f"{chosen.label} is {behind:.4f} mm behind it on {random.name}, {within}, and models more of "
+                       "the robot: take it")
         return by_label[chosen.label], reasons, dropped
     reasons[-1] += ": take it"
     return by_label[best.label], reasons, dropped
@@ -581,7 +597,7 @@ def outside_choice(comparison_scores, candidate_list, split_list, recommended):
     chosen, why = rigid or compliant, "the rigid kinematic calibration"
     if rigid is not None and compliant is not None:
         gain, spread = _gain(comparison_scores, compliant.label, rigid.label, regions)
-        if -gain > spread:
+        if _beyond(-gain, spread):
             why = (f"{compliant.label} is worse than {rigid.label} on the held-out regions by {-gain:.4f} mm, more "
                    f"than the fold-to-fold spread ({spread:.4f} mm)")
         else:
