@@ -24,6 +24,26 @@ recomputed, one P x P inverse.)
   important.  Held out it beats random poses by less than ``prediction`` (15 poses: KR 150-2
   12 % against 14 %, UR5 19 % against 26 %; bench/design.py).
 
+With a joint noise (:func:`robocal.planning.information.joint_covariance`: an error at
+every joint that the model does not explain, gear backlash first) a pose's reading is no
+longer equally noisy in every direction nor at every pose: its covariance relative to the
+weights is C_i = I + (b / sigma_i)^2 J_q J_q^T (J_q the TCP's position Jacobian in the
+joints), large where the arm reaches out.  The calibration still fits by (weighted) least
+squares, so its covariance is the sandwich P B P with B = R + sum A_i^T C_i A_i (the ridge R
+counted as a prior of matching covariance, so that B = M without joint noise), and
+``prediction`` minimises trace(W P B P) (:class:`SandwichState`).  Adding or removing pose i
+(s = +1 or -1; U = A P, S = I + s U A^T, D = S^-1, K = U W U^T, L = U W P B U^T,
+G = U B U^T, all 3 x 3 per candidate):
+
+    trace(W P'B'P') = trace(W P B P) + s tr(C K) - 2s tr(D L) - 2s tr(D K C (S - I))
+                      + tr(D K D G) + s tr(D K D (S - I) C (S - I))
+
+three more (3N x P) @ (P x P) products than ``prediction`` without joint noise.  With a
+known systematic error b_i per pose (``bias``: the simulated truth's unmodelled part, which
+bench/design.py's bound knows and a design does not) the estimate moves by x = P g,
+g = sum A_i^T b_i, and the criterion adds x^T W x - 2 x^T r (r = mean over the targets of
+J_t^T b_t); a pose changes x by U^T z, z = s D (b_i - A_i x) (recursive least squares).
+
 Residual models (Kriging, hybrid, network) learn a function over the configurations, so
 their design is ``space-filling`` (:class:`SpacingState`): minimise the Morris–Mitchell
 sum of d_ij^-p over the pairs of chosen configurations (p = SPACING_POWER; maximin distance
@@ -143,6 +163,100 @@ class InformationState:
         # ridge still dominates M.
         block = self.blocks[i]
         self.M += sign * block.T @ block
+        self._refresh()
+
+    def add(self, i):
+        self.chosen.append(int(i))
+        self._update(i, +1)
+
+    def remove(self, i):
+        self.chosen.remove(int(i))
+        self._update(i, -1)
+
+
+class SandwichState:
+    """Least squares under a per-pose covariance (see the module notes): the expected mean
+    squared error of the calibrated TCP at the targets, trace(W P B P), plus with ``bias``
+    the squared error of the estimate's systematic shift.
+
+    blocks: (N, 3, P) candidate blocks (weighted, as for :class:`InformationState`); start:
+    (P, P) the information already there (ridge and poses measured before); W: (P, P) the
+    target weight; C: (N, 3, 3) each candidate's covariance relative to its weights; B_start:
+    (P, P) what the poses already there contribute to B (default ``start``: the ridge, with
+    C = I); bias: (N, 3) a known systematic error of each candidate's reading (weighted as
+    the blocks), r: (P,) mean over the targets of J_t^T b_t, offset: x of the poses already
+    there (P,), default none.  The score is minus the criterion.
+    """
+
+    def __init__(self, blocks, start, W, C, B_start=None, bias=None, r=None):
+        self.blocks, self.W, self.C = blocks, W, C
+        self.M = np.array(start, dtype=float)
+        self.B = np.array(start if B_start is None else B_start, dtype=float)
+        self.bias = bias
+        size = blocks.shape[2]
+        self.r = np.zeros(size) if r is None else np.asarray(r, dtype=float)
+        self.g = np.zeros(size)
+        self.chosen = []
+        self._refresh()
+
+    def _refresh(self):
+        P = np.linalg.inv(self.M)
+        self.P = (P + P.T) / 2
+        self.x = self.P @ self.g
+        self._WPB = self.W @ self.P @ self.B
+        self._variance = float(np.sum(self.W * (self.P @ self.B @ self.P)))
+        self._shift = float(self.x @ self.W @ self.x - 2 * self.x @ self.r)
+
+    @property
+    def covariance(self):
+        """(P, P) the covariance of the scaled parameters, P B P."""
+        return self.P @ self.B @ self.P
+
+    @property
+    def score(self):
+        return -(self._variance + self._shift)
+
+    def _criterion(self, index, sign):
+        A, C = self.blocks[index], self.C[index]
+        size = A.shape[2]
+        U = (A.reshape(-1, size) @ self.P).reshape(A.shape)
+
+        def sandwich(matrix):
+            # (k, 3, 3): U matrix U^T for every candidate.
+            return np.einsum("kip,kjp->kij", (U.reshape(-1, size) @ matrix).reshape(A.shape), U)
+
+        S = np.eye(3) + sign * np.einsum("kip,kjp->kij", U, A)
+        sign_det = np.linalg.slogdet(S)[0]
+        D = np.linalg.inv(S)
+        K, L, G = sandwich(self.W), sandwich(self._WPB), sandwich(self.B)
+        SI = S - np.eye(3)
+        DK = D @ K
+        DKD = DK @ D
+        value = (self._variance + sign * np.einsum("kij,kji->k", C, K) - 2 * sign * np.einsum("kij,kji->k", D, L)
+                 - 2 * sign * np.einsum("kij,kji->k", DK @ C, SI) + np.einsum("kij,kji->k", DKD, G)
+                 + sign * np.einsum("kij,kji->k", DKD, SI @ C @ SI))
+        if self.bias is not None:
+            z = sign * np.einsum("kij,kj->ki", D, self.bias[index] - A @ self.x)
+            h = U @ (self.W @ self.x - self.r)
+            value = value + self._shift + 2 * np.einsum("ki,ki->k", z, h) + np.einsum("ki,kij,kj->k", z, K, z)
+        # A removal that leaves M singular (S not positive) costs everything.
+        return np.where(sign_det > 0, -value - self.score, -np.inf)
+
+    def gains_of_adding(self, available):
+        gains = np.full(len(self.blocks), -np.inf)
+        index = np.flatnonzero(available)
+        gains[index] = self._criterion(index, +1)
+        return gains
+
+    def gains_of_removing(self):
+        return self._criterion(np.array(self.chosen, dtype=int), -1)
+
+    def _update(self, i, sign):
+        block = self.blocks[i]
+        self.M += sign * block.T @ block
+        self.B += sign * block.T @ self.C[i] @ block
+        if self.bias is not None:
+            self.g += sign * block.T @ self.bias[i]
         self._refresh()
 
     def add(self, i):
