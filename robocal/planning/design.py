@@ -258,7 +258,7 @@ def _summary(chain, info, q, chosen, order_of_choice, criterion, steps, W, infor
     start, B_start, C = information
     p = info.n_parameters
     blocks = info.blocks[chosen]
-    flat = np.concatenate([blocks, before_blocks]).reshape(-1, p) if before_blocks is not None else blocks.reshape(-1, p)
+    flat = (blocks if before_blocks is None else np.concatenate([blocks, before_blocks])).reshape(-1, p)
     # B_start holds the poses measured before (with their joint noise): only the chosen ones
     # are added to it.
     cov = _covariance(start, B_start, blocks, None if C is None else C[chosen])
@@ -280,7 +280,8 @@ def _summary(chain, info, q, chosen, order_of_choice, criterion, steps, W, infor
         draws = []
         for _ in range(RANDOM_DRAWS):
             drawn = rng.choice(len(q), count, replace=False)
-            draws.append(_model_rms(W, _covariance(start, B_start, info.blocks[drawn], None if C is None else C[drawn])))
+            drawn_C = None if C is None else C[drawn]
+            draws.append(_model_rms(W, _covariance(start, B_start, info.blocks[drawn], drawn_C)))
         random_rms = float(np.median(draws))
     start_pose = None if before is None else before[-1]
     return Design(
