@@ -19,7 +19,7 @@ from robocal.planning import box_candidates, design_poses, information_model, jo
 from robocal.planning.criteria import InformationState, SandwichState, SpacingState, information_start, woodbury
 from robocal.planning.design import spacing_points, target_weight
 from robocal.planning.exchange import exchange, greedy, select, select_stratified, strata
-from robocal.planning.information import joint_covariance, noise_of
+from robocal.planning.information import joint_covariance, noise_of, sag_columns
 from robocal.planning.tour import path_length
 from robocal.estimation.constraint import ConstraintCalibration, socket_errors
 from robocal.io.fixtures import Fixture
@@ -141,19 +141,24 @@ def _sandwich_direct(info, chosen, W, C, bias=None, r=None):
     B = start + np.einsum("kip,kij,kjq->pq", A, C[chosen], A)
     value = np.sum(W * (P @ B @ P))
     if bias is not None:
-        x = P @ np.einsum("kip,ki->p", A, bias[chosen])
-        value += x @ W @ x - 2 * x @ r
+        # One known error (N, 3), or the expectation over k shapes of unit-variance amplitudes.
+        shapes = bias if bias.ndim == 3 else bias[:, :, None]
+        for m in range(shapes.shape[2]):
+            x = P @ np.einsum("kip,ki->p", A, shapes[chosen, :, m])
+            value += x @ W @ x - 2 * x @ np.reshape(r, (info.n_parameters, -1))[:, m]
     return -float(value)
 
 
-@pytest.mark.parametrize("with_bias", [False, True])
-def test_the_sandwich_updates_equal_a_direct_recomputation(ur5, with_bias):
+@pytest.mark.parametrize("shapes", [None, 1, 3])
+def test_the_sandwich_updates_equal_a_direct_recomputation(ur5, shapes):
     chain, candidates, info = ur5
     W = target_weight(info)
     C = joint_covariance(chain, candidates, info.sigma, 0.01)
     rng = np.random.default_rng(0)
-    bias = rng.normal(scale=0.05, size=(len(candidates), 3)) if with_bias else None
-    r = rng.normal(scale=1e-3, size=info.n_parameters) if with_bias else None
+    with_bias = shapes is not None
+    size = (len(candidates), 3) if shapes == 1 else (len(candidates), 3, shapes or 1)
+    bias = rng.normal(scale=0.05, size=size) if with_bias else None
+    r = rng.normal(scale=1e-3, size=(info.n_parameters,) + size[2:]) if with_bias else None
     state = SandwichState(info.blocks, information_start(info.blocks), W, C, bias=bias, r=r)
     available = np.ones(len(candidates), dtype=bool)
     greedy(state, 14, available)
@@ -203,6 +208,50 @@ def test_the_joint_noise_grows_with_the_reach_and_is_refused_below_zero():
     np.testing.assert_allclose(C, np.swapaxes(C, 1, 2))
     with pytest.raises(InputError, match="joint noise must be a standard deviation >= 0 deg"):
         joint_covariance(chain, np.array([stretched]), sigma[:1], -0.001)
+
+
+def test_the_sag_bends_the_most_loaded_joint_by_its_size():
+    chain = builtin("kr150-2")
+    q = joint_candidates(chain, 400, seed=2)
+    assert sag_columns(chain, q, 0.0) is None
+    columns = sag_columns(chain, q, 0.02)
+    assert columns.shape[:2] == (400, 3) and 2 <= columns.shape[2] <= chain.n_joints
+    # The largest displacement is the most loaded joint bending 0.02 deg at its largest torque:
+    # about 0.02 deg times the reach (2-3 m: 0.7-1.2 mm), never more than that joint's lever.
+    jac = chain.rigid.jacobian(q)[:, :3, :]
+    lever = np.linalg.norm(jac, axis=1).max()
+    largest = np.linalg.norm(columns, axis=1).max()
+    assert 0.3 < largest < np.radians(0.02) * lever * (1 + 1e-9)
+    np.testing.assert_allclose(sag_columns(chain, q[:50], 0.02, reference=q), columns[:50])
+    with pytest.raises(InputError, match="the sag must be an angle >= 0 deg"):
+        sag_columns(chain, q, -0.01)
+
+
+def test_the_sag_counts_for_parameters_without_compliance_only():
+    """With "full" the sag's shapes enter the criterion and the prediction (what the geometry
+    cannot absorb of it stays at the targets); with "full+compliance" the sag is modelled and
+    the design is the one without it."""
+    chain = builtin("kr150-2")
+    candidates = joint_candidates(chain, 2000, seed=0)
+    plain = design_poses(chain, 20, candidates)
+    sagging = design_poses(chain, 20, candidates, sag=0.05)
+    assert sagging.sag == 0.05 and sagging.to_dict()["sag_deg"] == 0.05
+    assert sagging.model_rms > plain.model_rms and sagging.model_rms < sagging.random_model_rms
+    assert not np.array_equal(np.sort(sagging.indices), np.sort(plain.indices))
+    compliant = design_poses(chain, 20, candidates, parameters="full+compliance")
+    ignored = design_poses(chain, 20, candidates, parameters="full+compliance", sag=0.05)
+    np.testing.assert_array_equal(compliant.indices, ignored.indices)
+    assert ignored.sag == 0.0 and ignored.model_rms == compliant.model_rms
+    # The predicted error of the sagging design is the criterion recomputed from scratch.
+    info = information_model(chain, candidates)
+    shapes = sag_columns(chain, candidates, 0.05)
+    W = target_weight(info)
+    rows = info.blocks * info.sigma[:, None, None]
+    r = np.einsum("tip,tim->pm", rows, shapes) / len(rows)
+    floor = np.mean(np.sum(shapes ** 2, axis=(1, 2)))
+    ones = np.broadcast_to(np.eye(3), (len(candidates), 3, 3))
+    direct = -_sandwich_direct(info, list(sagging.indices), W, ones, shapes / 0.02, r) + floor
+    assert sagging.model_rms == pytest.approx(np.sqrt(direct), rel=1e-6)
 
 
 def test_the_joint_noise_design_predicts_the_held_out_error_that_backlash_gives():
@@ -435,20 +484,23 @@ def test_refusals_are_one_line(tmp_path, case, fragment):
     assert not (tmp_path / "p.csv").exists()
 
 
-def test_the_joint_noise_on_the_command_line(tmp_path):
+def test_the_joint_noise_and_the_sag_on_the_command_line(tmp_path):
     out = str(tmp_path / "p.csv")
     plain = runner.invoke(app, ["design", "ur5", "--n", "12", "--pool", "600", "--out", out, "--json"])
     noisy = runner.invoke(app, ["design", "ur5", "--n", "12", "--pool", "600", "--out", out, "--json",
-                                "--joint-noise", "0.01"])
+                                "--joint-noise", "0.01", "--sag", "0.02"])
     assert plain.exit_code == 0 and noisy.exit_code == 0, noisy.output
     plain, noisy = json.loads(plain.output), json.loads(noisy.output)
     assert plain["joint_noise_deg"] == 0 and noisy["joint_noise_deg"] == 0.01
+    assert plain["sag_deg"] == 0 and noisy["sag_deg"] == 0.02
     # 0.01 deg at a UR5's joints is several times its 0.02 mm tracker noise at the TCP.
     assert noisy["predicted"]["held_out_rms_mm"] > 2 * plain["predicted"]["held_out_rms_mm"]
     _one_line(runner.invoke(app, ["design", "ur5", "--n", "12", "--out", out, "--joint-noise", "-0.1"]),
               "--joint-noise must be a number >= 0")
     _one_line(runner.invoke(app, ["design", "panda", "--fixture", str(tmp_path / "plate.toml"), "--n", "12",
                                   "--joint-noise", "0.01", "--out", out]), "do not apply to a ball-in-socket design")
+    _one_line(runner.invoke(app, ["design", "ur5", "--n", "12", "--out", out, "--sag", "-1"]),
+              "--sag must be a number >= 0")
 
 
 # ----------------------------------------------------------------- largest predictive variance

@@ -923,6 +923,7 @@ def design(
     noise: float = typer.Option(None, help="Standard deviation of a reading per coordinate in mm (default 0.02): the tracker's noise, plus what the calibration will not explain if you know it (an earlier calibration's residual RMS / 1.73).", **_number(at_least=0, at_most=LARGEST_NOISE_MM)),
     tracker: str = typer.Option(None, help="The laser tracker's position x,y,z in mm (robot base frame): its noise then grows with distance.", **_numbers(count=3)),
     joint_noise: float = typer.Option(0.0, "--joint-noise", help="Standard deviation in deg of an error at every joint that the calibration does not model (gear backlash or play, e.g. the half-width of the gears' backlash): a pose then reads noisier the further the arm reaches, and the design and its predicted held-out error count it. Default 0: none.", **_number(at_least=0, at_most=1)),
+    sag: float = typer.Option(0.0, "--sag", help="How far gravity bends the most loaded joint, in deg, when --parameters has no compliance (e.g. 0.01 for a counterbalanced 150 kg arm, 0.08 for a UR5): the design then also chooses poses whose sag the geometry absorbs as the targets' would be, and the predicted error counts what it leaves. Default 0: none.", **_number(at_least=0, at_most=1)),
     order: str = typer.Option("tour", help="The order to measure in: tour (short motions) or random (averages out gear backlash, which a tour approaches from one side).", **_choice(("tour", "random"))),
     payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (as calibrate --payload).", **_number(at_least=0)),
     tip: str = typer.Option(None, help="URDF only: the tip link."),
@@ -959,7 +960,7 @@ def design(
     if fixture is not None:
         pose_options = {"--candidates": candidates, "--box": box, "--rpy": rpy, "--hint": hint, "--existing": existing,
                         "--targets": targets, "--tracker": tracker, "--payload": payload,
-                        "--joint-noise": joint_noise or None,
+                        "--joint-noise": joint_noise or None, "--sag": sag or None,
                         "--parameters": parameters if parameters != "full" else None,
                         "--order": order if order != "tour" else None}
         given = [k for k, v in pose_options.items() if v is not None]
@@ -977,7 +978,7 @@ def design(
                             candidates=candidates, pool=pool, sampling=sampling, box=box, rpy=rpy, hint=hint,
                             tool=tool, margin=margin, existing=existing, targets=targets, noise=noise,
                             tracker=tracker, payload=payload, order=order, root=root, tip=tip,
-                            joint_noise=joint_noise)
+                            joint_noise=joint_noise, sag=sag)
     if as_json:
         print(json.dumps(result, indent=2))
         return
@@ -1003,7 +1004,8 @@ def design(
     for key, value in (("robot", result["robot"]), ("candidates", result["candidates_from"]),
                        ("targets", result["targets"]), ("measured before", result["existing"]),
                        ("noise", f"{result['noise_mm']:.4f} mm ({result['noise_from']})"
-                        + (f", {result['joint_noise_deg']:g} deg at every joint" if result["joint_noise_deg"] else "")),
+                        + (f", {result['joint_noise_deg']:g} deg at every joint" if result["joint_noise_deg"] else "")
+                        + (f", sag {result['sag_deg']:g} deg left out" if result["sag_deg"] else "")),
                        ("calibrated TCP error at the targets", f"{predicted['model_rms_mm']:.4f} mm RMS predicted"
                         + ("" if versus is None else f" (random poses of the same number: {versus:.4f} mm)")),
                        ("held-out error with a reading's noise", f"mean {predicted['held_out_mean_mm']:.4f} mm, "

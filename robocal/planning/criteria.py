@@ -39,10 +39,14 @@ G = U B U^T, all 3 x 3 per candidate):
                       + tr(D K D G) + s tr(D K D (S - I) C (S - I))
 
 three more (3N x P) @ (P x P) products than ``prediction`` without joint noise.  With a
-known systematic error b_i per pose (``bias``: the simulated truth's unmodelled part, which
-bench/design.py's bound knows and a design does not) the estimate moves by x = P g,
-g = sum A_i^T b_i, and the criterion adds x^T W x - 2 x^T r (r = mean over the targets of
-J_t^T b_t); a pose changes x by U^T z, z = s D (b_i - A_i x) (recursive least squares).
+systematic error b_i per pose that the parameters do not model (``bias``), the estimate moves
+by x = P g, g = sum A_i^T b_i, and the criterion adds x^T W x - 2 x^T r (r = mean over the
+targets of J_t^T b_t); a pose changes x by U^T z, z = s D (b_i - A_i x) (recursive least
+squares).  The error may be known (the simulated truth's unmodelled part, which
+bench/design.py's bound knows and a design does not) or a sum of k shapes b_i^(m) with
+independent unit-variance amplitudes of unknown sign, such as the gravity sag that a
+parameter set without compliances leaves out (:func:`robocal.planning.information.sag_columns`):
+the expected criterion then adds the same terms summed over the shapes (bias (N, 3, k)).
 
 Residual models (Kriging, hybrid, network) learn a function over the configurations, so
 their design is ``space-filling`` (:class:`SpacingState`): minimise the Morris–Mitchell
@@ -183,19 +187,23 @@ class SandwichState:
     (P, P) the information already there (ridge and poses measured before); W: (P, P) the
     target weight; C: (N, 3, 3) each candidate's covariance relative to its weights; B_start:
     (P, P) what the poses already there contribute to B (default ``start``: the ridge, with
-    C = I); bias: (N, 3) a known systematic error of each candidate's reading (weighted as
-    the blocks), r: (P,) mean over the targets of J_t^T b_t, offset: x of the poses already
-    there (P,), default none.  The score is minus the criterion.
+    C = I); bias: (N, 3) a known systematic error of each candidate's reading, or (N, 3, k)
+    k shapes of one with unit-variance amplitudes of unknown sign (weighted as the blocks);
+    r: (P,) or (P, k) mean over the targets of J_t^T b_t (unweighted rows); g_start: the
+    sum of A_i^T b_i of the poses already there, default none.  The score is minus the
+    criterion (without the targets' own error, mean |b_t|^2).
     """
 
-    def __init__(self, blocks, start, W, C, B_start=None, bias=None, r=None):
+    def __init__(self, blocks, start, W, C, B_start=None, bias=None, r=None, g_start=None):
         self.blocks, self.W, self.C = blocks, W, C
         self.M = np.array(start, dtype=float)
         self.B = np.array(start if B_start is None else B_start, dtype=float)
-        self.bias = bias
         size = blocks.shape[2]
-        self.r = np.zeros(size) if r is None else np.asarray(r, dtype=float)
-        self.g = np.zeros(size)
+        # Kept as k shapes: (N, 3, k), r (P, k), g (P, k).
+        self.bias = None if bias is None else (bias[:, :, None] if bias.ndim == 2 else bias)
+        shapes = 1 if self.bias is None else self.bias.shape[2]
+        self.r = np.zeros((size, shapes)) if r is None else np.asarray(r, dtype=float).reshape(size, shapes)
+        self.g = np.zeros((size, shapes)) if g_start is None else np.array(g_start, dtype=float).reshape(size, shapes)
         self.chosen = []
         self._refresh()
 
@@ -205,7 +213,7 @@ class SandwichState:
         self.x = self.P @ self.g
         self._WPB = self.W @ self.P @ self.B
         self._variance = float(np.sum(self.W * (self.P @ self.B @ self.P)))
-        self._shift = float(self.x @ self.W @ self.x - 2 * self.x @ self.r)
+        self._shift = float(np.sum(self.x * (self.W @ self.x)) - 2 * np.sum(self.x * self.r))
 
     @property
     def covariance(self):
@@ -236,9 +244,9 @@ class SandwichState:
                  - 2 * sign * np.einsum("kij,kji->k", DK @ C, SI) + np.einsum("kij,kji->k", DKD, G)
                  + sign * np.einsum("kij,kji->k", DKD, SI @ C @ SI))
         if self.bias is not None:
-            z = sign * np.einsum("kij,kj->ki", D, self.bias[index] - A @ self.x)
-            h = U @ (self.W @ self.x - self.r)
-            value = value + self._shift + 2 * np.einsum("ki,ki->k", z, h) + np.einsum("ki,kij,kj->k", z, K, z)
+            z = sign * (D @ (self.bias[index] - A @ self.x))          # (k, 3, shapes)
+            h = U @ (self.W @ self.x - self.r)                         # (k, 3, shapes)
+            value = value + self._shift + 2 * np.einsum("kim,kim->k", z, h) + np.einsum("kim,kij,kjm->k", z, K, z)
         # A removal that leaves M singular (S not positive) costs everything.
         return np.where(sign_det > 0, -value - self.score, -np.inf)
 

@@ -18,9 +18,13 @@ calibration models) makes a pose's reading noisier the further the arm reaches
 (:func:`robocal.planning.information.joint_covariance`); ``prediction`` then minimises the
 sandwich covariance of the least-squares fit at the targets
 (:class:`robocal.planning.criteria.SandwichState`), and the predicted held-out error counts
-the targets' own joint noise.  On the simulated KR 150-2 (0.005 deg backlash, 0.02 mm
-tracker) it takes 15 and 20 designed poses 4-5 % closer held out than the isotropic noise
-does (bench/design.py).
+the targets' own joint noise.  A sag (``sag``, deg: how far gravity bends the most loaded
+joint) is, for a parameter set without compliances, a systematic error of unknown size that
+the fit leaves out (:func:`robocal.planning.information.sag_columns`); ``prediction`` then
+also minimises its expected effect at the targets, which favours poses whose sag the
+geometry absorbs as the targets' would be, and the prediction counts what remains.  On the
+simulated KR 150-2 (0.005 deg backlash, 0.02 mm tracker, gravity compliance) both stated take
+designed poses to what an oracle that knows the simulated robot reaches (bench/design.py).
 
 Whatever the criterion, the summary is that of the parametric calibration: the predicted
 standard error of each identifiable parameter, O1 and the noise amplification index of the
@@ -32,11 +36,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import InputError
+from ..estimation.calibration import parameter_terms
 from ..estimation.identifiability import analyse
 from .criteria import (CRITERIA, DEFAULT_CRITERION, InformationState, SandwichState, SpacingState, VarianceKernel,
                        VarianceState, check_criterion, information_start)
 from .exchange import select, select_stratified, strata
-from .information import information_model, joint_covariance, noise_of
+from .information import information_model, joint_covariance, noise_of, sag_columns
 from .tour import path_length, tour
 
 # The mean of a 3-D isotropic Gaussian error's length over its RMS: sqrt(8 / (3 pi)).
@@ -61,7 +66,8 @@ class Design:
     selection; names: the identifiable parameters; std_errors: (P,) predicted standard errors
     (rad, mm, ...; file_units converts to units, as files show them); fixed: {name: reason} for those the candidates
     cannot determine; noise: (mean) standard deviation of a reading, mm; joint_noise: deg at
-    every revolute joint (0: none); model_rms: predicted
+    every revolute joint (0: none); sag: deg, the gravity bending the parameters leave out
+    (0: none, or the parameter set has compliances); model_rms: predicted
     RMS error of the calibrated TCP over the targets (mm, without the reading's own noise);
     held_out_rms / held_out_mean: the same with the noise of a held-out reading added;
     random_model_rms: the median of model_rms over random selections of the same size (None
@@ -97,12 +103,13 @@ class Design:
     max_variance: float | None = None
     variance_prior: str | None = None
     joint_noise: float = 0.0
+    sag: float = 0.0
 
     def to_dict(self):
         return {
             "poses": int(len(self.joints)), "candidates": self.n_candidates, "existing": self.n_existing,
             "criterion": self.criterion, "exchanges": self.exchanges, "noise_mm": self.noise,
-            "joint_noise_deg": self.joint_noise,
+            "joint_noise_deg": self.joint_noise, "sag_deg": self.sag,
             "predicted": {"model_rms_mm": self.model_rms, "held_out_rms_mm": self.held_out_rms,
                           "held_out_mean_mm": self.held_out_mean, "random_model_rms_mm": self.random_model_rms},
             "o1": self.o1, "noise_amplification": self.noise_amplification,
@@ -152,25 +159,55 @@ def spacing_points(chain, candidates, others=None):
     return scaled(candidates), None if others is None else scaled(others)
 
 
-def _covariance(start, B_start, blocks, C):
-    """(P, P) covariance of the scaled parameters fitted on ``blocks`` (k, 3, P) with the
-    information ``start`` already there: M^-1, or with relative covariances ``C`` (k, 3, 3)
-    the sandwich M^-1 B M^-1 (B_start: what is already there contributes to B)."""
-    flat = blocks.reshape(-1, blocks.shape[2])
-    inverse = np.linalg.inv(start + flat.T @ flat)
-    if C is None:
-        return inverse
-    B = B_start + np.einsum("kip,kij,kjq->pq", blocks, C, blocks)
-    return inverse @ B @ inverse
+class _Prediction:
+    """The parametric calibration's error at the targets for a set of candidates, and the
+    ``prediction`` criterion's state: the information already there (``start``, ``B_start``
+    with the joint noise of the poses measured before), the candidates' relative
+    covariances ``C`` (None: none), and the sag's shapes (``bias`` (N, 3, k) weighted as the
+    blocks, ``r`` (P, k), ``g_start`` of the poses before, ``floor``: the sag's mean squared
+    size at the targets), None without one."""
 
+    def __init__(self, info, W, start, B_start, C=None, bias=None, r=None, g_start=None, floor=0.0):
+        self.info, self.W, self.start, self.B_start, self.C = info, W, start, B_start, C
+        self.bias, self.r, self.g_start, self.floor = bias, r, g_start, floor
 
-def _model_rms(W, covariance):
-    return float(np.sqrt(max(np.sum(W * covariance), 0.0)))
+    def _C(self):
+        return np.broadcast_to(np.eye(3), (len(self.info.blocks), 3, 3)) if self.C is None else self.C
+
+    def state(self):
+        if self.C is None and self.bias is None:
+            return InformationState(self.info.blocks, self.start, self.W)
+        return SandwichState(self.info.blocks, self.start, self.W, self._C(), self.B_start, bias=self.bias, r=self.r,
+                             g_start=self.g_start)
+
+    def covariance(self, index):
+        """(P, P) the scaled parameters' covariance after the candidates ``index`` (with those
+        measured before, counted once in ``start``)."""
+        blocks = self.info.blocks[index]
+        flat = blocks.reshape(-1, blocks.shape[2])
+        inverse = np.linalg.inv(self.start + flat.T @ flat)
+        if self.C is None and self.bias is None:
+            return inverse
+        B = self.B_start + np.einsum("kip,kij,kjq->pq", blocks, self._C()[index], blocks)
+        return inverse @ B @ inverse
+
+    def model_rms(self, index):
+        """Predicted RMS error of the calibrated TCP over the targets (mm), without the
+        readings' own noise: the covariance's, and with a sag the part of it left over."""
+        cov = self.covariance(index)
+        mse = float(np.sum(self.W * cov))
+        if self.bias is not None:
+            blocks = self.info.blocks[index]
+            g = self.g_start + np.einsum("kip,kim->pm", blocks, self.bias[index])
+            flat = blocks.reshape(-1, blocks.shape[2])
+            x = np.linalg.solve(self.start + flat.T @ flat, g)
+            mse += float(np.sum(x * (self.W @ x)) - 2 * np.sum(x * self.r)) + self.floor
+        return float(np.sqrt(max(mse, 0.0)))
 
 
 def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, parameters="full", noise=0.02,
                  tracker=None, targets=None, existing=None, payload=None, refine=True, seed=0, order="tour",
-                 kernel=None, joint_noise=0.0):
+                 kernel=None, joint_noise=0.0, sag=0.0):
     """Choose ``count`` of ``candidates`` (N, n) rad to measure for a calibration of
     ``parameters`` (a parameter set) and predict the result.
 
@@ -184,7 +221,9 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
     joint_noise: standard deviation (deg) of an error at every revolute joint that the
     calibration does not model, gear backlash or play (module notes; 0: none): the
     ``prediction`` criterion and the summary count it, the other criteria choose as
-    without it.  targets: (T, n) rad, where the robot will work (default: the candidates).  existing:
+    without it.  sag: how far gravity bends the most loaded joint (deg), for a parameter set
+    without compliances (module notes; 0: none; ignored with compliances), counted as the
+    joint noise is.  targets: (T, n) rad, where the robot will work (default: the candidates).  existing:
     (k, n) rad poses measured before, which the design complements (the tour starts next to
     the last of them).  refine: exchange after the greedy selection.  seed: the strata's
     k-means start and the random selections the summary compares with.  order: ``tour``
@@ -219,16 +258,19 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
         B_start = start + np.einsum("kip,kij,kjq->pq", before_blocks, excess, before_blocks)
     target_q = None if targets is None else _check_joints(chain, targets, "target")
     W = target_weight(info, target_q)
+    prediction = _Prediction(info, W, start, B_start, C)
+    if "compliance" not in parameter_terms(parameters):
+        prediction = _with_sag(prediction, chain, q, before, before_blocks, before_sigma, target_q, sag, payload)
     if criterion == "space-filling":
         points, points_before = spacing_points(chain, q, before)
         state = SpacingState(points, points_before)
     elif criterion == "variance":
         kernel = VarianceKernel.default(chain, q) if kernel is None else kernel
         state = VarianceState(kernel.points(chain, q), kernel, None if before is None else kernel.points(chain, before))
-    elif criterion == "prediction" and C is not None:
-        state = SandwichState(info.blocks, start, W, C, B_start)
+    elif criterion == "prediction":
+        state = prediction.state()
     else:
-        state = InformationState(info.blocks, start, W if criterion == "prediction" else None)
+        state = InformationState(info.blocks, start, None)
     available = np.ones(len(q), dtype=bool)
     if criterion == "prediction":
         points, target_points = spacing_points(chain, q, None if targets is None else target_q)
@@ -246,25 +288,46 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
     else:
         order = np.random.default_rng(seed).permutation(len(chosen))
     chosen_in_order = chosen[order]
-    design = _summary(chain, info, q, chosen_in_order, chosen, criterion, steps, W, (start, B_start, C), before,
-                      before_blocks, noise, seed, joint_noise, target_q)
+    design = _summary(chain, info, q, chosen_in_order, chosen, criterion, steps, prediction, before, before_blocks,
+                      seed, joint_noise, target_q)
+    design = replace(design, sag=float(sag) if prediction.bias is not None else 0.0)
     if criterion == "variance":
         design = replace(design, max_variance=-state.score, variance_prior=kernel.source)
     return design
 
 
-def _summary(chain, info, q, chosen, order_of_choice, criterion, steps, W, information, before, before_blocks, noise,
-             seed, joint_noise, target_q):
-    start, B_start, C = information
+def _with_sag(prediction, chain, q, before, before_blocks, before_sigma, target_q, sag, payload):
+    """``prediction`` with the sag's shapes (:func:`sag_columns`) for a parameter set that
+    leaves it out; as it was when the sag is 0 or no joint is loaded."""
+    info = prediction.info
+    columns = sag_columns(chain, q, sag, payload=payload)
+    if columns is None:
+        return prediction
+    where = q if target_q is None else target_q
+    at_targets = columns if target_q is None else sag_columns(chain, where, sag, reference=q, payload=payload)
+    rows = info.blocks * info.sigma[:, None, None] if target_q is None else info.rows_of(target_q)
+    r = np.einsum("tip,tim->pm", rows, at_targets) / len(rows)
+    floor = float(np.mean(np.sum(at_targets ** 2, axis=(1, 2))))
+    g_start = np.zeros((info.n_parameters, columns.shape[2]))
+    if before is not None:
+        weighted = sag_columns(chain, before, sag, reference=q, payload=payload) / before_sigma[:, None, None]
+        g_start = np.einsum("kip,kim->pm", before_blocks, weighted)
+    return _Prediction(info, prediction.W, prediction.start, prediction.B_start, prediction.C,
+                       bias=columns / info.sigma[:, None, None], r=r, g_start=g_start, floor=floor)
+
+
+def _summary(chain, info, q, chosen, order_of_choice, criterion, steps, prediction, before, before_blocks, seed,
+             joint_noise, target_q):
+    C = prediction.C
     p = info.n_parameters
     blocks = info.blocks[chosen]
     flat = (blocks if before_blocks is None else np.concatenate([blocks, before_blocks])).reshape(-1, p)
-    # B_start holds the poses measured before (with their joint noise): only the chosen ones
-    # are added to it.
-    cov = _covariance(start, B_start, blocks, None if C is None else C[chosen])
+    # The poses measured before are in the prediction's start (with their joint noise): only
+    # the chosen ones are added to it.
+    cov = prediction.covariance(chosen)
     std = np.sqrt(np.clip(np.diag(cov), 0.0, None)) / info.scale
     report = analyse(info.chain, flat, list(info.names), explain=False)[1]
-    model_rms = _model_rms(W, cov)
+    model_rms = prediction.model_rms(chosen)
     mean_sigma = float(np.sqrt(np.mean(info.sigma ** 2)))
     # A held-out reading has its own noise: the tracker's, and the joint noise at the targets.
     reading = 3 * mean_sigma ** 2
@@ -277,11 +340,7 @@ def _summary(chain, info, q, chosen, order_of_choice, criterion, steps, W, infor
     count = len(chosen)
     if len(q) > count:
         rng = np.random.default_rng(seed)
-        draws = []
-        for _ in range(RANDOM_DRAWS):
-            drawn = rng.choice(len(q), count, replace=False)
-            drawn_C = None if C is None else C[drawn]
-            draws.append(_model_rms(W, _covariance(start, B_start, info.blocks[drawn], drawn_C)))
+        draws = [prediction.model_rms(rng.choice(len(q), count, replace=False)) for _ in range(RANDOM_DRAWS)]
         random_rms = float(np.median(draws))
     start_pose = None if before is None else before[-1]
     return Design(

@@ -19,6 +19,11 @@ calibration does not model, independent from pose to pose: gear backlash (a join
 +-b off its command depending on the side it came from) or the play of a worn joint.  At
 the TCP it is J_q diag(b^2) J_q^T, which grows with the reach: 0.005 deg of backlash on each
 joint of a KUKA KR 150-2 is 0.2-0.3 mm at the TCP, ten times a tracker's 0.02 mm.
+
+A sag s (deg; :func:`sag_columns`) is the gravity bending of the joints that a parameter set
+without compliances leaves out: systematic, with the shape of each loaded joint's gravity
+torque and a size the design does not know, taken as one compliance common to the joints
+with a standard deviation that bends the most loaded joint by s at its largest torque.
 """
 from dataclasses import dataclass
 
@@ -104,6 +109,28 @@ def joint_covariance(chain, joints, sigma, joint_noise):
     jac = chain.rigid.jacobian(np.asarray(joints, dtype=float))[:, :3, :] * np.where(chain.revolute, 1.0, 0.0)
     relative = np.radians(joint_noise) / np.asarray(sigma, dtype=float)
     return np.eye(3) + relative[:, None, None] ** 2 * np.einsum("kij,klj->kil", jac, jac)
+
+
+def sag_columns(chain, joints, sag, *, reference=None, payload=None):
+    """(N, 3, k) mm: the TCP displacement at ``joints`` (N, n) rad of each of the k loaded
+    joints (:func:`~robocal.kinematics.compliant.with_compliance`) bending by ``sag`` deg
+    times its gravity torque over the largest torque of any joint over ``reference`` (default
+    ``joints``): the shapes of the sag a parameter set without compliances leaves out (module
+    notes).  None when the sag is 0."""
+    sag = float(sag)
+    if not np.isfinite(sag) or sag < 0:
+        raise InputError(f"the sag must be an angle >= 0 deg, got {sag}")
+    if sag == 0:
+        return None
+    q = np.asarray(joints, dtype=float)
+    compliant, names = with_compliance(chain, q if reference is None else reference, payload)
+    largest = np.abs(compliant.gravity_torque(q if reference is None else reference)).max()
+    loaded = [compliant.parameters[name].joint - 1 for name in names]
+    if not loaded or largest <= 0:
+        return None
+    torque = compliant.gravity_torque(q)[:, loaded] / largest
+    jac = chain.rigid.jacobian(q)[:, :3, :][:, :, loaded]
+    return jac * torque[:, None, :] * np.radians(sag)
 
 
 def information_model(chain, joints, parameters="full", *, noise=0.02, tracker=None, payload=None):
