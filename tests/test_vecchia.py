@@ -11,7 +11,9 @@ from robocal.estimation import Kriging
 from robocal.estimation import kriging as kriging_module
 from robocal.estimation.joint_kriging import JointKriging
 from robocal.estimation.kriging import _Problem, trend_basis
-from robocal.estimation.vecchia import VecchiaProblem, coarse_to_fine_order, previous_neighbours
+from robocal.estimation import vecchia as vecchia_module
+from robocal.estimation.vecchia import (VecchiaProblem, _BlockProblem, _ExactInOrder, coarse_to_fine_order,
+                                        previous_neighbours, spatial_blocks)
 
 
 def latin_hypercube(n, d, rng):
@@ -95,6 +97,82 @@ def test_the_gradient_of_the_approximation_is_its_derivative(rng, correlation):
         assert state.gradient[0][k] == pytest.approx(numeric, rel=1e-5, abs=1e-5)
     numeric = (value(np.log(theta), np.log(nugget) + step) - value(np.log(theta), np.log(nugget) - step)) / (2 * step)
     assert state.gradient[1] == pytest.approx(numeric, rel=1e-5, abs=1e-6)
+
+
+# ------------------------------------------------- the block stand-in of the search
+
+@pytest.mark.parametrize("count", [1, 2, 3, 4, 7])
+def test_spatial_blocks_cut_the_points_into_compact_blocks_of_equal_size(rng, count):
+    X = rng.random((101, 3)) * [4.0, 1.0, 2.0]  # the first coordinate is the widest
+    blocks = spatial_blocks(X, count)
+    assert len(blocks) == count
+    assert np.array_equal(np.sort(np.concatenate(blocks)), np.arange(101))  # every row once
+    sizes = [len(b) for b in blocks]
+    assert max(sizes) - min(sizes) <= 1
+    assert all(np.all(np.diff(b) > 0) for b in blocks)
+    if count == 2:  # cut across the widest coordinate
+        assert X[blocks[0], 0].max() <= X[blocks[1], 0].min()
+
+
+@pytest.mark.parametrize("correlation", ["gaussian", "matern52"])
+def test_one_block_is_the_exact_likelihood_and_the_gradient_of_several_is_their_derivative(rng, correlation):
+    X, Y = standardised(*(lambda X: (X, wavy(X)))(rng.random((160, 3))))
+    F = trend_basis(X, "linear")
+    rows = rng.permutation(len(X))  # the problem's order, as a Vecchia problem's
+    theta, nugget = np.array([0.8, 1.3, 0.5]), 1e-3
+    exact = _ExactInOrder(X[rows], F[rows], correlation, rows).condition(theta, nugget, Y, gradient=True)
+    one = _BlockProblem(X[rows], F[rows], correlation, rows, spatial_blocks(X[rows], 1))
+    single = one.condition(theta, nugget, Y, gradient=True)
+    assert np.allclose(single.log_likelihood, exact.log_likelihood, rtol=1e-12)
+    assert np.allclose(single.gradient[0], exact.gradient[0], rtol=1e-10)
+    assert single.gradient[1] == pytest.approx(exact.gradient[1], rel=1e-10)
+
+    problem = _BlockProblem(X[rows], F[rows], correlation, rows, spatial_blocks(X[rows], 4))
+
+    def value(log_theta, log_nugget):
+        return problem.condition(np.exp(log_theta), np.exp(log_nugget), Y).log_likelihood.sum()
+
+    state = problem.condition(theta, nugget, Y, gradient=True)
+    assert abs(state.log_likelihood.sum() - exact.log_likelihood.sum()) > 1.0  # the blocks are not the whole
+    step = 1e-6
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = step
+        numeric = (value(np.log(theta) + e, np.log(nugget)) - value(np.log(theta) - e, np.log(nugget))) / (2 * step)
+        assert state.gradient[0][k] == pytest.approx(numeric, rel=1e-5, abs=1e-5)
+    numeric = (value(np.log(theta), np.log(nugget) + step) - value(np.log(theta), np.log(nugget) - step)) / (2 * step)
+    assert state.gradient[1] == pytest.approx(numeric, rel=1e-5, abs=1e-6)
+
+
+def exact_log_likelihood(model):
+    """The exact log-likelihood of each output of a fitted Kriging at its θ and nugget."""
+    X = (model._X_train - model._x_mean) / model._x_scale
+    Y = (model._Y_train - model._y_mean) / model._y_scale
+    problem = _Problem(X, trend_basis(X, model.regression), model.correlation)
+    return np.array([problem.condition(model.theta_[j], model.nugget_[j], Y[:, [j]]).log_likelihood[0]
+                     for j in range(Y.shape[1])])
+
+
+def test_between_the_limits_the_search_on_blocks_ends_at_the_exact_likelihoods_optimum(rng, monkeypatch):
+    # As between 1,000 and 2,000 points, here between 100 and 2,000: blocks of 60 points.
+    monkeypatch.setattr(vecchia_module, "BLOCK_SEARCH_ABOVE", 100)
+    monkeypatch.setattr(vecchia_module, "BLOCK_POINTS", 60)
+    X = latin_hypercube(240, 3, rng)
+    Y = smooth(X) + rng.normal(scale=0.02, size=(len(X), 2))
+    calls = []
+    condition = _BlockProblem.condition
+    monkeypatch.setattr(_BlockProblem, "condition", lambda self, *a, **k: calls.append(1) or condition(self, *a, **k))
+    blocks = Kriging(nugget="estimate", approximation="vecchia", random_state=0).fit(X, Y)
+    assert calls  # the search ran on the blocks
+    monkeypatch.setattr(vecchia_module, "BLOCK_SEARCH_ABOVE", 2000)  # the exact search on all points
+    calls.clear()
+    exact = Kriging(nugget="estimate", approximation="vecchia", random_state=0).fit(X, Y)
+    assert not calls
+    # Refined on the exact likelihood, the blocks' optimum is that likelihood's own.
+    assert np.all(exact_log_likelihood(blocks) >= exact_log_likelihood(exact) - 0.05)
+    assert np.allclose(np.log(blocks.theta_), np.log(exact.theta_), atol=0.05)
+    targets = rng.random((500, 3))
+    assert np.allclose(blocks.predict(targets), exact.predict(targets), atol=5e-4)
 
 
 @pytest.mark.parametrize("nugget", [0.0, 1e-3])

@@ -181,6 +181,10 @@ class _Problem:
         """The problem the hyperparameter search runs on: this one (see the Vecchia problem's)."""
         return self
 
+    def refinement(self, search):
+        """None: a search on the exact likelihood is final (see the Vecchia problem's)."""
+        return None
+
     def focus(self, theta):
         """Nothing: the exact likelihood conditions on every point (see the Vecchia problem's)."""
 
@@ -188,14 +192,22 @@ class _Problem:
         """The state a fit ends with, or a saved model is rebuilt from, at θ and the nugget."""
         return self.condition(theta, nugget, Y, start_jitter)
 
-    def condition(self, theta, nugget, Y, start_jitter=0.0, gradient=False):
-        """Condition the process on ``Y`` (n, m) at θ and the nugget: a `_State`."""
+    def factor(self, theta, nugget, start_jitter=0.0):
+        """(S, C, L, jitter, condition) at θ and the nugget: the θ-weighted squared distances,
+        the correlation matrix with the nugget and jitter on its diagonal, its lower Cholesky
+        factor, the jitter and the condition estimate (see :func:`_cholesky_with_jitter`)."""
         n = len(self.X)
         S = (theta @ self.sqdiff).reshape(n, n)
         C = correlation_from_squared(S, self.correlation, out=np.empty_like(S))  # R
         C[np.diag_indices(n)] += nugget
         # Correlations are ≥ 0, so the 1-norm is the largest column sum.
         L, jitter, condition = _cholesky_with_jitter(C, C.sum(axis=0).max(), start_jitter)
+        return S, C, L, jitter, condition
+
+    def condition(self, theta, nugget, Y, start_jitter=0.0, gradient=False):
+        """Condition the process on ``Y`` (n, m) at θ and the nugget: a `_State`."""
+        n = len(self.X)
+        S, C, L, jitter, condition = self.factor(theta, nugget, start_jitter)
         Ft = _triangular_solve(L, self.F)
         Yt = _triangular_solve(L, Y)
         Q, G = np.linalg.qr(Ft)
@@ -280,7 +292,10 @@ class Kriging:
         hypercube of max(10, 2·n_starts) points in log θ (and log nugget).  0 fixes θ = theta0
         (and needs a numeric nugget).  None picks 4 for n ≤ 400, 2 for n ≤ 1500, else 1:
         small designs have several optima, large ones are cheap to screen but dear to
-        optimise (a fit of 1000 points and 3 outputs takes 5 to 8 s on one core).
+        optimise (a fit of 1000 points and 3 outputs takes 5 to 8 s on one core).  The
+        Vecchia approximation's search between 1,000 and 2,000 points runs on a cheaper
+        stand-in and takes at least 4 up to 1,500 points and 2 above
+        (:mod:`robocal.estimation.vecchia`).
     shared_theta : bool
         False: one θ (and nugget) per output, each maximising its own likelihood (the paper's
         way).  True: one θ for all outputs, maximising the sum of their likelihoods.
@@ -553,9 +568,8 @@ class Kriging:
             return self._theta0(d), float(self.nugget)
         if not Y.any():  # constant outputs: the likelihood does not depend on θ
             return self._theta0(d), NUGGET_BOUNDS[0] if estimate_nugget else float(self.nugget)
-        # The exact problem searches on itself; the Vecchia one on the exact likelihood or a
-        # space-filling part of its points, then refines that optimum on all of them
-        # (robocal.estimation.vecchia).
+        # The exact problem searches on itself; the Vecchia one on the exact likelihood, on
+        # a cheaper stand-in for it whose optimum is then refined (robocal.estimation.vecchia).
         search = problem.search_problem()
 
         def screened(params):
@@ -564,13 +578,26 @@ class Kriging:
             return search.condition(theta, nugget, Y).log_likelihood.sum()
 
         starts = self._starting_points(d, n, candidates, screened, least=problem.least_starts)
-        best = self._minimise(search, Y, starts, unpack, OPTIONS)
-        if len(search.X) < len(problem.X):
-            best = self._minimise(problem, Y, [best], unpack, problem.REFINE_OPTIONS, rounds=1)
-        return unpack(best)
+        plan = problem.refinement(search)
+        if plan is None:
+            return unpack(self._minimise(search, Y, starts, unpack, OPTIONS))
+        # The stand-in's optima are judged by the likelihood they stand in for: the runs land
+        # in different local optima, and the stand-in's ranking of them is not that one's.
+        refine, options = plan
+        ends = self._minimise(search, Y, starts, unpack, OPTIONS, every=True)
+        best = ends[0] if len(ends) == 1 else max(ends, key=lambda end: self._judged(refine, Y, unpack(end)))
+        return unpack(self._minimise(refine, Y, [best], unpack, options, rounds=1))
 
-    def _minimise(self, problem, Y, starts, unpack, options, rounds=None):
-        """L-BFGS-B from each start on the summed concentrated likelihood: the best parameters.
+    @staticmethod
+    def _judged(problem, Y, parameters):
+        """The summed log-likelihood of ``problem`` at (θ, nugget), its neighbours found in θ's metric."""
+        theta, nugget = parameters
+        problem.focus(theta)
+        return problem.condition(theta, nugget, Y).log_likelihood.sum()
+
+    def _minimise(self, problem, Y, starts, unpack, options, rounds=None, every=False):
+        """L-BFGS-B from each start on the summed concentrated likelihood: the best parameters
+        (with ``every``, the end of each start's run instead, in the order of the starts).
 
         A Vecchia problem conditions on neighbours in the metric of θ (``focus``): each run
         starts with the neighbours of its start, and runs again from its end with the
@@ -589,6 +616,7 @@ class Kriging:
 
         bounds = list(zip(*self._log_bounds(d)))
         best_value, best_params = np.inf, starts[0]
+        ends = []
         for start in starts:
             for _ in range(rounds):
                 problem.focus(unpack(start)[0])
@@ -598,9 +626,10 @@ class Kriging:
             if rounds > 1:
                 problem.focus(unpack(result.x)[0])
                 result.fun = objective(result.x)[0]
+            ends.append(result.x)
             if result.fun < best_value:
                 best_value, best_params = result.fun, result.x
-        return best_params
+        return ends if every else best_params
 
     def _install(self, data, y_is_vector, groups, states, diagnostics):
         """Make the model the fitted one: what prediction needs and the public attributes."""
