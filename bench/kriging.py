@@ -29,11 +29,23 @@ comparison: Kriging and the hybrid on 2,000 random series-A poses, held out on t
     python bench/kriging.py --quick    # n = 50 and 200 only
     python bench/kriging.py --large    # the large section only
     python bench/kriging.py --large --without-peers --sizes 10000 --without-ur10   # one row
+    python bench/kriging.py --search   # the search between 1,000 and 2,000 points, 5 min
+    python bench/kriging.py --search --search-splits   # and on 8 more training sets, 15 min
+
+``--search`` compares, in one process, the two ways the hyperparameters of a Vecchia fit of
+1,000 to 2,000 points can be searched for (robocal.estimation.vecchia): the exact likelihood
+on all points (as robocal did before, ``BLOCK_SEARCH_ABOVE`` raised to 2,000) and the block
+stand-in refined on it (the default): the hybrid on all 1,495 UR10 series-B poses (CPU s),
+the held-out errors of kriging and the hybrid on series B's random half (747 poses, exact
+Kriging either way) and on 2,000 random series-A poses, and the bench field at n = 2,000
+with 0.01 mm noise; each with the exact log-likelihood reached (summed over the components)
+and the load average beside the CPU time.
 """
 import os
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # one core, as the targets are stated
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import multiprocessing  # noqa: E402
@@ -392,6 +404,89 @@ def ur10_benchmark():
     print(f"\nhybrid (--kriging auto: {used}) on all {data.n_poses:,} series-B poses: {seconds:.1f} s ({cpu:.1f} s CPU)")
 
 
+def _exact_log_likelihood(model):
+    """The exact log-likelihood of a fitted Kriging at its θ and nugget, summed over outputs."""
+    from robocal.estimation.kriging import _Problem, trend_basis
+
+    X = (model._X_train - model._x_mean) / model._x_scale
+    Y = (model._Y_train - model._y_mean) / model._y_scale
+    problem = _Problem(X, trend_basis(X, model.regression), model.correlation)
+    theta = np.atleast_2d(model.theta_)
+    return sum(problem.condition(theta[0 if model.shared_theta else j], model.nugget_[j],
+                                 Y[:, [j]]).log_likelihood[0] for j in range(Y.shape[1]))
+
+
+def search_benchmark(splits=False):
+    """The exact search on all points against the block stand-in (module docstring)."""
+    from robocal.estimation import vecchia
+    from robocal.io.datasets import ipa_ur10
+    from robocal.io.observations import Observations, observations
+    from robocal.methods import make_method
+
+    warnings.simplefilter("ignore", RobocalWarning)
+    ways = (("exact", vecchia.EXACT_SEARCH_UP_TO), ("blocks", vecchia.BLOCK_SEARCH_ABOVE))
+
+    def fitted(way, fit):
+        vecchia.BLOCK_SEARCH_ABOVE = dict(ways)[way]
+        try:
+            cpu = time.process_time()
+            model = fit()
+            return model, time.process_time() - cpu
+        finally:
+            vecchia.BLOCK_SEARCH_ABOVE = dict(ways)["blocks"]
+
+    def load():
+        return f"{os.getloadavg()[0]:.1f}"
+
+    print("\nThe hyperparameter search of Vecchia fits of 1,000 to 2,000 points: exact likelihood on all "
+          "points against the block stand-in refined on it; one core, CPU s, load = 1-min load average")
+    chain, data = ipa_ur10("B")
+    obs = observations(chain, data)
+    rule(f"{'hybrid on all 1,495 UR10 B poses':<40}{'CPU s':>8}{'load':>6}{'exact log-lik.':>16}")
+    for way, _ in ways:
+        method, cpu = fitted(way, lambda: make_method("hybrid").fit(chain, obs))
+        model = method.compensator_.error_model
+        print(f"{way + ' (' + model.approximation_ + ')':<40}{cpu:>8.1f}{load():>6}"
+              f"{_exact_log_likelihood(model):>16.1f}", flush=True)
+
+    cases = [("B", 747, 0), ("A", UR10_TRAIN, 0)]
+    if splits:
+        cases += [("A", 1200, 2), ("A", 1500, 1), ("A", 1800, 3), ("A", 2000, 1), ("B", 1196, 0),
+                  ("B", 1200, 1), ("B", 1300, 2), ("B", 1400, 3)]
+    print("\nheld out: the poses of the series not trained on (random permutation of the seed); mm")
+    rule(f"{'series':<7}{'train':>6}{'seed':>5}  {'method':<8}{'search':<8}{'CPU s':>7}{'load':>6}{'mean':>8}"
+         f"{'RMS':>8}{'max':>8}{'mean/exact':>11}{'exact log-lik.':>16}")
+    for series, n_train, seed in cases:
+        chain, data = ipa_ur10(series)
+        q, P = chain.joints_from_file(data.joints), data.positions
+        order = np.random.default_rng(seed).permutation(len(q))
+        train, test = order[:n_train], order[n_train:]
+        for method in ("kriging", "hybrid"):
+            reference = None
+            for way, _ in ways:
+                fit, cpu = fitted(way, lambda: make_method(method).fit(chain, Observations.of(q[train], P[train])))
+                error = np.linalg.norm(P[test] - fit.predict(q[test]), axis=1)
+                reference = error.mean() if reference is None else reference
+                print(f"{series:<7}{n_train:>6}{seed:>5}  {method:<8}{way:<8}{cpu:>7.1f}{load():>6}{error.mean():>8.4f}"
+                      f"{np.sqrt(np.mean(error ** 2)):>8.4f}{error.max():>8.4f}{error.mean() / reference:>11.3f}"
+                      f"{_exact_log_likelihood(fit.compensator_.error_model):>16.1f}", flush=True)
+
+    _, X_test, Y_test, _ = test_data()
+    n = 2000
+    rng = np.random.default_rng(n)  # the large section's field
+    X = latin_hypercube(n, rng)
+    Y = error_field(X) + NOISE_MM * rng.normal(size=(n, 3))
+    print(f"\nbench field, n = {n:,}, {NOISE_MM} mm noise, nugget estimated; held out on {N_TEST:,} points")
+    rule(f"{'search':<8}{'CPU s':>7}{'load':>6}{'RMS mm':>10}{'RMS/exact':>11}{'exact log-lik.':>16}")
+    reference = None
+    for way, _ in ways:
+        model, cpu = fitted(way, lambda: Kriging(random_state=0, approximation="vecchia", nugget="estimate").fit(X, Y))
+        rms = np.sqrt(np.mean(np.sum((model.predict(X_test) - Y_test) ** 2, axis=1)))
+        reference = rms if reference is None else reference
+        print(f"{way:<8}{cpu:>7.1f}{load():>6}{rms:>10.3e}{rms / reference:>11.3f}{_exact_log_likelihood(model):>16.1f}",
+              flush=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="n = 50 and 200 only")
@@ -401,7 +496,13 @@ def main():
     parser.add_argument("--sizes", type=int, nargs="+", default=list(LARGE_SIZES),
                         help="the large section's n (the first also with noise)")
     parser.add_argument("--without-ur10", action="store_true", help="no UR10 comparison")
+    parser.add_argument("--search", action="store_true",
+                        help="only the search of Vecchia fits of 1,000 to 2,000 points: exact against blocks")
+    parser.add_argument("--search-splits", action="store_true", help="with --search: 8 more training sets")
     args = parser.parse_args()
+    if args.search:
+        search_benchmark(args.search_splits)
+        return
     if not args.large:
         small_benchmark(QUICK_SIZES if args.quick else SIZES)
     if not args.quick:

@@ -158,15 +158,16 @@ REFINE_OPTIONS = {"maxiter": 15, "ftol": 1e-6, "gtol": 1e-4, "maxls": 5}
 # residual has several optima of about the same likelihood, and which one a run reaches
 # depends on where it starts, so the exact search on all points (as up to 1,000) is no
 # ground truth either: against it, one core, loaded machine, CPU s (bench/kriging.py
-# --search):
-#   hybrid on all 1,495 UR10 B poses: 11.1 s against 28.3 s; the exact log-likelihood 20
-#   units higher on one error component, the same on the others;
-#   UR10 A, 2,000 random poses, held out on the other 9,911: mean error kriging 0.2592 mm
-#   against 0.2616, hybrid 0.1924 against 0.1929 (13.4 and 14.2 s against 29.0 and 28.8);
-#   bench field, n = 2,000, 0.01 mm noise: held-out RMS 0.999 times, 14.5 s against 14.7;
-#   eight more random training sets of series A and B (1,200 to 1,800 poses; kriging and
-#   hybrid, 16 fits): held-out mean error 0.972 to 1.020 times (geometric mean 0.998), the
-#   exact log-likelihood summed over their 48 components 250 units higher.
+# --search, one process, load average 3.1 to 4.4):
+#   hybrid on all 1,495 UR10 B poses: 12.8 s against 29.3 s; the exact log-likelihood 20
+#   units higher (on one error component, the same on the others);
+#   UR10 A, 2,000 random poses, held out on the other 9,911: kriging mean/RMS/max 0.2592,
+#   0.3784, 2.578 mm against 0.2616, 0.3800, 2.534; hybrid 0.1924, 0.2426, 1.217 against
+#   0.1929, 0.2436, 1.210 (14.2 and 14.0 s against 31.0 and 28.7);
+#   bench field, n = 2,000, 0.01 mm noise: held-out RMS 0.999 times, 16.4 s against 15.1;
+#   eight more random training sets of series A and B (1,196 to 2,000 poses; kriging and
+#   hybrid, 16 fits): held-out mean error 0.971 to 1.020 times (geometric mean 0.999), the
+#   exact log-likelihood summed over their 48 components 184 units higher.
 # Stand-ins measured before: the exact likelihood of half of the points (a random half, the
 # first half of the order), refined on all: UR10 A 2,000 hybrid +3.7 % and +4.7 % held out
 # (their optima lay in other basins); the Vecchia likelihood (m = 30) refined on the exact
