@@ -85,18 +85,8 @@ def test_the_gradient_of_the_approximation_is_its_derivative(rng, correlation):
     problem = VecchiaProblem.of(X, trend_basis(X, "linear"), correlation, 8)
     theta, nugget = np.array([0.8, 1.3, 0.5]), 1e-3
 
-    def value(log_theta, log_nugget):
-        return problem.condition(np.exp(log_theta), np.exp(log_nugget), Y).log_likelihood.sum()
-
     state = problem.condition(theta, nugget, Y, gradient=True)
-    step = 1e-6
-    for k in range(3):
-        e = np.zeros(3)
-        e[k] = step
-        numeric = (value(np.log(theta) + e, np.log(nugget)) - value(np.log(theta) - e, np.log(nugget))) / (2 * step)
-        assert state.gradient[0][k] == pytest.approx(numeric, rel=1e-5, abs=1e-5)
-    numeric = (value(np.log(theta), np.log(nugget) + step) - value(np.log(theta), np.log(nugget) - step)) / (2 * step)
-    assert state.gradient[1] == pytest.approx(numeric, rel=1e-5, abs=1e-6)
+    _assert_gradient_is_the_likelihood_slope(problem, theta, nugget, Y, state)
 
 
 # ------------------------------------------------- the block stand-in of the search
@@ -129,19 +119,9 @@ def test_one_block_is_the_exact_likelihood_and_the_gradient_of_several_is_their_
 
     problem = _BlockProblem(X[rows], F[rows], correlation, rows, spatial_blocks(X[rows], 4))
 
-    def value(log_theta, log_nugget):
-        return problem.condition(np.exp(log_theta), np.exp(log_nugget), Y).log_likelihood.sum()
-
     state = problem.condition(theta, nugget, Y, gradient=True)
     assert abs(state.log_likelihood.sum() - exact.log_likelihood.sum()) > 1.0  # the blocks are not the whole
-    step = 1e-6
-    for k in range(3):
-        e = np.zeros(3)
-        e[k] = step
-        numeric = (value(np.log(theta) + e, np.log(nugget)) - value(np.log(theta) - e, np.log(nugget))) / (2 * step)
-        assert state.gradient[0][k] == pytest.approx(numeric, rel=1e-5, abs=1e-5)
-    numeric = (value(np.log(theta), np.log(nugget) + step) - value(np.log(theta), np.log(nugget) - step)) / (2 * step)
-    assert state.gradient[1] == pytest.approx(numeric, rel=1e-5, abs=1e-6)
+    _assert_gradient_is_the_likelihood_slope(problem, theta, nugget, Y, state)
 
 
 def exact_log_likelihood(model):
@@ -380,3 +360,19 @@ def test_the_kriging_setting_is_checked_by_the_method(simulated):
     observations = read_observations(str(simulated), chain)
     with pytest.raises(InputError, match="--kriging must be one of exact, vecchia, auto"):
         make_method("kriging", kriging="sparse").fit(chain, observations)
+
+
+def _assert_gradient_is_the_likelihood_slope(problem, theta, nugget, Y, state):
+    """``state.gradient`` (d/d log θ_k, d/d log nugget) against central differences of the
+    summed log-likelihood of ``problem``."""
+    def value(log_theta, log_nugget):
+        return problem.condition(np.exp(log_theta), np.exp(log_nugget), Y).log_likelihood.sum()
+
+    step = 1e-6
+    for k in range(len(theta)):
+        e = np.zeros(len(theta))
+        e[k] = step
+        numeric = (value(np.log(theta) + e, np.log(nugget)) - value(np.log(theta) - e, np.log(nugget))) / (2 * step)
+        assert state.gradient[0][k] == pytest.approx(numeric, rel=1e-5, abs=1e-5)
+    numeric = (value(np.log(theta), np.log(nugget) + step) - value(np.log(theta), np.log(nugget) - step)) / (2 * step)
+    assert state.gradient[1] == pytest.approx(numeric, rel=1e-5, abs=1e-6)

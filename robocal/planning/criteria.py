@@ -117,7 +117,19 @@ def woodbury(P, blocks, sign, W=None):
     return logdet, np.einsum("kij,kji->k", S_inv, quad), S_inv, AP
 
 
-class InformationState:
+class _ChosenSet:
+    """A set of chosen candidates that ``_update(i, +1 or -1)`` keeps the state of."""
+
+    def add(self, i):
+        self.chosen.append(int(i))
+        self._update(i, +1)
+
+    def remove(self, i):
+        self.chosen.remove(int(i))
+        self._update(i, -1)
+
+
+class InformationState(_ChosenSet):
     """The information of a growing set of poses (see the module notes).
 
     blocks: (N, 3, P) candidate blocks; start: (P, P) information already there (the ridge
@@ -169,16 +181,8 @@ class InformationState:
         self.M += sign * block.T @ block
         self._refresh()
 
-    def add(self, i):
-        self.chosen.append(int(i))
-        self._update(i, +1)
 
-    def remove(self, i):
-        self.chosen.remove(int(i))
-        self._update(i, -1)
-
-
-class SandwichState:
+class SandwichState(_ChosenSet):
     """Least squares under a per-pose covariance (see the module notes): the expected mean
     squared error of the calibrated TCP at the targets, trace(W P B P), plus with ``bias``
     the squared error of the estimate's systematic shift.
@@ -266,14 +270,6 @@ class SandwichState:
         if self.bias is not None:
             self.g += sign * block.T @ self.bias[i]
         self._refresh()
-
-    def add(self, i):
-        self.chosen.append(int(i))
-        self._update(i, +1)
-
-    def remove(self, i):
-        self.chosen.remove(int(i))
-        self._update(i, -1)
 
 
 def information_start(candidate_blocks, before_blocks=None):
