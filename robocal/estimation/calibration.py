@@ -15,7 +15,8 @@ from ..errors import InputError, RobocalWarning
 from ..kinematics.compliant import with_compliance
 from .identifiability import NEAR_PARALLEL, analyse
 from .identification import (Analysis, FittedCalibration, IdentifiedResult, check_iterations, check_payload,
-                             identified_parameters, identify, one_of)
+                             check_prior, identified_parameters, identify, implausible_fit, one_of,
+                             tolerance_prior, tolerance_rms)
 from .least_squares import blocked_r_factor, held_in_blocks, levenberg_marquardt
 from .least_squares import residual as residual_of
 from .metrics import error_stats
@@ -26,6 +27,9 @@ __all__ = ["PARAMETER_SETS", "LOSSES", "CalibrationResult", "KinematicCalibratio
 
 PARAMETER_SETS = ("offsets", "full", "full+gains", "full+compliance", "full+compliance+gains")
 LOSSES = ("linear", "huber", "soft_l1")
+# "tolerances": maximum a posteriori, each parameter's deviation weighed against its
+# manufacturing tolerance (robocal.kinematics.tolerances); "none": plain least squares.
+PRIORS = ("tolerances", "none")
 # Nominal geometry of the right robot in the right unit lands within a few mm; a calibrated
 # model that still misses by this much is fitting the wrong robot, unit or data.  A robust
 # fit is judged on the poses it kept (weight >= OUTLIER_WEIGHT): the ones it down-weighted
@@ -230,6 +234,13 @@ class KinematicCalibration(FittedCalibration):
         Stop when an iteration lowers the cost by less than ``tolerance`` of it (on tracker
         data 1e-7 and 1e-9 give the same held-out error to 1e-5 mm; noise-free data still
         converge to rounding).
+    prior : str
+        'tolerances' (maximum a posteriori: every link parameter, gain and compliance is
+        weighed against its manufacturing tolerance, :mod:`robocal.kinematics.tolerances`,
+        so one the poses cannot pin stays near nominal, "held by its prior") or 'none'
+        (plain least squares).
+    tolerance_scale : float
+        Multiplies every tolerance (the robot file's ``[tolerances]`` or the defaults).
 
     The settings are stored as given and checked by :meth:`fit`.  After it: ``chain_`` (the
     calibrated chain, a CompliantChain for the compliance sets), ``start_chain_`` (the
@@ -241,7 +252,8 @@ class KinematicCalibration(FittedCalibration):
     RESULT = CalibrationResult
 
     def __init__(self, parameters="full", *, loss="linear", f_scale=None, position_sigma=0.02,
-                 orientation_sigma=0.01, register=True, payload=None, max_iterations=50, tolerance=1e-7):
+                 orientation_sigma=0.01, register=True, payload=None, max_iterations=50, tolerance=1e-7,
+                 prior="tolerances", tolerance_scale=1.0):
         self.parameters = parameters
         self.loss = loss
         self.f_scale = f_scale
@@ -251,13 +263,15 @@ class KinematicCalibration(FittedCalibration):
         self.payload = payload
         self.max_iterations = max_iterations
         self.tolerance = tolerance
+        self.prior = prior
+        self.tolerance_scale = tolerance_scale
 
     def get_settings(self):
         """The settings, as given to ``__init__``."""
         return {"parameters": self.parameters, "loss": self.loss, "f_scale": self.f_scale,
                 "position_sigma": self.position_sigma, "orientation_sigma": self.orientation_sigma,
                 "register": self.register, "payload": self.payload, "max_iterations": self.max_iterations,
-                "tolerance": self.tolerance}
+                "tolerance": self.tolerance, "prior": self.prior, "tolerance_scale": self.tolerance_scale}
 
     def _validate(self):
         """InputError naming the first bad setting; returns the payload (kg or None)."""
@@ -272,6 +286,7 @@ class KinematicCalibration(FittedCalibration):
         if not isinstance(self.register, (bool, np.bool_)):
             raise InputError(f"register must be True or False, got {self.register!r}")
         check_iterations(self.max_iterations)
+        check_prior(self.prior, self.tolerance_scale)
         return check_payload(self.payload)
 
     # ------------------------------------------------------------------ data
@@ -366,6 +381,7 @@ class KinematicCalibration(FittedCalibration):
         start = self._start(chain, q, target, rotations, compliant)
         weights = self._weights(len(q), sigmas, rotations is not None)
         before = error_stats((target - start.fk_positions(q)))
+        self._prior = tolerance_prior(start, names, q, self.prior, self.tolerance_scale, _deviation_from(start))
         found, residual, failure = self._identify(start, names, q, target, rotations, weights, self._robust_weights)
         if failure is not None:
             if self.loss == "linear":
@@ -387,6 +403,7 @@ class KinematicCalibration(FittedCalibration):
                                  if rotations is not None else None),
             iterations=found.iterations, converged=found.converged,
             outliers=tuple(int(i) for i in np.flatnonzero(found.fit.pose_weights < OUTLIER_WEIGHT)),
+            prior_std=None if self._prior is None else found.prior_std,
         )
         return self
 
@@ -395,10 +412,19 @@ class KinematicCalibration(FittedCalibration):
         failure is the message of a fit that is no calibration (residual too large on the poses
         the loss kept, deviations beyond manufacturing), else None."""
         steps = self._steps(q, target, rotations, weights, robust_weights)
-        found = identify(start, names, **steps, joints=q)
+        found = identify(start, names, **steps, joints=q, prior=self._prior)
         fitted = found.chain
         residual = residual_of(fitted, q, target, rotations)
         kept = found.fit.pose_weights >= OUTLIER_WEIGHT
+        if self._prior is not None:
+            values = fitted.parameter_values(list(found.names)) - start.parameter_values(list(found.names))
+            before = _rms((target - start.fk_positions(q))[kept]) if np.any(kept) else np.inf
+            after = _rms(residual[kept, :3]) if np.any(kept) else np.inf
+            noise = float(np.sqrt(np.mean(np.sum((1.0 / weights[:, :3]) ** 2, axis=1))))
+            expected = tolerance_rms(start, q, found.names, found.prior_std)
+            failure = implausible_fit(found.names, values, found.prior_std, before, after, noise, expected,
+                                      start.parameters, override="--tolerance-scale, or [tolerances] in the robot file")
+            return found, residual, failure
         rms = _rms(residual[kept, :3]) if np.any(kept) else np.inf
         if rms > WRONG_ROBOT_RMS_MM:
             on = "" if np.all(kept) else f" on the {np.count_nonzero(kept)} poses the robust loss kept"
@@ -413,8 +439,8 @@ class KinematicCalibration(FittedCalibration):
         # -32 deg (tool_z with it), predicting the other poses as well as the near minimum.
         # That one is found by fitting without what slid, then freeing it from there; data
         # that are not this robot's slide away again and are refused.
-        held = identify(start, [n for n in names if n not in slid], **steps, joints=q)
-        near = identify(held.chain, names, **steps, joints=q)
+        held = identify(start, [n for n in names if n not in slid], **steps, joints=q, prior=self._prior)
+        near = identify(held.chain, names, **steps, joints=q, prior=self._prior)
         values = near.chain.parameter_values(list(near.names)) - start.parameter_values(list(near.names))
         if _implausible(start, q, near.names, values)[0] is not None:
             return found, residual, (f"{failure}; if they are, these poses do not pin down "
@@ -435,8 +461,10 @@ class KinematicCalibration(FittedCalibration):
         order = np.argsort(-misses)
         kept = np.ones(len(q), dtype=bool)
         kept[outliers] = False
-        problem = failure.split(":")[0] if failure.startswith("the residual") else (
-            "the plain least-squares fit moves the robot far beyond manufacturing tolerances")
+        problem = (failure.split(":")[0] if failure.startswith("the residual") else
+                   "the calibration moves the robot far beyond manufacturing tolerances"
+                   if failure.startswith("the calibration moves") else
+                   "the calibration cannot explain these data")
         raise OutlierError(problem, outliers[order], misses[order], _rms(residual[kept, :3]))
 
     def _steps(self, q, target, rotations, weights, robust_weights):
@@ -473,7 +501,7 @@ class KinematicCalibration(FittedCalibration):
         def fit(chain, names):
             return levenberg_marquardt(chain, q, target, names, rotations=rotations, weights=weights,
                                        pose_weights=robust_weights, max_iterations=self.max_iterations,
-                                       tolerance=self.tolerance)
+                                       tolerance=self.tolerance, prior=self._prior)
 
         def linearise(fitted, names):
             # The covariance needs the residual and JᵀJ only: the R factor serves for large data.
@@ -502,6 +530,13 @@ class KinematicCalibration(FittedCalibration):
         sets).  InputError if not fitted.
         """
         return super().predict(joints)
+
+
+def _deviation_from(start):
+    """deviation(chain, names): the named parameters of ``chain`` minus ``start``'s."""
+    def deviation(chain, names):
+        return chain.parameter_values(names) - start.parameter_values(names)
+    return deviation
 
 
 def _warn_about_suspects(residual):

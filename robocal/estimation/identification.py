@@ -16,7 +16,7 @@ comes from.  This module runs the rest the same way for both:
 
 Names of the base frame and tool position parameters are defined here, once.
 """
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -25,8 +25,9 @@ from ..errors import FileFormatError, InputError
 from ..io.robot_file import chain_from_dict, chain_to_dict
 from ..kinematics.compliant import UNITS_NOTE, CompliantChain, file_units
 from ..kinematics.parameters import COMPLIANCE
+from ..kinematics.tolerances import prior_sigmas, tolerances_of
 from .identifiability import STRONG_CORRELATION, IdentifiabilityReport
-from .least_squares import Fit
+from .least_squares import Fit, Prior
 
 
 BASE = ("base_x", "base_y", "base_z", "base_rx", "base_ry", "base_rz")
@@ -52,6 +53,16 @@ GAIN_STD_LIMIT = 1e-3
 # arm).  Held out on random halves the rule changes the UR10 B figure by 0.0002 mm.
 COMPLIANCE_SIGNIFICANCE = 2.0
 MAX_GRAVITY_DEFLECTION_DEG = 0.25
+# A fit whose distance from nominal (sum of squared deviations over tolerances) would occur
+# with less than this probability under the tolerances is not this robot's (implausible_fit).
+PLAUSIBLE_PROBABILITY = 1e-6
+# A calibration of the right robot explains most of its nominal residual (implausible_fit).
+MIN_EXPLAINED = 0.5
+# ... unless the nominal residual is already within this many times the instrument's noise.
+NOISE_FLOOR = 3.0
+# A parameter whose prior variance the data reduce by less than half is "held by its prior":
+# the fit keeps it near nominal, within its tolerance, and says so.
+HELD_BY_PRIOR = 0.5
 
 
 # ------------------------------------------------------------------- settings
@@ -73,6 +84,96 @@ def check_iterations(value, setting="max_iterations"):
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
         raise InputError(f"{setting} must be a whole number >= 1, got {value!r}")
     return int(value)
+
+
+def check_prior(prior, scale):
+    """InputError unless ``prior`` is 'tolerances' or 'none' and ``scale`` a number > 0."""
+    one_of(prior, ("tolerances", "none"), "prior")
+    if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not np.isfinite(scale) or scale <= 0:
+        raise InputError(f"tolerance_scale must be a number > 0, got {scale!r}")
+
+
+def tolerance_prior(start, names, joints, prior, scale, deviation):
+    """The :class:`~robocal.estimation.least_squares.Prior` of a calibration from ``start``
+    over ``names`` at the configurations ``joints`` (N, n) rad: the robot's tolerances
+    (:mod:`robocal.kinematics.tolerances`) times ``scale``, centred on ``start`` by
+    ``deviation(chain, names)``; None when ``prior`` is 'none'."""
+    if prior == "none":
+        return None
+    sigmas = prior_sigmas(start, list(names), tolerances_of(start, scale), joints)
+    return Prior({n: float(s) for n, s in zip(names, sigmas) if np.isfinite(s)}, deviation)
+
+
+def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, tolerance_rms, space, *, override):
+    """The one-line reason a maximum a posteriori fit is not this robot's data, or None.
+
+    Two kinds of evidence, both in the data's own statistics rather than fixed millimetres:
+
+    * distance from nominal: sum over the parameters with a prior of (deviation /
+      tolerance)², against the chi-square quantile of as many degrees of freedom at
+      PLAUSIBLE_PROBABILITY (real arms: 4.5 to 16.5 for 16 to 18 parameters; a UR10's data
+      fitted as a UR5's move a2 and a3 by 180 mm, over 500 tolerances);
+    * what calibration explains: a calibration within the tolerances that explains less
+      than MIN_EXPLAINED of the nominal robot's residual variance, and still misses by more
+      than the whole error the tolerances predict for the nominal robot (``tolerance_rms``)
+      and than NOISE_FLOOR times the instrument's noise, is not of this robot's data (real
+      arms: 93 to 98 % explained; another robot's data or another unit: under 5 %, missing
+      by hundreds of mm, the prior holding a model that cannot fit them).  A robot already
+      calibrated, whose small residual is mostly what no geometry explains, passes.
+
+    names, values, prior_std: (P,) the fitted deviations and their tolerances (internal
+    units, inf for none); before_rms, after_rms: mm RMS of the registered nominal and the
+    calibrated model; noise_rms: mm RMS the instrument's noise alone gives; tolerance_rms: mm
+    RMS of the nominal robot's error that the tolerances predict at these poses; space: the chain's
+    parameter space (for units); override: the option that widens the tolerances.
+    """
+    from scipy.stats import chi2
+
+    values = np.asarray(values, dtype=float)
+    prior = np.asarray(prior_std, dtype=float)
+    held = np.isfinite(prior)
+    z = np.where(held, values / np.where(held, prior, 1.0), 0.0)
+    distance = float(np.sum(z ** 2))
+    limit = float(chi2.isf(PLAUSIBLE_PROBABILITY, max(int(held.sum()), 1)))
+    if distance > limit:
+        worst = np.argsort(-np.abs(z))[:3]
+        said = ", ".join(f"{names[k]} by {_shown(space, names[k], values[k])} ({abs(z[k]):.0f} tolerances)"
+                         for k in worst if held[k] and abs(z[k]) > 1)
+        return (f"the calibration moves {said} from the registered nominal robot: {distance:.0f} squared "
+                f"tolerances in all where a robot of this type stays within {limit:.0f}, so these data are not this "
+                f"robot's, or not in mm and degrees: check the robot file and the data, or widen the tolerances "
+                f"({override})")
+    explained = 1.0 - (after_rms / before_rms) ** 2 if before_rms > 0 else 1.0
+    if after_rms > max(NOISE_FLOOR * noise_rms, tolerance_rms) and explained < MIN_EXPLAINED:
+        return (f"the registered nominal robot misses these data by {before_rms:.1f} mm RMS and its calibration "
+                f"within the tolerances still by {after_rms:.1f} mm (it explains {max(explained, 0.0):.0%} of the "
+                f"error, and a robot within its tolerances misses by {tolerance_rms:.1f} mm in all): is this the right robot "
+                f"and unit (mm, degrees) for these data? If it is, widen the tolerances ({override})")
+    return None
+
+
+def tolerance_rms(chain, joints, names, prior_std, rows=3, most=2000):
+    """mm RMS of the TCP error the tolerances predict for the nominal robot at ``joints``
+    (N, n) rad: sqrt(mean trace(J Σp Jᵀ)) over the position rows of the identification
+    Jacobian of ``names`` with prior standard deviations ``prior_std`` (at most ``most``
+    poses, evenly spread)."""
+    prior = np.asarray(prior_std, dtype=float)
+    held = np.isfinite(prior)
+    if not np.any(held):
+        return 0.0
+    q = np.asarray(joints, dtype=float)
+    q = q[np.linspace(0, len(q) - 1, min(len(q), most)).astype(int)]
+    held_names = [n for n, h in zip(names, held) if h]
+    jac = chain.identification_jacobian(q, held_names)[:, :rows, :] * prior[held]
+    return float(np.sqrt(np.sum(jac ** 2) / len(q)))
+
+
+def _shown(space, name, value):
+    """A deviation in file units with its unit: '12.7 deg', '283.3 mm', '1200 ppm'."""
+    record = space.get(name)
+    if record is None:
+        return f"{value:.3g}"
+    return f"{value * record.file_factor:.3g} {record.file_unit}"
 
 
 def one_of(value, choices, setting):
@@ -102,8 +203,10 @@ class Identification:
     chain: the fitted chain; names: the identified parameters (tuple of str); report: the
     IdentifiabilityReport (joint gains left out for a loose fit among its fixed ones);
     iterations: fit steps over all fits; converged: of the last fit; fit: the last
-    :class:`Fit`; std_errors: (P,) standard errors of the identified deviations (rad, mm,
-    ...); correlated_pairs: ((name, name, correlation), ...) beyond STRONG_CORRELATION.
+    :class:`Fit`; std_errors: (P,) posterior standard errors of the identified deviations
+    (rad, mm, ...); correlated_pairs: ((name, name, correlation), ...) beyond
+    STRONG_CORRELATION; covariance: (P, P) their posterior covariance; prior_std: (P,) their
+    prior standard deviations (inf: no prior).
     """
 
     chain: object
@@ -114,27 +217,46 @@ class Identification:
     fit: Fit
     std_errors: np.ndarray
     correlated_pairs: tuple
+    covariance: np.ndarray = None
+    prior_std: np.ndarray = None
 
 
 # ---------------------------------------------------------------------- core
-def covariance(residual, jacobian, names):
-    """Standard errors and strongly correlated pairs of a weighted least-squares fit.
+def covariance(residual, jacobian, names, prior_std=None):
+    """Posterior covariance, standard errors and strongly correlated pairs of a weighted
+    least-squares fit.
 
     residual: (m,) weighted residual at the fit; jacobian: (m, P) its weighted Jacobian
-    columns for ``names``.  The residual variance is estimated from the fit (m - P degrees
-    of freedom); columns are scaled to unit norm before the (pseudo-)inverse.
-    Returns ((P,) standard errors, ((name, name, correlation), ...)).
+    columns for ``names`` (or an R factor (P, P) with RᵀR = JᵀJ);
+    prior_std: (P,) prior standard deviations (inf or None: no prior).  The residual
+    variance is estimated from the fit (m - P degrees of freedom); the posterior precision is
+    JᵀJ over it plus the prior's; columns are scaled to unit norm before the
+    (pseudo-)inverse.  Returns ((P, P) covariance, (P,) standard errors,
+    ((name, name, correlation), ...)).
     """
     dof = max(len(residual) - len(names), 1)
     sigma2 = float(residual @ residual) / dof
     scale = np.linalg.norm(jacobian, axis=0)
     scale[scale == 0] = 1.0
-    cov = sigma2 * np.linalg.pinv((jacobian / scale).T @ (jacobian / scale)) / np.outer(scale, scale)
+    scaled = jacobian / scale
+    precision = scaled.T @ scaled
+    if prior_std is not None and sigma2 > 0:
+        precision = precision + np.diag(sigma2 / (np.asarray(prior_std, dtype=float) * scale) ** 2)
+    cov = sigma2 * np.linalg.pinv(precision, hermitian=True) / np.outer(scale, scale)
     std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(std, std)
     upper = np.argwhere(np.triu(np.abs(corr) > STRONG_CORRELATION, 1))
-    return std, tuple((names[a], names[b], float(corr[a, b])) for a, b in upper)
+    return cov, std, tuple((names[a], names[b], float(corr[a, b])) for a, b in upper)
+
+
+def data_share(std_errors, prior_std):
+    """(P,) how much of each parameter's prior variance the data removed: 1 - posterior
+    variance / prior variance (1 where there is no prior: the data alone determine it)."""
+    prior = np.asarray(prior_std, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = 1.0 - (np.asarray(std_errors, dtype=float) / prior) ** 2
+    return np.where(np.isfinite(prior), np.clip(share, 0.0, 1.0), 1.0)
 
 
 def loose_gains(chain, names, std_errors):
@@ -171,7 +293,7 @@ def loose_compliances(fitted, names, std_errors, joints):
     return out
 
 
-def _settle(start, candidates, analyse, fit, linearise):
+def _settle(start, candidates, analyse, fit, linearise, prior=None):
     """Analyse, fit, analyse again at the fit until the identified set settles (at most
     MAX_ANALYSES analyses).  The report is that of the analysis whose set was fitted last."""
     fitted, identified, iterations, analysis = Fit(start, 0, False), None, 0, None
@@ -182,13 +304,16 @@ def _settle(start, candidates, analyse, fit, linearise):
         identified = analysis.identified
         fitted = fit(fitted.chain, identified)
         iterations += fitted.iterations
-    std, pairs = covariance(*linearise(fitted, list(identified)), list(identified))
+    prior_std = None if prior is None else prior.sigmas(list(identified))
+    residual, jacobian = linearise(fitted, list(identified))[:2]
+    cov, std, pairs = covariance(residual, jacobian, list(identified), prior_std)
     return Identification(chain=fitted.chain, names=tuple(identified), report=analysis.explain(),
                           iterations=iterations, converged=fitted.converged, fit=fitted,
-                          std_errors=std, correlated_pairs=pairs)
+                          std_errors=std, correlated_pairs=pairs, covariance=cov,
+                          prior_std=np.full(len(identified), np.inf) if prior_std is None else prior_std)
 
 
-def identify(start, candidates, *, analyse, fit, linearise, joints=None):
+def identify(start, candidates, *, analyse, fit, linearise, joints=None, prior=None):
     """Identify what the data determine among ``candidates``, from the chain ``start``.
 
     analyse(chain, candidates) -> :class:`Analysis`; fit(chain, names) ->
@@ -198,14 +323,16 @@ def identify(start, candidates, *, analyse, fit, linearise, joints=None):
     torques that judge a compliance).  When some joint gains come out looser than
     GAIN_STD_LIMIT, or some compliances fail :func:`loose_compliances`, the whole
     identification runs again from ``start`` without them, and the report says why they
-    were left out.  Returns an :class:`Identification`.
+    were left out.  ``prior``: the :class:`~robocal.estimation.least_squares.Prior` that
+    ``fit`` uses, for the posterior covariance (None: plain least squares).  Returns an
+    :class:`Identification`.
     """
-    found = _settle(start, list(candidates), analyse, fit, linearise)
+    found = _settle(start, list(candidates), analyse, fit, linearise, prior)
     loose = {**loose_gains(start, found.names, found.std_errors),
              **loose_compliances(found.chain, found.names, found.std_errors, joints)}
     if not loose:
         return found
-    again = _settle(start, [n for n in candidates if n not in loose], analyse, fit, linearise)
+    again = _settle(start, [n for n in candidates if n not in loose], analyse, fit, linearise, prior)
     return replace(again, iterations=found.iterations + again.iterations,
                    report=replace(again.report, fixed={**again.report.fixed, **loose}))
 
@@ -213,11 +340,17 @@ def identify(start, candidates, *, analyse, fit, linearise, joints=None):
 # -------------------------------------------------------------------- results
 def identified_parameters(chain, result):
     """The part of a calibration record every method shares: each identified parameter's
-    deviation and standard error in file units, correlated pairs and the identifiability."""
+    deviation and standard error in file units (with a prior, its tolerance, ``null`` for
+    none, and the share of its prior variance the data removed), correlated pairs and the
+    identifiability."""
     unit = file_units(chain, result.names)
+    entries = {n: {"deviation": float(v), "std_error": float(s)}
+               for n, v, s in zip(result.names, result.values * unit, result.std_errors * unit)}
+    if result.prior_std is not None:
+        for n, p, share in zip(result.names, result.prior_std * unit, result.data_share):
+            entries[n].update(prior_std=float(p) if np.isfinite(p) else None, data_share=float(share))
     return {
-        "parameters": {n: {"deviation": float(v), "std_error": float(s)}
-                       for n, v, s in zip(result.names, result.values * unit, result.std_errors * unit)},
+        "parameters": entries,
         "units": UNITS_NOTE,
         "correlated_pairs": [list(p) for p in result.correlated_pairs],
         "identifiability": result.identifiability.to_dict(),
@@ -232,7 +365,9 @@ class IdentifiedResult:
     (rad, mm, rad/(N·m), gain); std_errors: (P,) standard errors of those; correlated_pairs:
     ((name, name, correlation), ...); identifiability: IdentifiabilityReport;
     residual_before / residual_after: error statistics of the starting and the calibrated
-    model on the training data (mm); iterations; converged.
+    model on the training data (mm); iterations; converged; prior_std: (P,) the prior
+    standard deviations (the tolerances; inf: no prior), and data_share: (P,) how much of
+    each prior variance the data removed (:func:`data_share`), or None for a plain fit.
     """
 
     names: tuple
@@ -244,6 +379,19 @@ class IdentifiedResult:
     residual_after: dict
     iterations: int
     converged: bool
+    prior_std: np.ndarray | None = field(default=None, kw_only=True)
+
+    @property
+    def data_share(self):
+        """(P,) 1 - posterior / prior variance per parameter (1 without a prior), or None."""
+        return None if self.prior_std is None else data_share(self.std_errors, self.prior_std)
+
+    @property
+    def held_by_prior(self):
+        """The parameters whose uncertainty the data reduced by less than half
+        (HELD_BY_PRIOR): they stay near nominal within their tolerance."""
+        share = self.data_share
+        return () if share is None else tuple(n for n, s in zip(self.names, share) if s < HELD_BY_PRIOR)
 
     def _details(self):
         """The result's own entries of :meth:`to_dict`, in their order."""
@@ -261,7 +409,11 @@ class IdentifiedResult:
         names = tuple(doc["parameters"])
         unit = file_units(chain, names)
         ident = dict(doc["identifiability"])
+        with_prior = all("prior_std" in doc["parameters"][n] for n in names) and bool(names)
+        prior = (np.array([np.inf if doc["parameters"][n]["prior_std"] is None else doc["parameters"][n]["prior_std"]
+                           for n in names], dtype=float) / unit) if with_prior else None
         return dict(
+            prior_std=prior,
             names=names,
             values=np.array([doc["parameters"][n]["deviation"] for n in names], dtype=float) / unit,
             std_errors=np.array([doc["parameters"][n]["std_error"] for n in names], dtype=float) / unit,

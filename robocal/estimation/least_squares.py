@@ -14,6 +14,7 @@ same QR of the columns and the same singular values as J itself.  Only the per-p
 (N, 3) or (N, 6), is held whole.
 """
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -71,6 +72,45 @@ def blocked_normal_equations(rows_of, r, count, size=None):
 
 
 @dataclass(frozen=True)
+class Prior:
+    """A Gaussian prior on the deviations of named parameters from a reference model: the
+    fit minimises |r|² + k² Σ (x_i / sigma_i)², maximum a posteriori for a residual whose
+    rows have noise k (estimated from the data, below).
+
+    sigma: {name: one standard deviation, internal units}; a name it lacks has no prior
+    (flat).  deviation(chain, names) -> (P,) the named parameters' deviations of ``chain``
+    from the reference (the prior's centre).
+    """
+
+    sigma: dict
+    deviation: Callable
+
+    def sigmas(self, names):
+        """(P,) the prior standard deviations of ``names`` (inf: no prior)."""
+        return np.array([self.sigma.get(n, np.inf) for n in names], dtype=float)
+
+    def rows(self, chain, names):
+        """((P,) deviations in standard deviations, (P,) 1/sigma): the prior's residual rows
+        before the noise scale k, and their derivative (0 where there is no prior)."""
+        inverse = 1.0 / self.sigmas(names)
+        return self.deviation(chain, list(names)) * inverse, inverse
+
+
+def noise_variance(linear_residual, columns):
+    """The residual rows' noise variance a fit will leave: the scatter of the rows that no
+    step of the linearised model explains (``linear_residual``, (m,)), from their median
+    absolute value (1.4826 x median is sigma for Gaussian rows, and a few gross outliers do
+    not inflate it), corrected for the ``columns`` degrees of freedom the fit takes.
+    Estimated at every linearisation, it weighs the prior against the data as the data's own
+    scatter says, so data that fit to their noise need no stated sigma to be weighed right."""
+    rows = len(linear_residual)
+    if rows == 0:
+        return 0.0
+    sigma = 1.4826 * float(np.median(np.abs(linear_residual)))
+    return sigma * sigma * rows / max(rows - columns, 1)
+
+
+@dataclass(frozen=True)
 class Fit:
     """How a least-squares fit ended.
 
@@ -99,12 +139,14 @@ def residual(chain, joints, positions, rotations=None):
 
 
 def levenberg_marquardt(chain, joints, positions, names, *, rotations=None, weights=None,
-                        pose_weights=None, max_iterations=50, tolerance=1e-12):
+                        pose_weights=None, max_iterations=50, tolerance=1e-12, prior=None):
     """Fit the named parameters to measured positions (and rotations).  weights: (N, 3 or 6)
     row weights (1/sigma); pose_weights: callable (weighted residual (N, k)) -> (N,) robust
     weights, re-evaluated at every linearisation (iteratively reweighted least squares), or None.
     Above BLOCK_POSES poses the Jacobian is formed that many poses at a time and reduced to
     normal equations; the steps are those of the whole Jacobian.
+
+    ``prior``: a :class:`Prior` (maximum a posteriori), or None.
 
     Returns a :class:`Fit` with the final pose weights (all 1 without ``pose_weights``).
     """
@@ -137,12 +179,13 @@ def levenberg_marquardt(chain, joints, positions, names, *, rotations=None, weig
         return (weighted(c) * np.sqrt(state["robust"])[:, None]).reshape(-1)
 
     fit = damped_least_squares(chain, names, linearise, weighted_only, max_iterations=max_iterations,
-                               tolerance=tolerance, damping=KINEMATIC_DAMPING)
+                               tolerance=tolerance, damping=KINEMATIC_DAMPING, prior=prior)
     robust = robust_of(weighted(fit.chain)) if pose_weights else state["robust"]
     return Fit(fit.chain, fit.iterations, fit.converged, robust)
 
 
-def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50, tolerance=1e-12, damping=1e-4):
+def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50, tolerance=1e-12, damping=1e-4,
+                         prior=None):
     """Minimise |r|^2 over deviations of the named parameters, for any residual of the chain.
 
     linearise(chain) -> (r (m,), J (m, P)) with r(chain.perturbed(names, x)) ~ r + J x, or
@@ -152,18 +195,24 @@ def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50
     ``tolerance`` of it, the step or the cost is negligible, or no step lowers the cost.
     ``linearise`` may reweight the residual (robust losses): the cost is taken afresh at
     every linearisation.  ``damping``: the starting Levenberg–Marquardt damping, relative to
-    the diagonal of the column-scaled normal matrix.  Returns a :class:`Fit`.
+    the diagonal of the column-scaled normal matrix.  ``prior``: a :class:`Prior`, whose rows
+    are weighed by the noise the linearised data leave (:func:`noise_variance`), re-estimated
+    at every linearisation; None for plain least squares.  Returns a :class:`Fit`.
     """
     names = list(names)
-    current, jac = linearise(chain)
-    cost = float(current @ current)
+    count = len(names)
+
+    def prior_cost(c, noise):
+        if prior is None:
+            return 0.0
+        deviation = prior.rows(c, names)[0]
+        return noise * float(deviation @ deviation)
+
     converged = False
     iteration = 0
     for iteration in range(1, max_iterations + 1):
-        if iteration > 1:
-            current, jac = linearise(chain)
-            cost = float(current @ current)
-        size = max(np.linalg.norm(current), 1e-300)
+        current, jac = linearise(chain)
+        cost = float(current @ current)
         if isinstance(jac, NormalEquations):
             scale = np.sqrt(np.diag(jac.normal))
             scale[scale == 0] = 1.0
@@ -173,6 +222,20 @@ def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50
             scale[scale == 0] = 1.0
             a_s = jac / scale
             normal, gradient = a_s.T @ a_s, -(a_s.T @ current)
+        noise = 0.0
+        if prior is not None:
+            step_linear = np.linalg.pinv(normal, hermitian=True) @ gradient
+            if isinstance(jac, NormalEquations):
+                # Only the normal equations are held: the explained part of the cost, spread evenly.
+                rss = max(cost - float(gradient @ step_linear), 0.0)
+                noise = rss / max(len(current) - count, 1)
+            else:
+                noise = noise_variance(current + a_s @ step_linear, count)
+            deviation, inverse = prior.rows(chain, names)
+            normal = normal + np.diag(noise * (inverse / scale) ** 2)
+            gradient = gradient - noise * deviation * inverse / scale
+            cost += noise * float(deviation @ deviation)
+        size = max(np.sqrt(cost), 1e-300)
         if np.max(np.abs(gradient)) <= 1e-12 * size:
             converged = True
             break
@@ -182,7 +245,7 @@ def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50
             step = step_s / scale
             candidate = chain.perturbed(names, step)
             new = residual(candidate)
-            new_cost = float(new @ new)
+            new_cost = float(new @ new) + prior_cost(candidate, noise)
             if new_cost <= cost or damping > 1e10 or np.linalg.norm(step_s) <= 1e-12 * size:
                 break
             damping *= 10.0

@@ -34,7 +34,7 @@ _LINK_KEYS = {"dh": ("a", "alpha", "d", "theta"), "mdh": ("a", "alpha", "d", "th
 # beta (Hayati) belongs to DH/MDH joints only: a POE axis already takes any direction.
 _OPTIONAL_JOINT_KEYS = ("min", "max", "type", "sign", "name", "mass")
 _TOP_KEYS = ("name", "convention", "description", "joints", "tool", "base", "flange", "home",
-             "joint_map", "notes")
+             "joint_map", "notes", "tolerances")
 
 
 def _fail(path, message):
@@ -68,6 +68,23 @@ def _frame(path, table, key):
     xyz = _vector(path, f"[{key}] xyz", sub.get("xyz", [0.0, 0.0, 0.0]))
     rpy = _vector(path, f"[{key}] rpy", sub.get("rpy", [0.0, 0.0, 0.0]))
     return compose_pose(xyz, np.radians(rpy))
+
+
+def _tolerances(path, doc):
+    """The [tolerances] table over the defaults (:mod:`robocal.kinematics.tolerances`), or None."""
+    if "tolerances" not in doc:
+        return None
+    from ..kinematics.tolerances import Tolerances
+
+    # Read against placeholders; the defaults depend on the whole chain and fill the rest later.
+    table = doc["tolerances"]
+    try:
+        keys = {name for name, (key, _) in Tolerances.FILE_KEYS.items() if isinstance(table, dict) and key in table}
+        placeholder = Tolerances(*([1.0] * len(Tolerances.FILE_KEYS)))
+        given = placeholder.with_file_values(table)
+    except InputError as exc:
+        _fail(path, str(exc))
+    return {name: getattr(given, name) for name in keys}
 
 
 def _check_keys(path, where, keys, allowed):
@@ -105,6 +122,7 @@ def chain_from_dict(doc, path="<robot>"):
         theta=columns["theta"], joint_map=joint_map, lower=columns["min"], upper=columns["max"],
         base=_frame(path, doc, "base"), tool=_frame(path, doc, "tool"),
         masses=columns["mass"] or None,
+        tolerances=_tolerances(path, doc),
     )
     fields.update(_convention_fields(path, doc, convention, columns))
     try:
@@ -283,6 +301,12 @@ def robot_to_toml(chain: Chain, description=None) -> str:
         lines += _frame_lines("flange", chain.flange)
     lines += _frame_lines("tool", chain.tool)
     lines += _frame_lines("base", chain.base)
+    if chain.tolerances:
+        from ..kinematics.tolerances import Tolerances
+
+        keys = Tolerances.FILE_KEYS
+        lines += ["[tolerances]"] + [f"{keys[name][0]} = {_fmt(value * keys[name][1])}"
+                                     for name, value in chain.tolerances.items()] + [""]
     return "\n".join(lines).rstrip() + "\n"
 
 

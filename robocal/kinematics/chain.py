@@ -75,6 +75,9 @@ class Chain:
     tool: np.ndarray = field(default_factory=lambda: np.eye(4))
     # (n,) kg, link i's mass (the body joint i moves), for gravity loads; None: unknown.
     masses: np.ndarray | None = None
+    # The robot file's [tolerances]: {kind: one standard deviation, internal units} for the kinds
+    # it gives (robocal.kinematics.tolerances); None: the defaults for all.
+    tolerances: dict | None = None
 
     def __post_init__(self):
         if self.convention not in CONVENTIONS:

@@ -92,6 +92,7 @@ class CompliantChain:
     flange = _rigid_field("flange")
     tool = _rigid_field("tool")
     masses = _rigid_field("masses")
+    tolerances = _rigid_field("tolerances")
     within_limits = _rigid_method("within_limits")
     random_configurations = _rigid_method("random_configurations")
     joints_from_file = _rigid_method("joints_from_file")

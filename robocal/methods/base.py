@@ -56,6 +56,11 @@ PARAMETERS = Setting("parameters", "full", "--parameters",
 LOSS = Setting("loss", "linear", "--loss", "linear, huber or soft_l1 (robust)")
 PAYLOAD = Setting("payload", None, "--payload", "full+compliance: mass at the TCP in kg")
 RANDOM_STATE = Setting("random_state", 0, "--seed", "seed of the random search")
+PRIOR = Setting("prior", "tolerances", "--prior",
+                "tolerances (each parameter weighed against its manufacturing tolerance: maximum a posteriori) "
+                "or none (plain least squares)")
+TOLERANCE_SCALE = Setting("tolerance_scale", 1.0, "--tolerance-scale",
+                          "multiplies every tolerance (the robot file's [tolerances] or the defaults)")
 
 
 class Method:

@@ -6,8 +6,8 @@ import warnings
 from ..compensation import Compensator
 from ..estimation.calibration import LOSSES, KinematicCalibration, OutlierError, OutlierWarning
 from ..estimation.metrics import error_stats
-from .base import LOSS, PARAMETERS, PAYLOAD, REGISTER, REGISTER_CHOICES, Method, check_parameters, one_of, \
-    require_positions
+from .base import LOSS, PARAMETERS, PAYLOAD, PRIOR, REGISTER, REGISTER_CHOICES, TOLERANCE_SCALE, Method, \
+    check_parameters, one_of, require_positions
 from .records import CalibrationRecord, FitRecord
 from .frames import registered_nominal
 
@@ -16,12 +16,13 @@ class KinematicMethod(Method):
     """Parametric calibration (see :class:`~robocal.estimation.calibration.KinematicCalibration`).
 
     Settings: register ('auto', 'yes', 'no'), parameters (a parameter set), loss ('linear',
-    'huber', 'soft_l1') and payload (kg at the TCP, compliance sets only).
+    'huber', 'soft_l1'), payload (kg at the TCP, compliance sets only), prior ('tolerances':
+    maximum a posteriori, or 'none') and tolerance_scale.
     """
 
     name = "kinematic"
     description = "parametric calibration of links, base and tool (optionally joint compliance and gains)"
-    settings = (REGISTER, PARAMETERS, LOSS, PAYLOAD)
+    settings = (REGISTER, PARAMETERS, LOSS, PAYLOAD, PRIOR, TOLERANCE_SCALE)
 
     def calibration(self):
         """The unfitted :class:`KinematicCalibration` these settings ask for."""
@@ -29,7 +30,7 @@ class KinematicMethod(Method):
         one_of(self.loss, LOSSES, "loss")
         check_parameters(self.parameters, self.payload)
         return KinematicCalibration(parameters=self.parameters, loss=self.loss, register=self.register != "no",
-                                    payload=self.payload)
+                                    payload=self.payload, prior=self.prior, tolerance_scale=self.tolerance_scale)
 
     def _fit(self, chain, observations, progress):
         obs = require_positions(observations, self.name)

@@ -19,11 +19,28 @@ def _present(record, names):
 
 @dataclass(frozen=True)
 class ParameterEstimate:
-    """An identified parameter: its deviation from the starting model and standard error,
-    in the file unit of the parameter (mm, deg, urad/(N*m) or ppm)."""
+    """An identified parameter: its deviation from the starting model and (posterior)
+    standard error, in the file unit of the parameter (mm, deg, urad/(N*m) or ppm); with a
+    prior, its tolerance (None: no prior) and the share of the prior variance the data
+    removed (None for a plain fit)."""
 
     deviation: float
     std_error: float
+    prior_std: float | None = None
+    data_share: float | None = None
+
+    def to_dict(self):
+        out = {"deviation": self.deviation, "std_error": self.std_error}
+        if self.data_share is not None:
+            out.update(prior_std=self.prior_std, data_share=self.data_share)
+        return out
+
+    @classmethod
+    def from_dict(cls, doc):
+        share = doc.get("data_share")
+        prior = doc.get("prior_std")
+        return cls(float(doc["deviation"]), float(doc["std_error"]), None if prior is None else float(prior),
+                   None if share is None else float(share))
 
 
 @dataclass(frozen=True)
@@ -54,9 +71,15 @@ class CalibrationRecord:
     unobservable: tuple = ()
     pairs: dict = field(default_factory=dict)
 
+    @property
+    def held_by_prior(self):
+        """Names whose prior variance the data reduced by less than half: kept near nominal."""
+        from ..estimation.identification import HELD_BY_PRIOR
+
+        return tuple(n for n, p in self.parameters.items() if p.data_share is not None and p.data_share < HELD_BY_PRIOR)
+
     def to_dict(self):
-        out = {"parameters": {name: {"deviation": p.deviation, "std_error": p.std_error}
-                              for name, p in self.parameters.items()},
+        out = {"parameters": {name: p.to_dict() for name, p in self.parameters.items()},
                "units": self.units, "correlated_pairs": [list(p) for p in self.correlated_pairs],
                "identifiability": self.identifiability.to_dict(),
                "residual_before": self.residual_before, "residual_after": self.residual_after,
@@ -72,8 +95,7 @@ class CalibrationRecord:
     def from_dict(cls, doc):
         ident = doc["identifiability"]
         common = dict(
-            parameters={name: ParameterEstimate(float(p["deviation"]), float(p["std_error"]))
-                        for name, p in doc["parameters"].items()},
+            parameters={name: ParameterEstimate.from_dict(p) for name, p in doc["parameters"].items()},
             units=doc["units"], correlated_pairs=tuple(tuple(p) for p in doc["correlated_pairs"]),
             identifiability=IdentifiabilityReport(**{f.name: ident[f.name] for f in fields(IdentifiabilityReport)
                                                      if f.name in ident}),
