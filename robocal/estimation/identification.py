@@ -56,6 +56,10 @@ MAX_GRAVITY_DEFLECTION_DEG = 0.25
 # A fit whose distance from nominal (sum of squared deviations over tolerances) would occur
 # with less than this probability under the tolerances is not this robot's (implausible_fit).
 PLAUSIBLE_PROBABILITY = 1e-6
+# ... and that moves some parameter by more than this many tolerances: real arms have a few
+# well-determined deviations far beyond the tolerance of their kind (the MUKCa Pandas' wrist
+# axes, 24), another robot's geometry hundreds.
+GROSS_TOLERANCES = 50.0
 # A calibration of the right robot explains most of its nominal residual (implausible_fit).
 MIN_EXPLAINED = 0.5
 # ... unless the nominal residual is already within this many times the instrument's noise.
@@ -111,8 +115,11 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
 
     * distance from nominal: sum over the parameters with a prior of (deviation /
       tolerance)², against the chi-square quantile of as many degrees of freedom at
-      PLAUSIBLE_PROBABILITY (real arms: 4.5 to 16.5 for 16 to 18 parameters; a UR10's data
-      fitted as a UR5's move a2 and a3 by 180 mm, over 500 tolerances);
+      PLAUSIBLE_PROBABILITY, with at least one deviation beyond GROSS_TOLERANCES (real arms
+      on tracker data: 4.5 to 16.5 for 16 to 18 parameters; the Pandas' ball-in-socket data
+      990 for 30, a wrist axis 10 mm, 24 tolerances, from the nominal POE model, well
+      determined; a UR10's data fitted as a UR5's move a2 and a3 by 180 mm, over 500
+      tolerances);
     * what calibration explains: a calibration within the tolerances that explains less
       than MIN_EXPLAINED of the nominal robot's residual variance, and still misses by more
       than the whole error the tolerances predict for the nominal robot (``tolerance_rms``)
@@ -135,7 +142,7 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
     z = np.where(held, values / np.where(held, prior, 1.0), 0.0)
     distance = float(np.sum(z ** 2))
     limit = float(chi2.isf(PLAUSIBLE_PROBABILITY, max(int(held.sum()), 1)))
-    if distance > limit:
+    if distance > limit and np.max(np.abs(z)) > GROSS_TOLERANCES:
         worst = np.argsort(-np.abs(z))[:3]
         said = ", ".join(f"{names[k]} by {_shown(space, names[k], values[k])} ({abs(z[k]):.0f} tolerances)"
                          for k in worst if held[k] and abs(z[k]) > 1)

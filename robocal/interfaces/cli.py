@@ -542,6 +542,8 @@ def calibrate(
     parameters: str = typer.Option(None, help="kinematic/hybrid/constraint (ann with --base-model kinematic): parameter set, offsets, full (default), full+gains (plus a scale error of each joint reading), full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains; frames: frames (default) or frames+offsets.", **_choice(PARAMETER_SETS + FRAME_PARAMETERS)),
     loss: str = typer.Option(None, help="kinematic/hybrid: the loss (default linear; the others are robust to outliers).", **_choice(LOSSES)),
     payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (default: 0 if the robot file gives link masses, else the rated payload of a robot of that size).", **_number(at_least=0)),
+    prior: str = typer.Option(None, help="kinematic/hybrid/constraint: tolerances (default: each parameter weighed against its manufacturing tolerance, maximum a posteriori; one the poses cannot pin stays near nominal) or none (plain least squares).", **_choice(("tolerances", "none"))),
+    tolerance_scale: float = typer.Option(None, "--tolerance-scale", help="kinematic/hybrid/constraint: multiply every tolerance (the robot file's [tolerances] or the defaults) by this, for a robot known to lie further from its drawing.", **_number(between=(0, 1e6))),
     seed: int = typer.Option(None, help=SEED_HELP + " Default 0.", **_number(whole=True, at_least=0)),
     hidden: str = typer.Option(None, help="ann: hidden layer widths, at least two (default 16,16).", **_numbers(whole=True, at_least=1, at_least_count=2, example="16,16")),
     generations: int = typer.Option(None, help="ann: generation limit of the genetic algorithm (default 300).", **_number(whole=True, at_least=0)),
@@ -569,7 +571,8 @@ def calibrate(
     settings = _method_settings(
         method, seed=seed, nugget=nugget, hidden=hidden, shared_theta=shared_theta, register=register, trend=trend,
         correlation=correlation, inputs=inputs, kriging=kriging, parameters=parameters, loss=loss, payload=payload,
-        generations=generations, trainer=trainer, refine=refine, base_model=base_model, pairs=pairs)
+        generations=generations, trainer=trainer, refine=refine, base_model=base_model, pairs=pairs, prior=prior,
+        tolerance_scale=tolerance_scale)
     if method == FRAMES:
         return _reregister(robot, measurements, out_file, settings, beyond_limits, as_json, root=root, tip=tip,
                            fixture=fixture)

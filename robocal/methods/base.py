@@ -81,6 +81,9 @@ class Method:
     # Whether a fit has independent pieces that an active robocal.parallel executor runs on
     # its workers (calibrate --jobs): Kriging's likelihood search of each error component.
     spreads_work: ClassVar[bool] = False
+    # Whether the fit itself judges that the data are this robot's (a calibration under the
+    # tolerances does); if not, fit runs robocal.methods.plausibility.check_robot_data first.
+    checks_its_data: ClassVar[bool] = False
 
     def __init__(self, **settings):
         known = {s.name for s in self.settings}
@@ -104,7 +107,13 @@ class Method:
         """Fit to ``observations`` (:class:`~robocal.io.observations.Observations`) of ``chain``;
         returns self with ``compensator_``, ``reference_``, ``record_`` and ``domain_`` (the
         training data's :class:`~robocal.methods.domain.Domain`).  ``progress(**info)`` is
-        called as the fit reports its steps (see :meth:`progress_total`)."""
+        called as the fit reports its steps (see :meth:`progress_total`).  Data that cannot be
+        this robot's are refused first (:mod:`robocal.methods.plausibility`)."""
+        if not self.checks_its_data:
+            from .plausibility import check_robot_data
+
+            check_robot_data(chain, observations, getattr(self, "prior", "tolerances"),
+                             getattr(self, "tolerance_scale", 1.0))
         self._fit(chain, observations, progress)
         self.domain_ = Domain.of(chain, observations)
         return self

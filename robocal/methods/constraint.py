@@ -5,7 +5,7 @@ from ..compensation import Compensator
 from ..errors import InputError
 from ..estimation.constraint import PAIRINGS, ConstraintCalibration
 from ..io.fixtures import fixture_to_dict
-from .base import PARAMETERS, PAYLOAD, Method, Setting, check_parameters, one_of
+from .base import PARAMETERS, PAYLOAD, PRIOR, TOLERANCE_SCALE, Method, Setting, check_parameters, one_of
 from .records import CalibrationRecord, FitRecord
 
 PAIRS = Setting("pairs", "all", "--pairs", "all pairs of configurations, or spanning (fewer, faster)")
@@ -33,10 +33,11 @@ class ConstraintMethod(Method):
     ``predict`` gives ball centres in the starting model's base frame.
     """
 
+    checks_its_data = True
     name = "constraint"
     description = "ball-in-socket calibration of the POE model from position and distance constraints"
     data_kind = "sockets"
-    settings = (PAIRS, PARAMETERS, PAYLOAD)
+    settings = (PAIRS, PARAMETERS, PAYLOAD, PRIOR, TOLERANCE_SCALE)
 
     def calibration(self):
         """The unfitted :class:`ConstraintCalibration` these settings ask for."""
@@ -46,7 +47,7 @@ class ConstraintMethod(Method):
             raise InputError("the constraint method identifies the full POE model: --parameters full, full+gains, "
                              f"full+compliance or full+compliance+gains, got {self.parameters!r}")
         return ConstraintCalibration(pairs=self.pairs, compliance="compliance" in terms, gains="gains" in terms,
-                                     payload=self.payload)
+                                     payload=self.payload, prior=self.prior, tolerance_scale=self.tolerance_scale)
 
     def _fit(self, chain, observations, progress):
         obs = require_sockets(observations)

@@ -11,6 +11,7 @@ from .kriging import KRIGING_SETTINGS, KrigingResidual, fit_error_model
 class HybridMethod(KrigingResidual, Method):
     """:class:`KinematicMethod`, then Kriging of its residual; the settings of both."""
 
+    checks_its_data = True
     name = "hybrid"
     description = "parametric calibration, then Kriging of the residual error (over the TCP position or the joints)"
     settings = KinematicMethod.settings + KRIGING_SETTINGS

@@ -20,6 +20,7 @@ class KinematicMethod(Method):
     maximum a posteriori, or 'none') and tolerance_scale.
     """
 
+    checks_its_data = True
     name = "kinematic"
     description = "parametric calibration of links, base and tool (optionally joint compliance and gains)"
     settings = (REGISTER, PARAMETERS, LOSS, PAYLOAD, PRIOR, TOLERANCE_SCALE)

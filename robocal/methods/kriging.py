@@ -10,7 +10,7 @@ from ..estimation.joint_kriging import JointKriging
 from ..estimation.kriging import APPROXIMATIONS, AUTO_VECCHIA_ABOVE, Kriging
 from ..estimation.metrics import error_stats
 from ..kinematics.ik import solve_ik
-from .base import (ERROR_MODEL_INPUTS, RANDOM_STATE, REGISTER, Method, Setting, one_of, require_distinct,
+from .base import (ERROR_MODEL_INPUTS, PRIOR, RANDOM_STATE, REGISTER, TOLERANCE_SCALE, Method, Setting, one_of, require_distinct,
                    require_positions)
 from .records import FitRecord, ReportFigure
 from .frames import measurement_frame
@@ -181,7 +181,7 @@ class KrigingMethod(KrigingResidual, Method):
 
     name = "kriging"
     description = "Kriging of the position error over the TCP position (or the joints), targets moved against it"
-    settings = (REGISTER,) + KRIGING_SETTINGS
+    settings = (REGISTER,) + KRIGING_SETTINGS + (PRIOR, TOLERANCE_SCALE)
 
     def _fit(self, chain, observations, progress):
         return self._fit_error_model_on(chain, observations)

@@ -39,6 +39,7 @@ from ...kinematics.parameters import FRAME_KINDS
 from ...spatial import so3_log
 from ..identifiability import analyse
 from ..identification import (BASE, TOOL_POSITION, Analysis, FittedCalibration, IdentifiedResult, check_iterations,
+                              check_prior, implausible_fit, tolerance_prior, tolerance_rms,
                               check_payload, identify, one_of)
 from ..least_squares import damped_least_squares
 from .data import PAIRINGS, check_groups, constraint_pairs, pair_weights, socket_data
@@ -193,7 +194,7 @@ class ConstraintCalibration(FittedCalibration):
     RESULT = ConstraintResult
 
     def __init__(self, pairs="all", *, distance=True, compliance=False, gains=False, payload=None,
-                 max_iterations=50, tolerance=1e-7):
+                 max_iterations=50, tolerance=1e-7, prior="tolerances", tolerance_scale=1.0):
         self.pairs = pairs
         self.distance = distance
         self.compliance = compliance
@@ -201,17 +202,20 @@ class ConstraintCalibration(FittedCalibration):
         self.payload = payload
         self.max_iterations = max_iterations
         self.tolerance = tolerance
+        self.prior = prior
+        self.tolerance_scale = tolerance_scale
 
     def get_settings(self):
         """The settings, as given to ``__init__``."""
         return {"pairs": self.pairs, "distance": self.distance, "compliance": self.compliance,
                 "gains": self.gains, "payload": self.payload, "max_iterations": self.max_iterations,
-                "tolerance": self.tolerance}
+                "tolerance": self.tolerance, "prior": self.prior, "tolerance_scale": self.tolerance_scale}
 
     def _validate(self):
         """InputError naming the first bad setting; returns the payload (kg or None)."""
         one_of(self.pairs, PAIRINGS, "pairs")
         check_iterations(self.max_iterations)
+        check_prior(self.prior, self.tolerance_scale)
         return check_payload(self.payload)
 
     def _pairs(self, data):
@@ -267,14 +271,26 @@ class ConstraintCalibration(FittedCalibration):
         if self.compliance:
             start, compliances = with_compliance(start, data.joints, payload)
             candidates += compliances
-        found = identify(start, candidates, **self._steps(data, pairs, spanning), joints=data.joints)
+        self._prior = tolerance_prior(start, candidates, data.joints, self.prior, self.tolerance_scale,
+                                      lambda chain, names: poe_deviations(start, chain, names))
+        found = identify(start, candidates, **self._steps(data, pairs, spanning), joints=data.joints,
+                         prior=self._prior)
+        after = grouped_socket_errors(found.chain, data)
+        if self._prior is not None:
+            failure = implausible_fit(
+                found.names, poe_deviations(start, found.chain, found.names), found.prior_std, before["rms_mm"],
+                after["rms_mm"], 0.0, tolerance_rms(start, data.joints, found.names, found.prior_std), start.parameters,
+                override="--tolerance-scale, or [tolerances] in the robot file")
+            if failure is not None:
+                raise InputError(failure.replace("these data are not this robot's",
+                                                 "these ball-in-socket data are not this robot's (or fixture's)"))
         self.chain_ = found.chain
         self.start_chain_ = start
         self.names_ = found.names
         self.result_ = ConstraintResult(
             names=found.names, values=poe_deviations(start, found.chain, found.names),
             std_errors=found.std_errors, correlated_pairs=found.correlated_pairs, identifiability=found.report,
-            residual_before=before, residual_after=grouped_socket_errors(found.chain, data),
+            residual_before=before, residual_after=after, prior_std=None if self._prior is None else found.prior_std,
             unobservable=("base frame",) + (() if len(pairs.distance) else ("scale",)),
             pairs={"pairing": self.pairs, "position": int(len(pairs.position)),
                    "distance": int(len(pairs.distance))},
@@ -294,7 +310,7 @@ class ConstraintCalibration(FittedCalibration):
             return damped_least_squares(
                 chain, names, lambda c: constraint_rows(c, q, pairs, names, weights),
                 lambda c: constraint_rows(c, q, pairs, weights=weights)[0],
-                max_iterations=self.max_iterations, tolerance=self.tolerance)
+                max_iterations=self.max_iterations, tolerance=self.tolerance, prior=self._prior)
 
         return {"analyse": lambda chain, candidates: _analysis(chain, q, spanning, spanning_weights, candidates),
                 "fit": fit,

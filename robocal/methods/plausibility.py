@@ -1,0 +1,59 @@
+"""The one data check every method meets before it fits: can these be this robot's data, in
+these units?
+
+Methods that calibrate the robot's parameters (kinematic, hybrid, constraint, the network on
+a kinematic base) answer it in their own fit: a maximum a posteriori calibration refuses data
+it can explain only by moving the robot far beyond its tolerances, or not at all
+(:func:`robocal.estimation.identification.implausible_fit`).  Error models (Kriging, the
+network over the nominal robot) would fit another robot's errors as happily as this one's,
+so they meet the same test here: a calibration of the ``full`` set (``offsets`` on too few
+poses for it) under the tolerances, whose refusal is theirs.  Its verdict is the only thing
+kept; the error model is fitted to the data as given.
+"""
+import warnings
+
+import numpy as np
+
+from ..errors import InputError, RobocalWarning
+from ..estimation.calibration import KinematicCalibration, OutlierError, OutlierWarning
+
+# The check fits at most this many poses, evenly spread over the file: the verdict of a few
+# thousand poses is that of all of them, at a bounded cost.
+CHECK_POSES = 2000
+# Equations per parameter below which the check fits the joint offsets only.
+EQUATIONS_PER_PARAMETER = 3
+
+
+def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.0):
+    """InputError, in one line, when ``observations`` (positions) cannot be ``chain``'s data in
+    mm and degrees, judged against the tolerances times ``tolerance_scale``; rows that do not
+    fit the rest are named as the user's file lines.  ``prior`` 'none' skips the check; data
+    too few for even the offsets pass unchecked (nothing can be judged from them)."""
+    if observations.positions is None or prior == "none":
+        return
+    count = observations.n_poses
+    pick = np.linspace(0, count - 1, min(count, CHECK_POSES)).astype(int)
+    joints, positions = observations.joints[pick], observations.positions[pick]
+    sigmas = None if observations.sigmas is None else observations.sigmas[pick]
+    for parameters in ("full", "offsets"):
+        calibration = KinematicCalibration(parameters, tolerance_scale=tolerance_scale)
+        needed = len(_candidates(chain, parameters)) * EQUATIONS_PER_PARAMETER
+        if 3 * len(np.unique(np.round(joints, 9), axis=0)) >= needed:
+            break
+    else:
+        return
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RobocalWarning)
+            warnings.simplefilter("ignore", OutlierWarning)
+            calibration.fit(chain, joints, positions, sigmas=sigmas)
+    except OutlierError as error:
+        named = str(error.naming(np.asarray(observations.rows)[pick], observations.path))
+        raise InputError(named.split("; fix or remove")[0] + ": they are not this robot's positions in mm; fix or "
+                         "remove them") from None
+
+
+def _candidates(chain, parameters):
+    from ..estimation.calibration import candidate_parameters
+
+    return candidate_parameters(chain, parameters)
