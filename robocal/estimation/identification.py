@@ -154,8 +154,8 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
     if after_rms > max(NOISE_FLOOR * noise_rms, tolerance_rms) and explained < MIN_EXPLAINED:
         return (f"the registered nominal robot misses these data by {before_rms:.1f} mm RMS and its calibration "
                 f"within the tolerances still by {after_rms:.1f} mm (it explains {max(explained, 0.0):.0%} of the "
-                f"error, and a robot within its tolerances misses by {tolerance_rms:.1f} mm in all): is this the right robot "
-                f"and unit (mm, degrees) for these data? If it is, widen the tolerances ({override})")
+                f"error, and a robot within its tolerances misses by {tolerance_rms:.1f} mm in all): these data are not "
+                f"this robot's, or not in mm and degrees; if they are, widen the tolerances ({override})")
     return None
 
 
