@@ -233,7 +233,7 @@ def test_refusals(setup):
     # Another robot's poses (a UR10's, same joint count) are not explained by any frames.
     ur10 = make_true_robot(builtin("ur10"), "typical", seed=1)
     rng = np.random.default_rng(1)
-    with pytest.raises(InputError, match="still misses .* mm RMS: these poses are not of this model's robot"):
+    with pytest.raises(InputError, match="misses these data by .* mm RMS.*not this robot.s"):
         reregister(fitted, ur10.observations(uniform_joints(chain, 20, rng), rng))
     # Poses that turn joint 1 only cannot tell the base from the tool.
     q = np.zeros((20, 6)) + [0.0, -1.0, 1.2, -0.5, 1.0, 0.3]

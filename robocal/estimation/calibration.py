@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import InputError, RobocalWarning
 from ..kinematics.compliant import with_compliance
+from ..kinematics.tolerances import prior_sigmas, tolerances_of
 from .identifiability import NEAR_PARALLEL, analyse
 from .identification import (Analysis, FittedCalibration, IdentifiedResult, check_iterations, check_payload,
                              check_prior, identified_parameters, identify, implausible_fit, one_of,
@@ -403,7 +404,7 @@ class KinematicCalibration(FittedCalibration):
                                  if rotations is not None else None),
             iterations=found.iterations, converged=found.converged,
             outliers=tuple(int(i) for i in np.flatnonzero(found.fit.pose_weights < OUTLIER_WEIGHT)),
-            prior_std=None if self._prior is None else found.prior_std,
+            prior_std=None if self._prior is None else found.prior_std, tolerance_scale=found.prior_scale,
         )
         return self
 
@@ -421,8 +422,13 @@ class KinematicCalibration(FittedCalibration):
             before = _rms((target - start.fk_positions(q))[kept]) if np.any(kept) else np.inf
             after = _rms(residual[kept, :3]) if np.any(kept) else np.inf
             noise = float(np.sqrt(np.mean(np.sum((1.0 / weights[:, :3]) ** 2, axis=1))))
-            expected = tolerance_rms(start, q, found.names, found.prior_std)
-            failure = implausible_fit(found.names, values, found.prior_std, before, after, noise, expected,
+            tolerances = self._prior.sigmas(list(found.names))
+            # What a robot within its tolerances misses by: every link parameter's tolerance, whatever
+            # set this fit identifies (an offsets-only fit leaves the links' errors in its residual).
+            every = list(dict.fromkeys(candidate_parameters(start.rigid, "full") + list(names)))
+            expected = tolerance_rms(start, q, every,
+                                     prior_sigmas(start, every, tolerances_of(start, self.tolerance_scale), q))
+            failure = implausible_fit(found.names, values, tolerances, before, after, noise, expected,
                                       start.parameters, override="--tolerance-scale, or [tolerances] in the robot file")
             return found, residual, failure
         rms = _rms(residual[kept, :3]) if np.any(kept) else np.inf

@@ -122,8 +122,9 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
       tolerances);
     * what calibration explains: a calibration within the tolerances that explains less
       than MIN_EXPLAINED of the nominal robot's residual variance, and still misses by more
-      than the whole error the tolerances predict for the nominal robot (``tolerance_rms``)
-      and than NOISE_FLOOR times the instrument's noise, is not of this robot's data (real
+      than the whole error the tolerances predict for the nominal robot (``tolerance_rms``,
+      times the chi-square margin of as many parameters at PLAUSIBLE_PROBABILITY) and than
+      NOISE_FLOOR times the instrument's noise, is not of this robot's data (real
       arms: 93 to 98 % explained; another robot's data or another unit: under 5 %, missing
       by hundreds of mm, the prior holding a model that cannot fit them).  A robot already
       calibrated, whose small residual is mostly what no geometry explains, passes.
@@ -151,11 +152,15 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
                 f"robot's, or not in mm and degrees: check the robot file and the data, or widen the tolerances "
                 f"({override})")
     explained = 1.0 - (after_rms / before_rms) ** 2 if before_rms > 0 else 1.0
-    if after_rms > max(NOISE_FLOOR * noise_rms, tolerance_rms) and explained < MIN_EXPLAINED:
+    # A robot within its tolerances leaves at most the whole error they predict, give or take
+    # the chi-square spread of as many parameters at PLAUSIBLE_PROBABILITY.
+    margin = float(np.sqrt(limit / max(int(held.sum()), 1)))
+    if after_rms > max(NOISE_FLOOR * noise_rms, margin * tolerance_rms) and explained < MIN_EXPLAINED:
         return (f"the registered nominal robot misses these data by {before_rms:.1f} mm RMS and its calibration "
                 f"within the tolerances still by {after_rms:.1f} mm (it explains {max(explained, 0.0):.0%} of the "
-                f"error, and a robot within its tolerances misses by {tolerance_rms:.1f} mm in all): these data are not "
-                f"this robot's, or not in mm and degrees; if they are, widen the tolerances ({override})")
+                f"error, where a robot within its tolerances misses by {tolerance_rms:.2g} mm RMS): these data are not "
+                f"this robot's, or the robot file or the data are not in mm and degrees; if they are, widen the "
+                f"tolerances ({override})")
     return None
 
 
@@ -226,6 +231,7 @@ class Identification:
     correlated_pairs: tuple
     covariance: np.ndarray = None
     prior_std: np.ndarray = None
+    prior_scale: float = 1.0
 
 
 # ---------------------------------------------------------------------- core
@@ -311,12 +317,12 @@ def _settle(start, candidates, analyse, fit, linearise, prior=None):
         identified = analysis.identified
         fitted = fit(fitted.chain, identified)
         iterations += fitted.iterations
-    prior_std = None if prior is None else prior.sigmas(list(identified))
+    prior_std = None if prior is None else prior.sigmas(list(identified)) * fitted.prior_scale
     residual, jacobian = linearise(fitted, list(identified))[:2]
     cov, std, pairs = covariance(residual, jacobian, list(identified), prior_std)
     return Identification(chain=fitted.chain, names=tuple(identified), report=analysis.explain(),
                           iterations=iterations, converged=fitted.converged, fit=fitted,
-                          std_errors=std, correlated_pairs=pairs, covariance=cov,
+                          std_errors=std, correlated_pairs=pairs, covariance=cov, prior_scale=fitted.prior_scale,
                           prior_std=np.full(len(identified), np.inf) if prior_std is None else prior_std)
 
 
@@ -387,6 +393,8 @@ class IdentifiedResult:
     iterations: int
     converged: bool
     prior_std: np.ndarray | None = field(default=None, kw_only=True)
+    # The common scale of the tolerances the data supported (1: as the tolerances say).
+    tolerance_scale: float = field(default=1.0, kw_only=True)
 
     @property
     def data_share(self):

@@ -415,6 +415,10 @@ def _print_result(result, as_json, title):
 
 def _cell(value):
     """A value as a person reads it: statistics in a sentence, lists joined, no Python reprs."""
+    if isinstance(value, dict) and "nominal_mean_mm" in value:
+        return (f"mean {value['mean_mm']:.4f} mm, 95 % {value['p95_mm']:.4f} mm over {value['where']} "
+                f"(registered nominal robot: mean {value['nominal_mean_mm']:.4f} mm, 95 % "
+                f"{value['nominal_p95_mm']:.4f} mm)")
     if isinstance(value, dict):
         if not value.get("n"):
             return "none"
@@ -435,9 +439,11 @@ def _print_calibration(calibration, chain):
 
     ident = calibration.identifiability
     table = Table(title=f"identified parameters ({ident.rank})")
-    for col in ("parameter", "deviation", "std. error", "unit"):
+    rows = parameter_rows(calibration, chain)
+    columns = ("parameter", "deviation", "std. error", "unit", "prior", "from data")
+    for col in columns[:max((len(row) for row in rows), default=4)]:
         table.add_column(col, justify="right")
-    for row in parameter_rows(calibration, chain):
+    for row in rows:
         table.add_row(*row)
     out.print(table)
     for note in parameter_notes(calibration, chain):
@@ -555,6 +561,7 @@ def calibrate(
     tip: str = typer.Option(None, help="URDF only: the tip link."),
     root: str = typer.Option(None, help="URDF only: the root link."),
     beyond_limits: bool = typer.Option(False, "--beyond-limits", help=BEYOND_LIMITS_HELP),
+    accept_extrapolation: bool = typer.Option(False, "--accept-extrapolation", help="Keep a model predicted to miss by more than the registered nominal robot over the working range (poses that cover too little of it)."),
     jobs: int = typer.Option(None, help="kriging, hybrid, auto: " + JOBS_HELP.replace("the independent fits (the folds)", "the independent fits (each error component's likelihood search; auto's comparison)"), **_number(whole=True, at_least=1, at_most=1024)),
     scheduler: str = typer.Option(None, metavar="<tcp://HOST:PORT>", help="kriging, hybrid, auto: " + SCHEDULER_HELP),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
@@ -575,7 +582,7 @@ def calibrate(
         tolerance_scale=tolerance_scale)
     if method == FRAMES:
         return _reregister(robot, measurements, out_file, settings, beyond_limits, as_json, root=root, tip=tip,
-                           fixture=fixture)
+                           fixture=fixture, accept_extrapolation=accept_extrapolation)
     if parameters in FRAME_PARAMETERS:
         raise InputError(f"--parameters {parameters} re-registers a model file: give --method frames and the model "
                          "file in place of the robot")
@@ -591,7 +598,8 @@ def calibrate(
         total = fitter.progress_total()
     with parallel.executor(jobs=jobs, scheduler=scheduler), progress(label, total, enabled=not as_json) as advance:
         result = calibrate_job(robot, measurements, out_file, method=fitter, settings=settings if method == AUTO else None,
-                               fixture=fixture, progress=advance, beyond_limits=beyond_limits, root=root, tip=tip)
+                               fixture=fixture, progress=advance, beyond_limits=beyond_limits, root=root, tip=tip,
+                               accept_extrapolation=accept_extrapolation)
     if method == AUTO and not as_json:
         _print_comparison(result.data["comparison"])
     if not as_json and result.record.calibration is not None:
@@ -723,7 +731,8 @@ def export(
     _print_result(result, as_json, f"{result['convention']} robot -> {out_file}")
 
 
-def _reregister(model, measurements, out_file, settings, beyond_limits, as_json, **robot_options):
+def _reregister(model, measurements, out_file, settings, beyond_limits, as_json, accept_extrapolation=False,
+                **robot_options):
     """calibrate --method frames: the model file re-registered on the poses of a new set-up."""
     given = [option for option, value in robot_options.items() if value is not None]
     others = sorted(set(settings) - {"parameters"})
@@ -732,7 +741,7 @@ def _reregister(model, measurements, out_file, settings, beyond_limits, as_json,
         raise InputError(f"--method frames keeps everything the model file holds and re-identifies its frames: "
                          f"leave out {', '.join(options)} (--parameters frames or frames+offsets is its one option)")
     result = reregister_job(model, measurements, out_file, parameters=settings.get("parameters"),
-                            beyond_limits=beyond_limits)
+                            beyond_limits=beyond_limits, accept_extrapolation=accept_extrapolation)
     if as_json:
         print(json.dumps(result.to_dict(), indent=2))
         return
@@ -753,6 +762,8 @@ def _reregister(model, measurements, out_file, settings, beyond_limits, as_json,
         out.print(f"joint offset {name} changed by {change:+.4f}")
     out.print(f"identified {len(ident['identified'])} parameters (rank {ident['rank']}), condition number "
               f"{ident['condition_number']:.3g}")
+    if result.record.predicted_error is not None:
+        out.print(f"predicted error: {_cell(result.record.predicted_error)}")
     for name, reason in ident["fixed"].items():
         out.print(f"kept {name}: {reason}")
     out.print(f"-> {out_file}")

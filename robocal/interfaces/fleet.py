@@ -64,7 +64,7 @@ OPTIONAL_KEYS = ("test", "method", "fixture", "options")
 # (--jobs and --scheduler too: the fleet itself is spread; a robot's fits run on its worker.)
 NOT_OPTIONS = ("robot", "measurements", "out_file", "method", "fixture", "as_json", "debug", "jobs", "scheduler")
 # calibrate's options that go to calibrate_job itself; the others are the method's settings.
-JOB_OPTIONS = ("root", "tip", "beyond_limits")
+JOB_OPTIONS = ("root", "tip", "beyond_limits", "accept_extrapolation")
 # A robot's name names its folder: a plain file name, nothing a file system reads as a path.
 NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}\Z")
 ROBOT_FILE_SUFFIXES = (".toml", ".urdf")
@@ -255,7 +255,8 @@ def run_robot(task):
             warnings.simplefilter("always", RobocalWarning)
             calibrated = calibrate_job(task["robot"], task["train"], staged, method=task["method"],
                                        settings=task["settings"], fixture=task["fixture"], root=task.get("root"),
-                                       tip=task.get("tip"), beyond_limits=task.get("beyond_limits", False))
+                                       tip=task.get("tip"), beyond_limits=task.get("beyond_limits", False),
+                                       accept_extrapolation=task.get("accept_extrapolation", False))
             row.update(method=calibrated.method, n_train=calibrated.data["n_poses"])
             if "comparison" in calibrated.data:
                 notes.append(f"auto chose {calibrated.data['comparison']['recommended']['label']}")

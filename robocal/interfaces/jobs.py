@@ -15,6 +15,7 @@ from ..io.tables import write_measurements
 from ..methods import DEFAULT_METHOD, fitted_from_model_file, make_method
 from ..methods.evaluation import position_scores, socket_scores, with_fixture
 from ..methods.base import option_of
+from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
 from ..methods.selection import choose, compare
 from ..methods.validation import cross_validate
 
@@ -40,10 +41,12 @@ class Calibrated:
 
 
 def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=None, fixture=None, progress=None,
-                  root=None, tip=None, beyond_limits=False):
+                  root=None, tip=None, beyond_limits=False, accept_extrapolation=False):
     """Fit a method (an unfitted :class:`~robocal.methods.Method`, or a registered name with
     its ``settings``) to a measurement file and save the model file.  ``progress(**info)`` is
-    called as the method reports its steps."""
+    called as the method reports its steps.  The error to expect where the robot will work is
+    kept in the record; a model predicted to do worse there than the registered nominal robot
+    is refused unless ``accept_extrapolation``."""
     auto = method == AUTO
     if auto and settings:
         raise InputError(f"--method auto chooses the method and its settings by comparing them: leave out "
@@ -60,6 +63,11 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
         training["comparison"] = comparison.to_dict()
     else:
         fitter.fit(chain, observations, progress=progress)
+    predicted = expected_error(fitter, chain, observations)
+    if not accept_extrapolation:
+        refuse_if_worse_than_nominal(predicted, getattr(fitter, "domain_", None))
+    if predicted is not None:
+        fitter.record_ = fitter.record_.replace(predicted_error=predicted.to_dict())
     save_model(fitter.to_model_file(chain, training), out)
     return Calibrated(fitter.name, chain.name, str(out), training, fitter.record_, fitter.compensator_.chain)
 
@@ -71,7 +79,8 @@ FRAMES = "frames"
 KEPT_TRAINING = ("file", "n_poses", "kind", "fixture_file", "comparison")
 
 
-def reregister_job(model_path, measurements, out, *, parameters=None, beyond_limits=False):
+def reregister_job(model_path, measurements, out, *, parameters=None, beyond_limits=False,
+                   accept_extrapolation=False):
     """A model file carried to a new set-up (robocal.methods.reregistration): its base and
     tool (and with ``parameters='frames+offsets'`` its joint offsets) identified again from the
     poses of ``measurements``, everything else kept; saved to ``out``."""
@@ -81,6 +90,11 @@ def reregister_job(model_path, measurements, out, *, parameters=None, beyond_lim
     model, fitted = load_fitted(model_path)
     observations = read_observations(measurements, model.nominal, beyond_limits=beyond_limits)
     moved = reregister(fitted, observations, parameters or "frames", robot=model.nominal)
+    predicted = expected_error(moved, model.nominal, observations)
+    if not accept_extrapolation:
+        refuse_if_worse_than_nominal(predicted)
+    if predicted is not None:
+        moved.record_ = moved.record_.replace(predicted_error=predicted.to_dict())
     training = {key: model.training[key] for key in KEPT_TRAINING if key in model.training}
     training.update(reregistered_from=str(model_path), reregistration_file=str(measurements),
                     reregistration_poses=observations.n_poses)

@@ -185,7 +185,9 @@ def _calibration_section(calibration, chain):
              f"({html.escape(calibration.units)}) with their standard errors; "
              f"{ident.rank} parameters from {ident.rows} equations; "
              f"{calibration.iterations} iterations, {'converged' if calibration.converged else 'stopped at the iteration limit'}.</p>",
-             _table(("parameter", "deviation", "standard error", "unit"), rows), notes,
+             _table(("parameter", "deviation", "standard error", "unit", "prior", "from data")[:max(map(len, rows),
+                                                                                                  default=4)], rows),
+             notes,
              "<h3>Identifiability</h3>",
              _table(("condition number", "O1", "O3", "noise amplification"),
                     [(f"{ident.condition_number:.3g}", f"{ident.o1:.3g}", f"{ident.o3:.3g}",
@@ -246,6 +248,11 @@ def _summary(model, fitted, data, label, cv, model_path):
          else "measurement frame = robot base frame as given"),
         ("units", "mm and degrees"), ("report written", f"{now} by robocal {__version__}"),
     ]
+    predicted = fitted.record_.predicted_error
+    if predicted:
+        summary.append(("error to expect", f"{predicted['mean_mm']:.4f} mm mean, {predicted['p95_mm']:.4f} mm 95 % over "
+                        f"{predicted['where']} (registered nominal robot: {predicted['nominal_mean_mm']:.4f} mm mean, "
+                        f"{predicted['nominal_p95_mm']:.4f} mm 95 %)"))
     if cv is not None:
         pooled, nominal = cv["cross_validation"]["pooled"], cv["nominal_cross_validation"]["pooled"]
         summary.append(("cross-validation", f"{cv['folds']}-fold on {cv['file']}: {pooled['mean_mm']:.4f} mm mean "

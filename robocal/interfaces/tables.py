@@ -75,19 +75,38 @@ def estimate_text(value, std_error):
 
 def parameter_rows(calibration, chain):
     """(name, deviation, standard error, unit) of every identified parameter of a
-    :class:`~robocal.methods.CalibrationRecord`, as text; ``chain`` names the units."""
+    :class:`~robocal.methods.CalibrationRecord`, as text; ``chain`` names the units.  A
+    calibration under the tolerances adds (prior, share of its variance the data removed):
+    "held by its prior" below half."""
+    from ..estimation.identification import HELD_BY_PRIOR
+
     space = chain.parameters
     rows = []
     for name, estimate in calibration.parameters.items():
         deviation, error = estimate_text(estimate.deviation, estimate.std_error)
         record = space.get(name)
-        rows.append((name, deviation, error, record.file_unit if record is not None else ""))
+        row = (name, deviation, error, record.file_unit if record is not None else "")
+        if estimate.data_share is not None:
+            prior = "-" if estimate.prior_std is None else f"{estimate.prior_std:.2g}"
+            share = "-" if estimate.prior_std is None else f"{estimate.data_share:.0%}"
+            if estimate.prior_std is not None and estimate.data_share < HELD_BY_PRIOR:
+                share += " (held by its prior)"
+            row += (prior, share)
+        rows.append(row)
     return rows
+
+
+# What the prior columns mean, said wherever they are printed.
+PRIOR_NOTE = ("prior: the tolerance the fit weighed the parameter against (the robot file's [tolerances] or the "
+              "defaults, times the scale the data support; - for none); from data: how much of its prior variance "
+              "the data removed")
 
 
 def parameter_notes(calibration, chain):
     """The sentences a parameter table needs to be read right."""
     notes = [BASE_NOTE] if any(n.startswith(("base_", "tool_")) for n in calibration.parameters) else []
+    if any(p.data_share is not None for p in calibration.parameters.values()):
+        notes.append(PRIOR_NOTE)
     if chain.convention == "poe":
         notes.append(POE_NAMES_NOTE)
     return notes

@@ -112,8 +112,8 @@ class Method:
         if not self.checks_its_data:
             from .plausibility import check_robot_data
 
-            check_robot_data(chain, observations, getattr(self, "prior", "tolerances"),
-                             getattr(self, "tolerance_scale", 1.0))
+            self.data_check_ = check_robot_data(chain, observations, getattr(self, "prior", "tolerances"),
+                                                getattr(self, "tolerance_scale", 1.0))
         self._fit(chain, observations, progress)
         self.domain_ = Domain.of(chain, observations)
         return self

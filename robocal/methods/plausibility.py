@@ -28,9 +28,10 @@ def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.
     """InputError, in one line, when ``observations`` (positions) cannot be ``chain``'s data in
     mm and degrees, judged against the tolerances times ``tolerance_scale``; rows that do not
     fit the rest are named as the user's file lines.  ``prior`` 'none' skips the check; data
-    too few for even the offsets pass unchecked (nothing can be judged from them)."""
+    too few for even the offsets pass unchecked (nothing can be judged from them).  Returns
+    the calibration that judged them (fitted to at most CHECK_POSES of them), or None."""
     if observations.positions is None or prior == "none":
-        return
+        return None
     count = observations.n_poses
     pick = np.linspace(0, count - 1, min(count, CHECK_POSES)).astype(int)
     joints, positions = observations.joints[pick], observations.positions[pick]
@@ -41,7 +42,7 @@ def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.
         if 3 * len(np.unique(np.round(joints, 9), axis=0)) >= needed:
             break
     else:
-        return
+        return None
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RobocalWarning)
@@ -51,6 +52,8 @@ def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.
         named = str(error.naming(np.asarray(observations.rows)[pick], observations.path))
         raise InputError(named.split("; fix or remove")[0] + ": they are not this robot's positions in mm; fix or "
                          "remove them") from None
+    calibration.fitted_poses_ = pick
+    return calibration
 
 
 def _candidates(chain, parameters):

@@ -119,7 +119,9 @@ class FitRecord:
     :class:`CalibrationRecord` of a parametric calibration; diagnostics: the error model's
     warnings; base_model and network: a network's base model and training record;
     fixture: the fixture of ball-in-socket data (``fixture_to_dict``); reregistration: what
-    re-registering the model on a new set-up did (``ReregistrationRecord.to_dict``).
+    re-registering the model on a new set-up did (``ReregistrationRecord.to_dict``);
+    predicted_error: the error to expect over the working range
+    (:class:`~robocal.estimation.prediction.PredictedError` as a dict).
     """
 
     residual_before: dict
@@ -133,6 +135,9 @@ class FitRecord:
     network: dict | None = None
     fixture: dict | None = None
     reregistration: dict | None = None
+    # The error to expect where the robot will work (PredictedError.to_dict), when calibrate
+    # computed it.
+    predicted_error: dict | None = None
 
     def to_dict(self):
         """JSON-ready, without the entries this method does not have."""

@@ -33,14 +33,15 @@ import numpy as np
 
 from ..compensation import Compensator
 from ..errors import FileFormatError, InputError, RobocalWarning
-from ..estimation.calibration import IMPLAUSIBLE_ANGLE_DEG, IMPLAUSIBLE_REACH_FRACTION, WRONG_ROBOT_RMS_MM
+from ..estimation.calibration import IMPLAUSIBLE_ANGLE_DEG, IMPLAUSIBLE_REACH_FRACTION
 from ..estimation.identifiability import IdentifiabilityReport, analyse
-from ..estimation.identification import BASE, TOOL_POSITION, Analysis, identify
+from ..estimation.identification import BASE, TOOL_POSITION, Analysis, identify, tolerance_prior
 from ..estimation.least_squares import damped_least_squares
 from ..estimation.metrics import error_stats
 from ..estimation.registration import kabsch, register_base_and_tool
 from ..io.model_file import robot_hash
 from ..spatial import invert, make_transform, pose_to_xyz_rpy, so3_log
+from .plausibility import check_robot_data
 
 PARAMETER_CHOICES = ("frames", "frames+offsets")
 DOCUMENT_TYPE = "reframed"
@@ -351,8 +352,9 @@ class _Problem:
         jac = chain.identification_jacobian(self.q, names)[:, :self.rows, :] * self.weights[:, :, None]
         return jac.reshape(-1, len(names))
 
-    def steps(self):
-        """The analyse / fit / linearise steps :func:`~robocal.estimation.identification.identify` takes."""
+    def steps(self, prior=None):
+        """The analyse / fit / linearise steps :func:`~robocal.estimation.identification.identify`
+        takes; ``prior``: the joint offsets' tolerances (frames have none)."""
 
         def weighted(chain):
             return (self.residual(chain) * self.weights).reshape(-1)
@@ -364,7 +366,7 @@ class _Problem:
 
         def fit(chain, names):
             return damped_least_squares(chain, names, lambda c: (weighted(c), -self.jacobian(c, names)), weighted,
-                                        max_iterations=MAX_ITERATIONS, tolerance=1e-10)
+                                        max_iterations=MAX_ITERATIONS, tolerance=1e-10, prior=prior)
 
         def linearise(found, names):
             return weighted(found.chain), -self.jacobian(found.chain, names)
@@ -399,8 +401,8 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
     (the "before" in the new set-up), and ``reregistration_`` a :class:`ReregistrationRecord`.
 
     Raises InputError for socket data or models, another robot, too few poses, frames the
-    poses cannot determine, or poses the re-registered model misses by more than
-    WRONG_ROBOT_RMS_MM; warns (RobocalWarning) for a tool change beyond a tenth of the reach,
+    poses cannot determine, or poses that cannot be this robot's in mm and degrees (the data
+    check of :mod:`robocal.methods.plausibility`); warns (RobocalWarning) for a tool change beyond a tenth of the reach,
     joint offsets moved by more than 10 deg, and a residual far above the model's training one.
     """
     compensator = _check_model(fitted, robot)
@@ -418,13 +420,18 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
         candidates += [old.rigid.offset_parameter(k) for k in range(old.n_joints)]
     _require_poses(q, len(candidates), 6 if use_rotations else 3, observations.path)
 
+    # The one data check every method meets: can these be this robot's poses, in mm and degrees?
+    check_robot_data(compensator.controller if compensator.controller is not None else compensator.nominal,
+                     observations)
     problem = _Problem(compensator, q, positions, rotations, _weights(observations, use_rotations))
     before = error_stats(positions - fitted.predict(q))
     # The tracker may have moved by metres and turned by anything: a rigid fit of the model's
     # positions onto the measured ones starts the Gauss-Newton steps near the answer.
     turn, shift = kabsch(old.fk_positions(q), positions)
     start = old.replace(base=make_transform(turn, shift) @ old.base)
-    found = identify(start, candidates, **problem.steps())
+    prior = tolerance_prior(start, candidates, q, "tolerances", 1.0,
+                            lambda chain, names: chain.parameter_values(names) - start.parameter_values(names))
+    found = identify(start, candidates, **problem.steps(prior), prior=prior)
     chain = found.chain
     _refuse_undetermined(found.report, candidates)
 
@@ -439,11 +446,8 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
     if domain is not None and getattr(domain, "box_min", None) is not None:
         new.domain_ = _moved_box(domain, problem.frame(chain))
     after = error_stats(positions - new.predict(q))
-    if after["rms_mm"] > WRONG_ROBOT_RMS_MM:
-        raise InputError(f"the re-registered model still misses {observations.path or 'the poses'} by "
-                         f"{after['rms_mm']:.1f} mm RMS: these poses are not of this model's robot, or not in mm "
-                         "and degrees; check the model file and the measurements")
     training_rms = _training_rms(fitted.record_)
+    new.frames_posterior_ = (tuple(found.names), found.covariance)
     notes = _warnings(old, chain, q, found.names, after["rms_mm"], training_rms)
     for note in notes:
         warnings.warn(note, RobocalWarning, stacklevel=2)

@@ -277,9 +277,11 @@ class ConstraintCalibration(FittedCalibration):
                          prior=self._prior)
         after = grouped_socket_errors(found.chain, data)
         if self._prior is not None:
+            tolerances = self._prior.sigmas(list(found.names))
             failure = implausible_fit(
-                found.names, poe_deviations(start, found.chain, found.names), found.prior_std, before["rms_mm"],
-                after["rms_mm"], 0.0, tolerance_rms(start, data.joints, found.names, found.prior_std), start.parameters,
+                found.names, poe_deviations(start, found.chain, found.names), tolerances, before["rms_mm"],
+                after["rms_mm"], 0.0, tolerance_rms(start, data.joints, candidates, self._prior.sigmas(candidates)),
+                start.parameters,
                 override="--tolerance-scale, or [tolerances] in the robot file")
             if failure is not None:
                 raise InputError(failure.replace("these data are not this robot's",
@@ -291,6 +293,7 @@ class ConstraintCalibration(FittedCalibration):
             names=found.names, values=poe_deviations(start, found.chain, found.names),
             std_errors=found.std_errors, correlated_pairs=found.correlated_pairs, identifiability=found.report,
             residual_before=before, residual_after=after, prior_std=None if self._prior is None else found.prior_std,
+            tolerance_scale=found.prior_scale,
             unobservable=("base frame",) + (() if len(pairs.distance) else ("scale",)),
             pairs={"pairing": self.pairs, "position": int(len(pairs.position)),
                    "distance": int(len(pairs.distance))},

@@ -1,0 +1,211 @@
+"""The error to expect where the robot will work, from a calibration's posterior.
+
+A parametric calibration leaves each parameter with a posterior: well-seen parameters pinned
+by the data, the others held near nominal by their tolerances.  Propagated through the
+identification Jacobian at the configurations where the robot will work, plus the residual
+that no parameter explains, it predicts the position error there: E = J Σ Jᵀ + s² I per
+configuration, with Σ the posterior covariance of every parameter that has a tolerance or
+was identified, and s² the residual variance per coordinate.  The registered nominal robot
+gets the same prediction with only its base and tool fitted, so a calibration that would do
+worse than no calibration where the robot works can be told.
+
+How far a robot lies from its drawing is its own: the tolerances are the prior's shape, and
+their common scale is the one the calibration estimated from the data (the evidence fixed
+point of :func:`~robocal.estimation.least_squares.tolerance_scale_estimate`), so that
+directions the poses never saw are expected to deviate as the seen ones did.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+# At most this many training poses form the posterior (evenly spread; their information is
+# scaled up to all poses), and this many uniform configurations stand for the working range.
+POSTERIOR_POSES = 2000
+WORKING_POSES = 1000
+# Draws per configuration for the mean and 95th percentile of the error norm.
+DRAWS = 16
+# Predicted means closer than this are a tie: a micrometre (as model choice counts held-out
+# differences), or 2 % of the nominal's mean, four times the relative standard error of a
+# mean of WORKING_POSES x DRAWS drawn norms.
+TIE_MM = 1e-3
+TIE_FRACTION = 0.02
+
+
+@dataclass(frozen=True)
+class WorkingRange:
+    """Where the robot will work: joints (M, n) rad, and text saying what they are."""
+
+    joints: np.ndarray
+    text: str
+
+
+@dataclass(frozen=True)
+class PredictedError:
+    """The position error (mm) to expect over a working range.
+
+    mean_mm, p95_mm: the calibrated model's; nominal_mean_mm, nominal_p95_mm: the registered
+    nominal robot's; where: what the working range is; poses: its configurations;
+    tolerance_scale: the evidence estimate of how far this robot lies from its drawing, in
+    tolerances.
+    """
+
+    mean_mm: float
+    p95_mm: float
+    nominal_mean_mm: float
+    nominal_p95_mm: float
+    where: str
+    poses: int
+    tolerance_scale: float
+
+    def to_dict(self):
+        return {"mean_mm": self.mean_mm, "p95_mm": self.p95_mm, "nominal_mean_mm": self.nominal_mean_mm,
+                "nominal_p95_mm": self.nominal_p95_mm, "where": self.where, "poses": self.poses,
+                "tolerance_scale": self.tolerance_scale}
+
+    @property
+    def worse_than_nominal(self):
+        """Whether the model is predicted to miss by more than the registered nominal robot,
+        beyond a tie (TIE_MM) and the spread of the drawn means (TIE_FRACTION)."""
+        return self.mean_mm - self.nominal_mean_mm > max(TIE_MM, TIE_FRACTION * self.nominal_mean_mm)
+
+    @classmethod
+    def of_draws(cls, calibrated, nominal, where, scale):
+        """From drawn error norms (M, DRAWS) mm of the model and the registered nominal robot
+        over the :class:`WorkingRange` ``where``."""
+        return cls(mean_mm=float(np.mean(calibrated)), p95_mm=float(np.percentile(calibrated, 95)),
+                   nominal_mean_mm=float(np.mean(nominal)), nominal_p95_mm=float(np.percentile(nominal, 95)),
+                   where=where.text, poses=len(where.joints), tolerance_scale=float(scale))
+
+
+def working_range(chain, targets=None, count=WORKING_POSES, seed=0):
+    """The :class:`WorkingRange`: ``targets`` (M, n) rad as given, else ``count`` uniform
+    configurations within the joint limits (finite ones; ±180 deg where a limit is open)."""
+    if targets is not None:
+        return WorkingRange(np.asarray(targets, dtype=float), f"the {len(targets)} given configurations")
+    lower = np.where(np.isfinite(chain.lower), chain.lower, -np.pi)
+    upper = np.where(np.isfinite(chain.upper), chain.upper, np.pi)
+    q = np.random.default_rng(seed).uniform(lower, upper, size=(count, chain.n_joints))
+    return WorkingRange(q, f"{count} configurations uniform within the joint limits")
+
+
+def _rows(chain, joints, names, rows=3):
+    """(3M, P) position rows of the identification Jacobian at ``joints``."""
+    return chain.identification_jacobian(joints, list(names))[:, :rows, :].reshape(-1, len(names))
+
+
+def _posterior(information, prior_std, noise):
+    """(P, P) posterior covariance from the data's information JᵀJ (mm rows), the noise
+    variance per row and the prior standard deviations (inf: none)."""
+    precision = information / max(noise, 1e-300)
+    finite = np.isfinite(prior_std)
+    precision[finite, finite] += 1.0 / prior_std[finite] ** 2
+    return np.linalg.pinv(precision, hermitian=True)
+
+
+def error_norms(jacobian, cov, noise, count, seed):
+    """(count * DRAWS,) norms of errors drawn from N(0, J Σ Jᵀ + noise I) per configuration."""
+    j = jacobian.reshape(count, 3, -1)
+    e_cov = j @ cov @ np.swapaxes(j, 1, 2) + noise * np.eye(3)
+    w, v = np.linalg.eigh(e_cov)
+    root = v * np.sqrt(np.clip(w, 0.0, None))[:, None, :]
+    z = np.random.default_rng(seed).standard_normal((count, 3, DRAWS))
+    return np.linalg.norm(root @ z, axis=1).reshape(-1)
+
+
+def predicted_draws(chain, train_joints, residual, names, prior_std, *, identified, scale=1.0, frame_names=(),
+                    work_joints=None, seed=0):
+    """Drawn error norms over the working range: ((M, DRAWS) mm of the calibrated model, the
+    same of the registered nominal robot, the :class:`WorkingRange`).
+
+    chain: the calibrated chain; train_joints: (N, n) rad; residual: (N, 3) mm its training
+    residual; names: every parameter with a tolerance or identified; prior_std: (P,) their
+    tolerances (inf: none), and ``scale`` the fit's estimate of how many tolerances this robot
+    lies from its drawing (:func:`~robocal.estimation.least_squares.tolerance_scale_estimate`);
+    identified: how many of them the fit identified (the residual's degrees of freedom);
+    frame_names: those that are base and tool (the registered nominal fits only them);
+    work_joints: (M, n) where the robot will work (default: :func:`working_range`).
+    """
+    names = list(names)
+    prior_std = np.asarray(prior_std, dtype=float)
+    q = np.asarray(train_joints, dtype=float)
+    pick = np.linspace(0, len(q) - 1, min(len(q), POSTERIOR_POSES)).astype(int)
+    jac = _rows(chain, q[pick], names)
+    information = jac.T @ jac * (len(q) / len(pick))
+    noise = float(np.sum(np.asarray(residual) ** 2)) / max(3 * len(q) - identified, 1)
+    cov = _posterior(information.copy(), prior_std * scale, noise)
+    where = working_range(chain, work_joints)
+    work_jac = _rows(chain, where.joints, names)
+    calibrated = error_norms(work_jac, cov, noise, len(where.joints), seed)
+    # The registered nominal robot: only base and tool fitted, every other parameter at its prior.
+    frame = np.array([n in frame_names for n in names])
+    nominal_info = np.where(np.outer(frame, frame), information, 0.0)
+    nominal_cov = _posterior(nominal_info, np.where(frame, np.inf, prior_std * scale), noise)
+    nominal = error_norms(work_jac, nominal_cov, noise, len(where.joints), seed)
+    return calibrated, nominal, where
+
+
+def prediction_draws(calibration, joints, positions, work_joints=None, seed=0):
+    """:func:`predicted_draws` of a fitted
+    :class:`~robocal.estimation.calibration.KinematicCalibration` on its training data
+    ``joints`` (N, n) rad and ``positions`` (N, 3) mm: its identified parameters and, at
+    their nominal values, those it held fixed that have a tolerance."""
+    from ..kinematics.tolerances import prior_sigmas, tolerances_of
+
+    result = calibration.result_
+    start = calibration.start_chain_
+    tolerances = tolerances_of(start, getattr(calibration, "tolerance_scale", 1.0))
+    names = list(result.names) + [n for n in result.identifiability.fixed if n in start.parameters]
+    prior_std = prior_sigmas(start, names, tolerances, joints)
+    keep = np.isfinite(prior_std) | (np.arange(len(names)) < len(result.names))
+    names, prior_std = [n for n, k in zip(names, keep) if k], prior_std[keep]
+    frames = [n for n in names if start.parameters[n].group in ("base", "tool")]
+    residual = np.asarray(positions, dtype=float) - calibration.chain_.fk_positions(joints)
+    return predicted_draws(calibration.chain_, joints, residual, names, prior_std, identified=len(result.names),
+                           scale=result.tolerance_scale, frame_names=frames, work_joints=work_joints, seed=seed)
+
+
+def calibration_prediction(calibration, joints, positions, work_joints=None, seed=0):
+    """The :class:`PredictedError` of a fitted kinematic calibration (:func:`prediction_draws`)."""
+    calibrated, nominal, where = prediction_draws(calibration, joints, positions, work_joints, seed)
+    return PredictedError.of_draws(calibrated, nominal, where, calibration.result_.tolerance_scale)
+
+
+def socket_prediction(calibration, data, seed=0):
+    """The :class:`PredictedError` of a fitted
+    :class:`~robocal.estimation.constraint.ConstraintCalibration` as ball-in-socket data
+    score it: each ball centre's deviation from its socket's mean, on placements like the
+    training ones (their configurations stand for the placements left out).
+
+    data: the training :class:`~robocal.estimation.constraint.data.SocketData`.  The
+    posterior comes from the constraint rows (spanning pairs) with the tolerances at the
+    scale the fit estimated; the ball's own scatter is the training consistency's.
+    """
+    from ..kinematics.tolerances import prior_sigmas, tolerances_of
+    from .constraint.data import constraint_pairs, pair_weights
+    from .constraint.estimator import constraint_rows
+
+    result = calibration.result_
+    start, chain = calibration.start_chain_, calibration.chain_
+    tolerances = tolerances_of(start, getattr(calibration, "tolerance_scale", 1.0))
+    names = list(result.names) + [n for n in result.identifiability.fixed if n in start.parameters]
+    prior_std = prior_sigmas(start, names, tolerances, data.joints)
+    keep = np.isfinite(prior_std) | (np.arange(len(names)) < len(result.names))
+    names, prior_std = [n for n, k in zip(names, keep) if k], prior_std[keep]
+    spanning = constraint_pairs(data, "spanning")
+    residual, jac = constraint_rows(chain, data.joints, spanning, names, pair_weights(spanning))
+    noise = float(residual @ residual) / max(len(residual) - len(result.names), 1)
+    cov = _posterior(jac.T @ jac, prior_std * result.tolerance_scale, noise)
+    nominal_cov = _posterior(np.zeros_like(cov), prior_std * result.tolerance_scale, noise)
+    # Each configuration's ball centre minus its socket's mean, as a linear map of the deviations.
+    positions = chain.identification_jacobian(data.joints, names)[:, :3, :]
+    sizes = np.bincount(data.group)
+    means = np.stack([np.stack([np.bincount(data.group, weights=positions[:, r, c], minlength=len(sizes))
+                                for c in range(len(names))], axis=1) for r in range(3)], axis=1) / sizes[:, None, None]
+    shared = sizes[data.group] > 1
+    deviation = (positions - means[data.group])[shared].reshape(-1, len(names))
+    count = int(np.count_nonzero(shared))
+    scatter = result.residual_after.get("rms_mm", 0.0) ** 2 / 3.0
+    calibrated = error_norms(deviation, cov, scatter, count, seed)
+    nominal = error_norms(deviation, nominal_cov, scatter, count, seed)
+    where = WorkingRange(data.joints[shared], f"the {count} training configurations' sockets, as on placements left out")
+    return PredictedError.of_draws(calibrated, nominal, where, result.tolerance_scale)

@@ -1,0 +1,126 @@
+"""The error to expect where the robot will work, for every method (``calibrate`` reports it,
+keeps it in the model file, and refuses a model predicted to do worse than no calibration).
+
+Every fitted method has a parametric anchor, a calibration under the tolerances: its own
+(kinematic; the hybrid's and a kinematic-based network's base), else the one the data check
+made (:mod:`robocal.methods.plausibility`).  Its posterior, propagated to the working range
+(:mod:`robocal.estimation.prediction`), predicts the error of the calibrated and of the
+registered nominal robot at each configuration there.  A method with an error model is
+judged inside its training domain by its own held-out errors (k folds, the Kriging's
+hyperparameters kept), and outside it by what it falls back to there: the anchor's
+calibrated model if it has one, else the nominal robot, since an error model knows nothing
+beyond its data.
+"""
+import warnings
+
+import numpy as np
+
+from ..errors import InputError, RobocalWarning
+from ..estimation.prediction import PredictedError, error_norms, prediction_draws, working_range
+
+# Folds of the held-out estimate inside the training domain (methods that refit at fixed
+# hyperparameters; a method that trains from scratch, the network, uses FEW_FOLDS).
+FOLDS = 5
+FEW_FOLDS = 2
+
+
+def expected_error(method, chain, observations, work_joints=None, seed=0):
+    """The :class:`~robocal.estimation.prediction.PredictedError` of a fitted ``method`` on
+    its training ``observations`` over ``work_joints`` (M, n) rad (default: uniform in the
+    joint limits); None for ball-in-socket data (their held-out figure is the socket
+    consistency on placements left out, which ``validate`` measures)."""
+    if observations.positions is None:
+        return None
+    if getattr(method, "frames_posterior_", None) is not None:
+        return reregistered_error(method, work_joints, seed)
+    anchor = getattr(method, "calibration_", None)
+    own = anchor is not None and hasattr(anchor.result_, "orientation_rms_deg")  # a position calibration
+    if not own:
+        anchor = getattr(method, "data_check_", None)
+    if anchor is None:
+        from .plausibility import check_robot_data
+
+        anchor = check_robot_data(chain, observations, "tolerances", getattr(method, "tolerance_scale", 1.0))
+    if anchor is None:
+        return None  # too few poses to judge anything
+    calibrated, nominal, where = prediction_draws(anchor, observations.joints, observations.positions, work_joints,
+                                                  seed=seed)
+    if method.compensator_.error_model is not None:
+        work = where.joints
+        inside = method.domain_.check(work).inside if getattr(method, "domain_", None) is not None \
+            else np.zeros(len(work), dtype=bool)
+        errors = held_out_errors(method, chain, observations, seed=seed)
+        rng = np.random.default_rng(seed)
+        drawn = rng.choice(errors, size=calibrated.shape)
+        outside = calibrated if own else nominal
+        calibrated = np.where(inside[:, None], drawn, outside)
+    return PredictedError.of_draws(calibrated, nominal, where, getattr(anchor.result_, "tolerance_scale", 1.0))
+
+
+def reregistered_error(method, work_joints=None, seed=0):
+    """The :class:`PredictedError` of a re-registered model: how loosely its few poses pin
+    base and tool (their posterior propagated to the working range) on top of the error the
+    model had before it moved (its own prediction, else its training residual), against the
+    registered nominal robot's on the same poses."""
+    names, cov = method.frames_posterior_
+    chain = method.compensator_.chain
+    before = method.record_.predicted_error or {}
+    training = method.record_.residual_after_training or {}
+    # E|e| of an isotropic 3-D Gaussian of sigma s per axis is s * sqrt(8 / pi).
+    own = before.get("mean_mm", training.get("rms_mm", 0.0) * np.sqrt(8 / np.pi / 3)) / np.sqrt(8 / np.pi)
+    nominal = before.get("nominal_mean_mm", (method.record_.residual_before or {}).get("rms_mm", 0.0)
+                         * np.sqrt(8 / np.pi / 3)) / np.sqrt(8 / np.pi)
+    # The frames were fitted through the model's own errors as well as the tracker's noise: on
+    # poses that cover little, those errors are systematic and the frames take them up, so the
+    # frames' covariance is that of the larger of the two (the fit's residual per axis, or the
+    # model's own error).
+    fitted = method.reregistration_.residual_after.get("rms_mm", 0.0) ** 2 / 3.0
+    cov = cov * max(1.0, own ** 2 / max(fitted, 1e-300))
+    where = working_range(chain, work_joints)
+    jac = chain.identification_jacobian(where.joints, list(names))[:, :3, :].reshape(-1, len(names))
+    moved = error_norms(jac, cov, own ** 2, len(where.joints), seed)
+    registered = error_norms(jac, cov, nominal ** 2, len(where.joints), seed)
+    return PredictedError.of_draws(moved, registered, where, before.get("tolerance_scale", 1.0))
+
+
+def held_out_errors(method, chain, observations, seed=0):
+    """(N,) mm: each training pose's error under the method fitted without it, over k folds
+    (:meth:`refit` when the method has one: the hyperparameters kept)."""
+    count = observations.n_poses
+    refit = getattr(method, "refit", None)
+    folds = FOLDS if refit is not None else FEW_FOLDS
+    if count < 2 * folds:
+        raise InputError(f"{count} poses are too few to estimate the held-out error with {folds} folds")
+    order = np.random.default_rng(seed).permutation(count)
+    errors = np.empty(count)
+    for fold in np.array_split(order, folds):
+        train = np.setdiff1d(np.arange(count), fold)
+        part = observations.subset(train)
+        with warnings.catch_warnings():
+            # The fit's own warnings were shown once; its folds' would repeat them.
+            warnings.simplefilter("ignore", RobocalWarning)
+            if refit is not None:
+                fitted = refit(chain, part)
+            else:
+                fitted = type(method)(**{s.name: getattr(method, s.name) for s in method.settings})
+                fitted._fit(chain, part, None)
+        test = observations.subset(np.sort(fold))
+        errors[np.sort(fold)] = np.linalg.norm(test.positions - fitted.predict(test.joints), axis=1)
+    return errors
+
+
+def refuse_if_worse_than_nominal(predicted, domain=None):
+    """InputError in one line when ``predicted`` says the model does worse than the registered
+    nominal robot over the working range: what the poses cover, and where to measure."""
+    if predicted is None or not predicted.worse_than_nominal:
+        return
+    covers = ""
+    if domain is not None:
+        low, high = np.degrees(domain.joint_min), np.degrees(domain.joint_max)
+        spans = ", ".join(f"q{k + 1} {lo:.0f}..{hi:.0f}" for k, (lo, hi) in enumerate(zip(low, high)))
+        covers = f" the poses cover {spans} deg;"
+    raise InputError(
+        f"this model is predicted to miss by {predicted.mean_mm:.3g} mm on average over {predicted.where}, worse "
+        f"than the registered nominal robot ({predicted.nominal_mean_mm:.3g} mm):{covers} measure poses where the "
+        "robot will work (robocal design ROBOT --existing DATA adds them), or accept the extrapolation with "
+        "--accept-extrapolation")
