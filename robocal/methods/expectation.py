@@ -27,10 +27,11 @@ FEW_FOLDS = 2
 def expected_error(method, chain, observations, work_joints=None, seed=0):
     """The :class:`~robocal.estimation.prediction.PredictedError` of a fitted ``method`` on
     its training ``observations`` over ``work_joints`` (M, n) rad (default: uniform in the
-    joint limits); None for ball-in-socket data (their held-out figure is the socket
-    consistency on placements left out, which ``validate`` measures)."""
+    joint limits).  For ball-in-socket data, the socket consistency the calibration predicts
+    on placements like its training ones (:func:`~robocal.estimation.prediction.socket_prediction`);
+    None when there is nothing to predict from."""
     if observations.positions is None:
-        return None
+        return _socket_error(method, observations, seed)
     if getattr(method, "frames_posterior_", None) is not None:
         return reregistered_error(method, work_joints, seed)
     anchor = getattr(method, "calibration_", None)
@@ -55,6 +56,19 @@ def expected_error(method, chain, observations, work_joints=None, seed=0):
         outside = calibrated if own else nominal
         calibrated = np.where(inside[:, None], drawn, outside)
     return PredictedError.of_draws(calibrated, nominal, where, getattr(anchor.result_, "tolerance_scale", 1.0))
+
+
+def _socket_error(method, observations, seed):
+    """The constraint calibration's predicted socket consistency, or None."""
+    calibration = getattr(method, "calibration_", None)
+    if calibration is None or observations.placement is None or observations.fixture is None:
+        return None
+    from ..estimation.constraint.data import socket_data
+    from ..estimation.prediction import socket_prediction
+
+    data = socket_data(calibration.start_chain_, observations.joints, observations.placement, observations.socket,
+                       observations.fixture)
+    return socket_prediction(calibration, data, seed)
 
 
 def reregistered_error(method, work_joints=None, seed=0):
