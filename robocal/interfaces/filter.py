@@ -1,0 +1,345 @@
+"""``robocal filter``: robot programs in, compensated robot programs out.
+
+Each Cartesian target of a program is handed to the model's compensator exactly as
+``robocal compensate`` hands a row of a targets file (``Compensator.commands``, with the
+posture the program names as the hint), and the corrected target it returns — the nominal
+controller's forward kinematics of the compensated joints — is written back into the program
+in the program's own base and tool frames.  Everything else in the files stays byte for byte;
+one comment line says that robocal wrote them.
+
+Frames.  The controller's world is the frame of the nominal robot's forward kinematics (the
+robot base).  A target P in the program's base B (world -> base) with the controller's tool
+Tc (flange -> TCP) puts the controller's flange at B·P·Tc⁻¹; the target given to the
+compensator is the robot-file tool's pose there, M·B·P·Tc⁻¹·T₀ (T₀ the robot file's tool, M
+the measurement frame's pose of the world, identity for data measured in the robot's base),
+and a corrected target C (robot-file tool, world) goes back as B⁻¹·C·T₀⁻¹·Tc.  Without
+frames (no KRL --config, RAPID's tool0 and wobj0, URScript) B = I and Tc = T₀: the target is
+the model's TCP in the robot's base, as in a targets file.
+
+Postures.  Among the nominal robot's inverse kinematics branches of a target (and the 2 pi
+turns of its joints), the one whose posture matches what the program names (KRL S and T for
+PTP, RAPID confdata) is the hint; a target the robot arrives at with the posture it has (KRL
+LIN/CIRC/SPL, URScript) takes the branch nearest the previous motion's joints.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import itertools
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..io.atomic import check_outputs, write_text_atomic
+from ..io.programs import LANGUAGES, krl, language_of, postures
+from ..io.programs.core import ENCODING, comment_text, is_filtered, model_digest, rewrite
+from ..kinematics.ik.solve import ik_all
+from ..spatial.transforms import invert
+from .jobs import NO_DOMAIN, load_fitted
+
+SUMMARY = "filter-summary.csv"
+SUMMARY_COLUMNS = ("file", "line", "name", "status", "moved_mm", "turned_deg", "in_domain", "bound_mm")
+
+
+@dataclass
+class Prepared:
+    """A program read and its targets made ready for the compensator: ``programs``
+    ([ProgramFile]), ``targets`` ([Target]), ``poses`` (N, 4, 4) the compensator's targets
+    (measurement frame), ``hints`` (N, n) rad, ``frames`` [(B, Tc)] per target."""
+
+    programs: list
+    targets: list
+    poses: np.ndarray
+    hints: np.ndarray
+    frames: list
+
+
+def read_programs(paths, language=None):
+    """[ProgramFile] of the given program files (a KRL .src brings its .dat)."""
+    if not paths:
+        raise InputError("give at least one program file")
+    by_language = {}
+    for path in paths:
+        if not Path(path).is_file():
+            raise InputError(f"{path}: no such program file")
+        module = language_of(path, language)
+        by_language.setdefault(module, []).append(path)
+    programs, seen = [], set()
+    for module, files in by_language.items():
+        grouped = []
+        for path in module.group(files):
+            key = Path(path).resolve()
+            if key not in seen:
+                seen.add(key)
+                grouped.append(path)
+        for program in module.parse(grouped):
+            program.module = module
+            programs.append(program)
+    names = [Path(p.path).name for p in programs]
+    twice = {n for n in names if names.count(n) > 1}
+    if twice:
+        raise InputError(f"two programs are named {sorted(twice)[0]}: they would be written to the same file in --out")
+    return programs
+
+
+def _frames_of(target, program, config):
+    """(B, Tc) of a target: the program's base and the controller's tool, or None for the
+    defaults."""
+    if program.module is krl:
+        if config is None:
+            return None, None
+        base = np.eye(4) if not target.base else _config_frame(config, "BASE", target.base, target)
+        tool = np.eye(4) if not target.tool else _config_frame(config, "TOOL", target.tool, target)
+        return base, tool
+    if program.module is LANGUAGES["rapid"]:
+        tool = None if target.tool in (None, "TOOL0") else _module_frame(program, "tool", target.tool, target)
+        base = None if target.base in (None, "WOBJ0") else _module_frame(program, "wobj", target.base, target)
+        return base, (np.eye(4) if tool is None and target.tool == "TOOL0" else tool)
+    return None, None
+
+
+def _config_frame(config, kind, number, target):
+    frame = config.get((kind, number))
+    if frame is None:
+        raise InputError(f"{target.file} line {target.line}: {kind}_DATA[{number}] is not in the --config file")
+    return frame
+
+
+def _module_frame(program, kind, name, target):
+    frame = program.frames.get((kind, name))
+    if frame is None:
+        raise InputError(f"{target.file} line {target.line}: {'tooldata' if kind == 'tool' else 'wobjdata'} "
+                         f"{name.lower()} is not declared in the module with a literal value; declare it there")
+    return frame
+
+
+def prepare(programs, model, *, config=None) -> Prepared:
+    """The compensator's targets and posture hints for every Cartesian target of ``programs``
+    (model: the :class:`~robocal.io.model_file.ModelFile`)."""
+    nominal = model.nominal
+    world = _measurement_frame(model)
+    targets, frames, controller_poses = [], [], []
+    for program in programs:
+        for target in program.targets:
+            base, tool = _frames_of(target, program, config)
+            base = np.eye(4) if base is None else base
+            tool = nominal.tool if tool is None else tool
+            targets.append(target)
+            frames.append((base, tool))
+            controller_poses.append(base @ target.pose @ invert(tool) @ nominal.tool)
+    if not targets:
+        return Prepared(programs, [], np.zeros((0, 4, 4)), np.zeros((0, nominal.n_joints)), [])
+    controller_poses = np.array(controller_poses)
+    hints = _hints(programs, targets, controller_poses, nominal)
+    return Prepared(programs, targets, world @ controller_poses, hints, frames)
+
+
+def _measurement_frame(model):
+    """M: the measurement frame's pose of the controller's world (identity when the data
+    were measured in the robot's base)."""
+    reference = model.reference if model.reference is not None else model.kinematics
+    return reference.base @ invert(model.nominal.base)
+
+
+def _turns(nominal, q, shifts):
+    """Branches q (N, 8, n) turned by each of ``shifts`` ((S, n) multiples of 2 pi), NaN
+    where a turned branch leaves the joint limits: (N, 8 S, n)."""
+    options = []
+    for shift in shifts:
+        moved = q + 2 * np.pi * shift
+        inside = np.all((moved >= nominal.lower - 1e-9) & (moved <= nominal.upper + 1e-9), axis=-1)
+        options.append(np.where(inside[..., None], moved, np.nan))
+    return np.concatenate(options, axis=1)
+
+
+def _shifts(nominal, turning):
+    """The 2 pi turns tried: every combination of -1, 0, +1 on the joints whose range exceeds
+    a turn (none when the program names no posture that tells turns apart)."""
+    turns = [j for j in range(nominal.n_joints) if nominal.upper[j] - nominal.lower[j] > 2 * np.pi] if turning else []
+    shifts = []
+    for combination in itertools.product((-1, 0, 1), repeat=len(turns)):
+        shift = np.zeros(nominal.n_joints)
+        shift[turns] = combination
+        shifts.append(shift)
+    return shifts
+
+
+def _branch_postures(language, nominal, q):
+    """The part of the posture a branch fixes (KRL status, RAPID cfx) for q (M, 6): (M,)."""
+    ok = np.isfinite(q).all(axis=1)
+    out = np.full(len(q), -1)
+    if ok.any() and q.shape[1] == 6:
+        if language == krl.NAME:
+            out[ok] = postures.kuka(nominal, q[ok])[0]
+        elif language == LANGUAGES["rapid"].NAME:
+            out[ok] = postures.abb(nominal, q[ok])[:, 3]
+    return out
+
+
+def _scores(targets, language, branch_code, candidates, n_shifts):
+    """(N, K) how well each candidate matches the posture its target names: 2 for the
+    branch's part (status, cfx), 1 for each turn or quadrant that matches."""
+    n, k, _ = candidates.shape
+    code = np.tile(branch_code.reshape(n, -1), (1, n_shifts))
+    degrees = np.degrees(candidates)
+    scores = np.zeros((n, k))
+    for i, target in enumerate(targets):
+        posture = target.posture
+        if posture is None:
+            continue
+        if language == krl.NAME:
+            scores[i] = 2 * (code[i] == posture[0])
+            if posture[1] is not None:
+                turn = ((degrees[i] < 0) * (1 << np.arange(degrees.shape[2]))).sum(axis=1)
+                scores[i] += turn == posture[1]
+        elif language == LANGUAGES["rapid"].NAME and degrees.shape[2] == 6:
+            quadrants = np.floor(degrees[i][:, [0, 3, 5]] / 90.0)
+            scores[i] = 2 * (code[i] == posture[3]) + (quadrants == np.array(posture[:3])).sum(axis=1)
+    return scores
+
+
+def _hints(programs, targets, poses, nominal):
+    """(N, n) rad: the nominal robot's joints for each target in the posture it is reached
+    with, taken in program order so that a motion that keeps the posture follows the one
+    before."""
+    q, valid = ik_all(nominal, poses)
+    q = np.where(valid[..., None], q, np.nan)
+    width = 8 * len(_shifts(nominal, True))
+    candidates = np.full((len(targets), width, nominal.n_joints), np.nan)
+    scores = np.zeros((len(targets), width))
+    for language in {t.language for t in targets}:
+        rows = np.array([i for i, t in enumerate(targets) if t.language == language])
+        named = any(targets[i].posture is not None for i in rows)
+        shifts = _shifts(nominal, named)
+        part = _turns(nominal, q[rows], shifts)
+        candidates[rows, :part.shape[1]] = part
+        if named:
+            code = _branch_postures(language, nominal, q[rows].reshape(-1, nominal.n_joints))
+            scores[rows, :part.shape[1]] = _scores([targets[i] for i in rows], language, code, part, len(shifts))
+    exists = np.isfinite(candidates).all(axis=2)
+    hints = np.zeros((len(targets), nominal.n_joints))
+    events = [(t.order, 1, i, t.file) for i, t in enumerate(targets)]
+    for program in programs:
+        events += [(j.order, 0, j, j.file) for j in program.joint_targets]
+    previous = {}
+    for order, kind, item, file in sorted(events, key=lambda e: (_program_key(e[3]), e[0], e[1])):
+        group = _program_key(file)
+        if kind == 0:
+            joints = np.asarray(item.joints, dtype=float)
+            if joints.shape == (nominal.n_joints,) and np.isfinite(joints).all():
+                previous[group] = nominal.joints_from_file(joints[None])[0]
+            continue
+        i, target = item, targets[item]
+        if not exists[i].any():
+            hints[i] = np.nan
+            continue
+        reference = previous.get(group, np.zeros(nominal.n_joints))
+        distance = np.where(exists[i], np.linalg.norm(np.nan_to_num(candidates[i] - reference), axis=1), np.inf)
+        if target.posture is not None and not (target.follows and group in previous):
+            best = np.where(exists[i], scores[i], -1)
+            distance = np.where(best == best.max(), distance, np.inf)
+        hints[i] = candidates[i, int(np.argmin(distance))]
+        if np.isfinite(order):
+            previous[group] = hints[i]
+    return hints
+
+
+def _program_key(path):
+    """Files of one program share their motions' order (a KRL .src and its .dat)."""
+    return str(Path(path).with_suffix("")).lower()
+
+
+def _angle(a, b):
+    cosine = np.clip((np.trace(a[:3, :3].T @ b[:3, :3]) - 1) / 2, -1.0, 1.0)
+    return float(np.degrees(np.arccos(cosine)))
+
+
+def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_unfiltered=False,
+               accept_extrapolation=False, iterate=False):
+    """Write the filtered programs and filter-summary.csv into ``out_dir``.
+
+    Refuses (InputError, nothing written) a program robocal filtered already, run-time
+    motions without ``allow_unfiltered``, targets the model cannot reach, and targets outside
+    its domain of validity without ``accept_extrapolation``.  Returns a JSON-ready dict.
+    """
+    out_dir = Path(out_dir)
+    if not out_dir.is_dir():
+        raise InputError(f"--out {out_dir} is not a directory: create it first")
+    programs = read_programs(paths, language)
+    for program in programs:
+        if is_filtered(program.text, program.module.COMMENT):
+            raise InputError(f"{program.path} was written by robocal filter already (it carries robocal's comment "
+                             "line): filter the original program instead")
+    outputs = [out_dir / Path(p.path).name for p in programs] + [out_dir / SUMMARY]
+    check_outputs(outputs, [model_path, config, *[p.path for p in programs]])
+    run_time = [r for p in programs for r in p.run_time]
+    if run_time and not allow_unfiltered:
+        lines = "; ".join(f"{r.file} line {r.line}: {r.what}" for r in run_time)
+        raise InputError(f"{len(run_time)} motion(s) are computed at run time and cannot be filtered ({lines}); "
+                         "nothing was written; give --allow-unfiltered to write the program with them as they are")
+    model, fitted = load_fitted(model_path)
+    frames = None if config is None else krl.read_config(config)
+    prepared = prepare(programs, model, config=frames)
+    targets = prepared.targets
+    corrected, inside = np.zeros((0, 4, 4)), np.zeros(0, dtype=bool)
+    domain_summary = NO_DOMAIN if fitted.domain_ is None else "no targets"
+    if targets:
+        reachable = np.isfinite(prepared.hints).all(axis=1)
+        result = fitted.compensator_.commands(prepared.poses, hint=np.nan_to_num(prepared.hints), iterate=iterate)
+        reached = result.success & reachable
+        if not reached.all():
+            bad = [f"{t.file} line {t.line} ({t.name})" for t, ok in zip(targets, reached) if not ok]
+            raise InputError(f"{len(bad)} target(s) cannot be reached by the calibrated robot: {', '.join(bad[:10])}"
+                             f"{' ...' if len(bad) > 10 else ''}; nothing was written")
+        inside = np.ones(len(targets), dtype=bool)
+        if fitted.domain_ is not None:
+            check = fitted.domain_.check(result.q, prepared.poses[:, :3, 3])
+            inside = np.asarray(check.inside, dtype=bool)
+            domain_summary = check.summary
+            if not inside.all() and not accept_extrapolation:
+                bad = [f"{t.file} line {t.line} ({t.name}): {why}"
+                       for t, ok, why in zip(targets, inside, check.reasons) if not ok]
+                raise InputError(f"{len(bad)} target(s) lie outside the model's domain of validity: "
+                                 f"{'; '.join(bad[:5])}{' ...' if len(bad) > 5 else ''}; nothing was written; "
+                                 "give --accept-extrapolation to filter them anyway")
+        nominal_tool_inverse = invert(model.nominal.tool)
+        corrected = np.array([invert(base) @ c @ nominal_tool_inverse @ tool
+                              for c, (base, tool) in zip(result.corrected, prepared.frames)])
+    comment_words = comment_text(Path(model_path).name, model_digest(model_path))
+    edits = {p.path: [] for p in programs}
+    rows = []
+    for target, pose, ok in zip(targets, corrected, inside):
+        module = LANGUAGES[_key_of(target.language)]
+        edits[target.file] += module.new_numbers(target, pose)
+        moved = float(np.linalg.norm(pose[:3, 3] - target.pose[:3, 3]))
+        rows.append([Path(target.file).name, target.line, target.name, "filtered", f"{moved:.4f}",
+                     f"{_angle(pose, target.pose):.4f}", "" if fitted.domain_ is None else ("1" if ok else "0"), ""])
+    for r in run_time:
+        rows.append([Path(r.file).name, r.line, r.what, "unfiltered (run time)", "", "", "", ""])
+    texts = []
+    for program, target_path in zip(programs, outputs):
+        comment = f"{program.module.COMMENT} {comment_words}"
+        text = rewrite(program, edits[program.path], program.module.comment_offset(program.text), comment)
+        texts.append((target_path, text))
+    for target_path, text in texts:
+        write_text_atomic(target_path, text, encoding=ENCODING)
+    write_text_atomic(outputs[-1], _summary(rows))
+    moved = np.array([float(r[4]) for r in rows if r[3] == "filtered"]) if targets else np.zeros(0)
+    return {"files": [str(p) for p, _ in texts], "summary": str(outputs[-1]), "targets": len(targets),
+            "unfiltered": [f"{r.file} line {r.line}: {r.what}" for r in run_time],
+            "outside_domain": int((~inside).sum()), "domain_summary": domain_summary,
+            "max_moved_mm": float(moved.max()) if len(moved) else 0.0}
+
+
+def _key_of(language_name):
+    return next(k for k, m in LANGUAGES.items() if m.NAME == language_name)
+
+
+def _summary(rows):
+    stream = io.StringIO()
+    writer = csv.writer(stream, lineterminator="\n")
+    writer.writerow(SUMMARY_COLUMNS)
+    writer.writerows(rows)
+    return stream.getvalue()
