@@ -227,12 +227,18 @@ def _motion(program, text, match, end, declared, order):
                 target = _target(program, node, line, "inline")
                 target.order, target.tool, target.base = order, tool, wobj
                 continue
-        entry = declared.get(re.sub(r"\s+", "", arg_text).upper())
-        if entry is not None and entry[0] == "robtarget" and entry[1] is not None:
-            target = entry[1]
+        key = re.sub(r"\s+", "", arg_text).upper()
+        entry = declared.get(key)
+        element = re.fullmatch(r"(\w+)\{[^}]*\}", key)
+        if entry is None and element is not None and f"{element.group(1)}{{1}}" in declared:
+            # An array indexed at run time: every element of a literal array is a target.
+            elements = [e[1] for k, e in declared.items() if k.startswith(element.group(1) + "{")]
+        else:
+            elements = [entry[1]] if entry is not None and entry[0] == "robtarget" and entry[1] is not None else []
+        for target in elements:
             if target.order == np.inf:
                 target.order, target.tool, target.base = order, tool, wobj
-        else:
+        if not elements:
             program.run_time.append(RunTime(program.path, line, f"{instruction} {arg_text}: computed at run time"))
 
 
