@@ -140,6 +140,7 @@ def _parse(program, text):
         named.setdefault(assign.group(1), []).append((assign.start(), None))
         program.run_time.append(RunTime(program.path, line_of(text, assign.start()),
                                         f"{assign.group(1)} = {rhs}: computed at run time"))
+    joint_lists = {a.group(1): a.start(2) for a in _ASSIGN.finditer(text) if a.group(2).strip().startswith("[")}
     order = 0
     for match in _MOTION.finditer(text):
         order += 1
@@ -152,6 +153,11 @@ def _parse(program, text):
             if word.startswith("["):  # a joint list
                 values = [n.value for n in numbers_in(text, lead, lead + len(word))]
                 program.joint_targets.append(JointTarget(program.path, order, tuple(np.degrees(values))))
+            elif word in joint_lists and word not in named:
+                at_list = joint_lists[word]
+                close = text.index("]", at_list)
+                values = [n.value for n in numbers_in(text, at_list, close)]
+                program.joint_targets.append(JointTarget(program.path, order, tuple(np.degrees(values))))
             elif lead in literals:
                 literals[lead].order = order
             elif re.fullmatch(r"\w+", word) and word in named:
@@ -163,6 +169,10 @@ def _parse(program, text):
                     target.order = order
             else:
                 program.run_time.append(RunTime(program.path, line, f"{function}({word}): computed at run time"))
+
+    # A pose assigned to a name no motion takes is an offset or a frame (pose_trans's second
+    # argument, set_tcp's), not a target: it stays as it is.
+    program.targets = [t for t in program.targets if t.name == "inline" or t.order != np.inf]
 
 
 def new_numbers(target, pose):
