@@ -227,12 +227,15 @@ def _motion(program, text, line, base_offset, number, motion, declared, fdats, s
     rest = line[motion.end():]
     rest_at = base_offset + motion.end()
     count = 2 if kind in ("CIRC", "SCIRC") else 1
-    tool, base = state["tool"], state["base"]
+    # An inline form's FDAT makes its tool and base the active ones, for this motion and the
+    # motions after it, as $TOOL = TOOL_DATA[n] does.
     fdat = fdats.get(state["fdat"] or "")
     if fdat is not None:
-        tool = int(fdat["TOOL_NO"].value) if "TOOL_NO" in fdat else tool
-        base = int(fdat["BASE_NO"].value) if "BASE_NO" in fdat else base
+        for key, item in (("tool", "TOOL_NO"), ("base", "BASE_NO")):
+            if item in fdat and not isinstance(fdat[item], str):
+                state[key] = int(fdat[item].value)
     state["fdat"] = None
+    tool, base = state["tool"], state["base"]
     position = 0
     for _ in range(count):
         while position < len(rest) and rest[position] in " \t,":
