@@ -117,12 +117,11 @@ def filter_and_compensate(model, program, out_dir, folder, *, frames=None, confi
     result = filter_job(model, [program], out_dir, config=config, allow_unfiltered=True, **options)
     loaded = load_model(model)
     t0 = loaded.nominal.tool
-    world = loaded.reference.base @ np.linalg.inv(loaded.nominal.base)
     before = targets_of([program])
     after = targets_of([Path(out_dir) / Path(program).name])
     assert [(Path(t.file).name, t.name) for t in after] == [(Path(t.file).name, t.name) for t in before]
     pairs = [frames(t) if frames else (np.eye(4), t0) for t in before]
-    goal = np.array([world @ b @ t.pose @ np.linalg.inv(tc) @ t0 for t, (b, tc) in zip(before, pairs)])
+    goal = np.array([b @ t.pose @ np.linalg.inv(tc) @ t0 for t, (b, tc) in zip(before, pairs)])
     hints = prepare(read_programs([program]), loaded, config=None if config is None else read_config(config)).hints
     corrected, q = compensate_targets(model, goal, hints, folder)
     expected = np.array([np.linalg.inv(b) @ c @ np.linalg.inv(t0) @ tc for c, (b, tc) in zip(corrected, pairs)])

@@ -10,11 +10,13 @@ one comment line says that robocal wrote them.
 Frames.  The controller's world is the frame of the nominal robot's forward kinematics (the
 robot base).  A target P in the program's base B (world -> base) with the controller's tool
 Tc (flange -> TCP) puts the controller's flange at B·P·Tc⁻¹; the target given to the
-compensator is the robot-file tool's pose there, M·B·P·Tc⁻¹·T₀ (T₀ the robot file's tool, M
-the measurement frame's pose of the world, identity for data measured in the robot's base),
+compensator is the robot-file tool's pose there, B·P·Tc⁻¹·T₀ (T₀ the robot file's tool),
 and a corrected target C (robot-file tool, world) goes back as B⁻¹·C·T₀⁻¹·Tc.  Without
 frames (no KRL --config, RAPID's tool0 and wobj0, URScript) B = I and Tc = T₀: the target is
-the model's TCP in the robot's base, as in a targets file.
+the model's TCP, as in a targets file.  The world is the frame of the model's data, as for
+``compensate``'s targets: the robot's base when the measurements were registered to it
+(a calibration in a tracker's frame cannot tell the robot's base apart from its first link,
+so robocal does not guess a transform between the two).
 
 Postures.  Among the nominal robot's inverse kinematics branches of a target (and the 2 pi
 turns of its joints), the one whose posture matches what the program names (KRL S and T for
@@ -119,7 +121,6 @@ def prepare(programs, model, *, config=None) -> Prepared:
     """The compensator's targets and posture hints for every Cartesian target of ``programs``
     (model: the :class:`~robocal.io.model_file.ModelFile`)."""
     nominal = model.nominal
-    world = _measurement_frame(model)
     targets, frames, controller_poses = [], [], []
     for program in programs:
         for target in program.targets:
@@ -133,14 +134,7 @@ def prepare(programs, model, *, config=None) -> Prepared:
         return Prepared(programs, [], np.zeros((0, 4, 4)), np.zeros((0, nominal.n_joints)), [])
     controller_poses = np.array(controller_poses)
     hints = _hints(programs, targets, controller_poses, nominal)
-    return Prepared(programs, targets, world @ controller_poses, hints, frames)
-
-
-def _measurement_frame(model):
-    """M: the measurement frame's pose of the controller's world (identity when the data
-    were measured in the robot's base)."""
-    reference = model.reference if model.reference is not None else model.kinematics
-    return reference.base @ invert(model.nominal.base)
+    return Prepared(programs, targets, controller_poses, hints, frames)
 
 
 def _turns(nominal, q, shifts):
