@@ -26,6 +26,7 @@ LIN/CIRC/SPL, URScript) takes the branch nearest the previous motion's joints.
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import itertools
 from dataclasses import dataclass
@@ -121,43 +122,36 @@ def prepare(programs, model, *, config=None) -> Prepared:
     """The compensator's targets and posture hints for every Cartesian target of ``programs``
     (model: the :class:`~robocal.io.model_file.ModelFile`)."""
     nominal = model.nominal
-    targets, frames, controller_poses = [], [], []
+    targets, frames = [], []
+    identity = np.eye(4)
     for program in programs:
         for target in program.targets:
             base, tool = _frames_of(target, program, config)
-            base = np.eye(4) if base is None else base
-            tool = nominal.tool if tool is None else tool
             targets.append(target)
-            frames.append((base, tool))
-            controller_poses.append(base @ target.pose @ invert(tool) @ nominal.tool)
+            frames.append((identity if base is None else base, nominal.tool if tool is None else tool))
     if not targets:
         return Prepared(programs, [], np.zeros((0, 4, 4)), np.zeros((0, nominal.n_joints)), [])
-    controller_poses = np.array(controller_poses)
+    bases, tools = (np.array(f) for f in zip(*frames))
+    controller_poses = bases @ np.array([t.pose for t in targets]) @ np.linalg.inv(tools) @ nominal.tool
     hints = _hints(programs, targets, controller_poses, nominal)
     return Prepared(programs, targets, controller_poses, hints, frames)
 
 
-def _turns(nominal, q, shifts):
-    """Branches q (N, 8, n) turned by each of ``shifts`` ((S, n) multiples of 2 pi), NaN
-    where a turned branch leaves the joint limits: (N, 8 S, n)."""
+def _shifts(nominal, q, turning):
+    """Branches q (N, 8, n) and their turned twins: every combination of turning each joint
+    whose range exceeds a turn by 2 pi towards the other sign (none when the program names no
+    posture that tells turns apart).  NaN where a twin leaves the joint limits: (N, 8 S, n)
+    with S the number of combinations."""
+    turns = [j for j in range(nominal.n_joints) if nominal.upper[j] - nominal.lower[j] > 2 * np.pi] if turning else []
     options = []
-    for shift in shifts:
-        moved = q + 2 * np.pi * shift
+    for combination in itertools.product((0, 1), repeat=len(turns)):
+        moved = q.copy()
+        for j, flip in zip(turns, combination):
+            if flip:
+                moved[..., j] -= 2 * np.pi * np.sign(moved[..., j])
         inside = np.all((moved >= nominal.lower - 1e-9) & (moved <= nominal.upper + 1e-9), axis=-1)
         options.append(np.where(inside[..., None], moved, np.nan))
-    return np.concatenate(options, axis=1)
-
-
-def _shifts(nominal, turning):
-    """The 2 pi turns tried: every combination of -1, 0, +1 on the joints whose range exceeds
-    a turn (none when the program names no posture that tells turns apart)."""
-    turns = [j for j in range(nominal.n_joints) if nominal.upper[j] - nominal.lower[j] > 2 * np.pi] if turning else []
-    shifts = []
-    for combination in itertools.product((-1, 0, 1), repeat=len(turns)):
-        shift = np.zeros(nominal.n_joints)
-        shift[turns] = combination
-        shifts.append(shift)
-    return shifts
+    return np.concatenate(options, axis=1), len(options)
 
 
 def _branch_postures(language, nominal, q):
@@ -174,24 +168,22 @@ def _branch_postures(language, nominal, q):
 
 def _scores(targets, language, branch_code, candidates, n_shifts):
     """(N, K) how well each candidate matches the posture its target names: 2 for the
-    branch's part (status, cfx), 1 for each turn or quadrant that matches."""
-    n, k, _ = candidates.shape
+    branch's part (status, cfx), 1 for each turn or quadrant that matches; 0 without one."""
+    n, k, dof = candidates.shape
     code = np.tile(branch_code.reshape(n, -1), (1, n_shifts))
     degrees = np.degrees(candidates)
+    named = np.array([t.posture is not None for t in targets])
     scores = np.zeros((n, k))
-    for i, target in enumerate(targets):
-        posture = target.posture
-        if posture is None:
-            continue
-        if language == krl.NAME:
-            scores[i] = 2 * (code[i] == posture[0])
-            if posture[1] is not None:
-                turn = ((degrees[i] < 0) * (1 << np.arange(degrees.shape[2]))).sum(axis=1)
-                scores[i] += turn == posture[1]
-        elif language == LANGUAGES["rapid"].NAME and degrees.shape[2] == 6:
-            quadrants = np.floor(degrees[i][:, [0, 3, 5]] / 90.0)
-            scores[i] = 2 * (code[i] == posture[3]) + (quadrants == np.array(posture[:3])).sum(axis=1)
-    return scores
+    if language == krl.NAME:
+        status = np.array([t.posture[0] if t.posture else -1 for t in targets])
+        turn = np.array([t.posture[1] if t.posture and t.posture[1] is not None else -1 for t in targets])
+        candidate_turn = ((degrees < 0) * (1 << np.arange(dof))).sum(axis=2)
+        scores = 2.0 * (code == status[:, None]) + ((candidate_turn == turn[:, None]) & (turn[:, None] >= 0))
+    elif language == LANGUAGES["rapid"].NAME and dof == 6:
+        conf = np.array([t.posture if t.posture else (-99,) * 4 for t in targets])
+        quadrants = np.floor(degrees[..., [0, 3, 5]] / 90.0)
+        scores = 2.0 * (code == conf[:, None, 3]) + (quadrants == conf[:, None, :3]).sum(axis=2)
+    return np.where(named[:, None], scores, 0.0)
 
 
 def _hints(programs, targets, poses, nominal):
@@ -200,24 +192,32 @@ def _hints(programs, targets, poses, nominal):
     before."""
     q, valid = ik_all(nominal, poses)
     q = np.where(valid[..., None], q, np.nan)
-    width = 8 * len(_shifts(nominal, True))
-    candidates = np.full((len(targets), width, nominal.n_joints), np.nan)
-    scores = np.zeros((len(targets), width))
+    parts = {}
     for language in {t.language for t in targets}:
         rows = np.array([i for i, t in enumerate(targets) if t.language == language])
         named = any(targets[i].posture is not None for i in rows)
-        shifts = _shifts(nominal, named)
-        part = _turns(nominal, q[rows], shifts)
-        candidates[rows, :part.shape[1]] = part
+        part, n_shifts = _shifts(nominal, q[rows], named)
+        score = np.zeros(part.shape[:2])
         if named:
             code = _branch_postures(language, nominal, q[rows].reshape(-1, nominal.n_joints))
-            scores[rows, :part.shape[1]] = _scores([targets[i] for i in rows], language, code, part, len(shifts))
+            score = _scores([targets[i] for i in rows], language, code, part, n_shifts)
+        parts[language] = (rows, part, score)
+    width = max(part.shape[1] for _, part, _ in parts.values())
+    candidates = np.full((len(targets), width, nominal.n_joints), np.nan)
+    scores = np.full((len(targets), width), -1.0)
+    for rows, part, score in parts.values():
+        candidates[rows, :part.shape[1]] = part
+        scores[rows, :part.shape[1]] = score
     exists = np.isfinite(candidates).all(axis=2)
+    scores = np.where(exists, scores, -1.0)
+    # The candidates a named posture allows (those that match it best), and all others.
+    matching = exists & (scores == scores.max(axis=1, keepdims=True))
+    candidates = np.nan_to_num(candidates, nan=1e3)
     hints = np.zeros((len(targets), nominal.n_joints))
     events = [(t.order, 1, i, t.file) for i, t in enumerate(targets)]
     for program in programs:
         events += [(j.order, 0, j, j.file) for j in program.joint_targets]
-    previous = {}
+    previous, zero = {}, np.zeros(nominal.n_joints)
     for order, kind, item, file in sorted(events, key=lambda e: (_program_key(e[3]), e[0], e[1])):
         group = _program_key(file)
         if kind == 0:
@@ -229,25 +229,26 @@ def _hints(programs, targets, poses, nominal):
         if not exists[i].any():
             hints[i] = np.nan
             continue
-        reference = previous.get(group, np.zeros(nominal.n_joints))
-        distance = np.where(exists[i], np.linalg.norm(np.nan_to_num(candidates[i] - reference), axis=1), np.inf)
-        if target.posture is not None and not (target.follows and group in previous):
-            best = np.where(exists[i], scores[i], -1)
-            distance = np.where(best == best.max(), distance, np.inf)
-        hints[i] = candidates[i, int(np.argmin(distance))]
+        reference = previous.get(group, zero)
+        allowed = matching[i] if target.posture is not None and not (target.follows and group in previous) \
+            else exists[i]
+        distance = ((candidates[i] - reference) ** 2).sum(axis=1)
+        hints[i] = candidates[i, int(np.argmin(np.where(allowed, distance, np.inf)))]
         if np.isfinite(order):
             previous[group] = hints[i]
     return hints
 
 
+@functools.lru_cache(maxsize=None)
 def _program_key(path):
     """Files of one program share their motions' order (a KRL .src and its .dat)."""
     return str(Path(path).with_suffix("")).lower()
 
 
-def _angle(a, b):
-    cosine = np.clip((np.trace(a[:3, :3].T @ b[:3, :3]) - 1) / 2, -1.0, 1.0)
-    return float(np.degrees(np.arccos(cosine)))
+def _angles(a, b):
+    """Angles (deg) between the rotations of (N, 4, 4) poses a and b."""
+    cosine = (np.einsum("nij,nij->n", a[:, :3, :3], b[:, :3, :3]) - 1) / 2
+    return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
 
 
 def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_unfiltered=False,
@@ -298,18 +299,23 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
                 raise InputError(f"{len(bad)} target(s) lie outside the model's domain of validity: "
                                  f"{'; '.join(bad[:5])}{' ...' if len(bad) > 5 else ''}; nothing was written; "
                                  "give --accept-extrapolation to filter them anyway")
-        nominal_tool_inverse = invert(model.nominal.tool)
-        corrected = np.array([invert(base) @ c @ nominal_tool_inverse @ tool
-                              for c, (base, tool) in zip(result.corrected, prepared.frames)])
+        bases, tools = (np.array(f) for f in zip(*prepared.frames))
+        corrected = np.linalg.inv(bases) @ result.corrected @ invert(model.nominal.tool) @ tools
     comment_words = comment_text(Path(model_path).name, model_digest(model_path))
     edits = {p.path: [] for p in programs}
+    number_files = {id(n): t.file for t in targets for n in t.numbers}
     rows = []
-    for target, pose, ok in zip(targets, corrected, inside):
-        module = LANGUAGES[_key_of(target.language)]
-        edits[target.file] += module.new_numbers(target, pose)
-        moved = float(np.linalg.norm(pose[:3, 3] - target.pose[:3, 3]))
-        rows.append([Path(target.file).name, target.line, target.name, "filtered", f"{moved:.4f}",
-                     f"{_angle(pose, target.pose):.4f}", "" if fitted.domain_ is None else ("1" if ok else "0"), ""])
+    for language in {t.language for t in targets}:
+        chosen = [k for k, t in enumerate(targets) if t.language == language]
+        module = LANGUAGES[_key_of(language)]
+        for number, text in module.new_numbers([targets[k] for k in chosen], corrected[chosen]):
+            edits[number_files[id(number)]].append((number, text))
+    originals = np.array([t.pose for t in targets]) if targets else np.zeros((0, 4, 4))
+    moved = np.linalg.norm(corrected[:, :3, 3] - originals[:, :3, 3], axis=1)
+    turned = _angles(corrected, originals)
+    for target, distance, angle, ok in zip(targets, moved.tolist(), turned.tolist(), inside):
+        rows.append([Path(target.file).name, target.line, target.name, "filtered", f"{distance:.4f}",
+                     f"{angle:.4f}", "" if fitted.domain_ is None else ("1" if ok else "0"), ""])
     for r in run_time:
         rows.append([Path(r.file).name, r.line, r.what, "unfiltered (run time)", "", "", "", ""])
     texts = []
@@ -320,7 +326,6 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
     for target_path, text in texts:
         write_text_atomic(target_path, text, encoding=ENCODING)
     write_text_atomic(outputs[-1], _summary(rows))
-    moved = np.array([float(r[4]) for r in rows if r[3] == "filtered"]) if targets else np.zeros(0)
     return {"files": [str(p) for p, _ in texts], "summary": str(outputs[-1]), "targets": len(targets),
             "unfiltered": [f"{r.file} line {r.line}: {r.what}" for r in run_time],
             "outside_domain": int((~inside).sum()), "domain_summary": domain_summary,

@@ -14,9 +14,11 @@ turns a new pose back into numbers in the file's units.
 """
 from __future__ import annotations
 
+import bisect
 import hashlib
 import re
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -30,8 +32,7 @@ NUMBER_RE = re.compile(NUMBER)
 MARK = "robocal filter:"
 
 
-@dataclass(frozen=True)
-class Number:
+class Number(NamedTuple):
     """One number of a file: its characters ``text`` at ``start`` (character = byte offset)
     and its value."""
 
@@ -49,9 +50,12 @@ class Number:
     @property
     def decimals(self) -> int:
         """Digits after the decimal point (0 without one; an exponent counts against them)."""
-        mantissa, _, exponent = self.text.lower().partition("e")
-        digits = len(mantissa.partition(".")[2])
-        return max(0, digits - int(exponent or 0))
+        text = self.text
+        if "e" not in text and "E" not in text:
+            point = text.find(".")
+            return 0 if point < 0 else len(text) - point - 1
+        mantissa, _, exponent = text.lower().partition("e")
+        return max(0, len(mantissa.partition(".")[2]) - int(exponent))
 
 
 def number_at(text, start) -> Number:
@@ -72,22 +76,30 @@ def format_like(value, original: Number, min_decimals: int) -> str:
     value is the original's at the precision written below (so a target that does not move
     stays byte for byte), else fixed point with the original's decimals or ``min_decimals``,
     whichever is finer; a leading '+' is kept."""
-    decimals = max(original.decimals, min_decimals)
-    if abs(value - original.value) < 0.5 * 10.0 ** -decimals:
+    decimals = original.decimals
+    if decimals < min_decimals:
+        decimals = min_decimals
+    if abs(value - float(original.text)) < 0.5 * 10.0 ** -decimals:
         return original.text
     text = f"{value:.{decimals}f}"
-    if float(text) == 0.0:
-        text = text.lstrip("-")
-    if original.text.startswith("+") and not text.startswith("-"):
+    if text[0] == "-" and float(text) == 0.0:
+        text = text[1:]
+    if original.text[0] == "+" and text[0] != "-":
         text = "+" + text
     if decimals == 0 and "." in original.text:
         text += "."
     return text
 
 
+_LINES = {"text": None, "newlines": None}
+
+
 def line_of(text, offset) -> int:
-    """1-based line number of a character offset."""
-    return text.count("\n", 0, offset) + 1
+    """1-based line number of a character offset (the line starts of the last text asked
+    about are kept: a program's targets are looked up one after the other)."""
+    if _LINES["text"] is not text:
+        _LINES["text"], _LINES["newlines"] = text, [m.start() for m in re.finditer("\n", text)]
+    return bisect.bisect_left(_LINES["newlines"], offset) + 1
 
 
 @dataclass
@@ -107,7 +119,7 @@ class Target:
     line: int
     name: str
     numbers: list
-    pose: np.ndarray
+    pose: np.ndarray = None
     posture: object = None
     follows: bool = False
     base: object = None
@@ -155,6 +167,22 @@ class ProgramFile:
         return "\r\n" if end > 0 and self.text[end - 1] == "\r" else "\n"
 
 
+def fill_poses(targets, poses_of):
+    """Set every target's pose at once from its numbers (``poses_of``: (N, k) file values ->
+    (N, 4, 4), the language's conversion)."""
+    if targets:
+        poses = poses_of(np.array([[n.value for n in t.numbers] for t in targets], dtype=float))
+        for target, pose in zip(targets, poses):
+            target.pose = pose
+
+
+def formatted(targets, values, min_decimals):
+    """[(Number, text)] for (N, k) new values of the targets' numbers; ``min_decimals`` one
+    per column."""
+    return [(n, format_like(v, n, d)) for t, row in zip(targets, values.tolist())
+            for n, v, d in zip(t.numbers, row, min_decimals)]
+
+
 def read_text(path) -> str:
     """A program file's bytes as Latin-1 text (one character per byte)."""
     with open(path, "rb") as stream:
@@ -182,8 +210,9 @@ def rewrite(program: ProgramFile, replacements, comment_at: int, comment: str) -
     """The file's text with ``replacements`` ([(Number, new text)]) applied and the line
     ``comment`` (with its comment sign) inserted at character ``comment_at`` (a line start)."""
     pieces, position = [], 0
-    edits = sorted([(n.start, n.end, new) for n, new in replacements] + [(comment_at, comment_at,
-                                                                           comment + program.newline)])
+    edits = [(n.start, n.start + len(n.text), new) for n, new in replacements if new != n.text]
+    edits.append((comment_at, comment_at, comment + program.newline))
+    edits.sort()
     for start, end, new in edits:
         if start < position:
             raise FileFormatError(f"{program.path}: overlapping edits at character {start}")
@@ -197,25 +226,13 @@ def rewrite(program: ProgramFile, replacements, comment_at: int, comment: str) -
 def strip_comments(text, sign) -> str:
     """``text`` with comments (from ``sign`` to the line end, outside double-quoted strings)
     blanked by spaces, so that offsets stay and no pattern matches inside a comment."""
-    out = list(text)
-    in_string = False
-    k, n = 0, len(text)
-    while k < n:
-        c = text[k]
-        if c == "\n":
-            in_string = False
-        elif c == '"':
-            in_string = not in_string
-        elif not in_string and text.startswith(sign, k):
-            end = text.find("\n", k)
-            end = n if end < 0 else end
-            for j in range(k, end):
-                if out[j] != "\r":
-                    out[j] = " "
-            k = end
-            continue
-        k += 1
-    return "".join(out)
+    pattern = re.compile(r'"[^"\n]*"|' + re.escape(sign) + r"[^\r\n]*")
+
+    def blank(match):
+        found = match.group()
+        return found if found.startswith('"') else " " * len(found)
+
+    return pattern.sub(blank, text)
 
 
 def closest_angle(angle, reference):

@@ -19,8 +19,8 @@ import numpy as np
 
 from ...errors import FileFormatError
 from ...spatial.rotations import matrix_to_rpy, rpy_to_matrix
-from .core import (JointTarget, NUMBER, ProgramFile, RunTime, Target, closest_angle, format_like, line_of,
-                   number_at, read_text, strip_comments)
+from .core import (JointTarget, NUMBER, Number, ProgramFile, RunTime, Target, closest_angle, fill_poses, formatted,
+                   line_of, read_text, strip_comments)
 
 NAME = "KUKA KRL"
 COMMENT = ";"
@@ -37,7 +37,6 @@ _DECL = re.compile(r"^[ \t]*(?:DECL[ \t]+)?(?:GLOBAL[ \t]+)?(E6POS|POS|FRAME|E6A
                    r"(\w+)[ \t]*(\[[^\]]*\])?[ \t]*(=)?", re.IGNORECASE | re.MULTILINE)
 _ASSIGN = re.compile(r"^[ \t]*([\w$]+)[ \t]*(\[[^\]]*\])?[ \t]*(\.[ \t]*\w+)?[ \t]*=(?!=)", re.MULTILINE)
 _MOTION = re.compile(r"^[ \t]*(" + "|".join(MOTIONS) + r")(_REL)?\b", re.IGNORECASE | re.MULTILINE)
-_ITEM = re.compile(r"\s*([A-Za-z_$][\w$]*)\s+(" + NUMBER + r"|'[^']*')\s*")
 _TOOL = re.compile(r"\$TOOL\s*=\s*TOOL_DATA\s*\[\s*(\d+)\s*\]|BAS\s*\(\s*#TOOL\s*,\s*(\d+)", re.IGNORECASE)
 _BASE = re.compile(r"\$BASE\s*=\s*BASE_DATA\s*\[\s*(\d+)\s*\]|BAS\s*\(\s*#BASE\s*,\s*(\d+)", re.IGNORECASE)
 _FDAT_ACT = re.compile(r"FDAT_ACT\s*=\s*(\w+)", re.IGNORECASE)
@@ -71,28 +70,27 @@ def comment_offset(text) -> int:
     return offset
 
 
+_PAIR = re.compile(r"([A-Za-z_$][\w$]*)[ \t]+(" + NUMBER + r"|'[^']*')")
+
+
 def _aggregate(text, start):
     """The aggregate that opens at ``start`` ('{'): (end, {KEY: Number or str})."""
     end = text.find("}", start)
     if end < 0:
         raise FileFormatError(f"an aggregate opened at line {line_of(text, start)} is not closed")
-    items, position = {}, start + 1
-    for piece in text[start + 1:end].split(","):
-        match = _ITEM.match(piece)
-        if match is not None:
-            value = match.group(2)
-            at = position + match.start(2)
-            items[match.group(1).upper()] = value if value.startswith("'") else number_at(text, at)
-        position += len(piece) + 1
+    items = {}
+    for match in _PAIR.finditer(text, start + 1, end):
+        value = match.group(2)
+        items[match.group(1).upper()] = value if value.startswith("'") else Number(match.start(2), value)
     return end + 1, items
 
 
-def _pose(items):
-    x, y, z, a, b, c = (items[k].value for k in POSE_KEYS)
-    pose = np.eye(4)
-    pose[:3, :3] = rpy_to_matrix(np.radians([c, b, a]))
-    pose[:3, 3] = (x, y, z)
-    return pose
+def poses_of(values):
+    """(N, 6) X, Y, Z mm, A, B, C deg -> (N, 4, 4)."""
+    poses = np.tile(np.eye(4), (len(values), 1, 1))
+    poses[:, :3, :3] = rpy_to_matrix(np.radians(values[:, [5, 4, 3]]))
+    poses[:, :3, 3] = values[:, :3]
+    return poses
 
 
 def _posture(items):
@@ -113,13 +111,8 @@ def _is_cartesian(items):
 
 def frame_of(items):
     """(4, 4) mm of a FRAME aggregate (missing components are 0)."""
-    values = {k: items[k].value if k in items and not isinstance(items[k], str) else 0.0 for k in POSE_KEYS}
-    return _pose({k: _Value(v) for k, v in values.items()})
-
-
-class _Value:
-    def __init__(self, value):
-        self.value = value
+    values = [items[k].value if k in items and not isinstance(items[k], str) else 0.0 for k in POSE_KEYS]
+    return poses_of(np.array([values]))[0]
 
 
 def read_config(path):
@@ -144,6 +137,7 @@ def parse(files):
     for program in programs:
         if program.path.lower().endswith(".src"):
             _code(program, stripped[program.path], declared, fdats)
+        fill_poses(program.targets, poses_of)
     return programs
 
 
@@ -178,8 +172,8 @@ def _declared(program, text, kind, name, brace, declared, fdats, at):
     elif kind in ("E6AXIS", "AXIS"):
         declared[key] = ("axis", items)
     elif all(k in items for k in POSE_KEYS):
-        target = Target(program.path, line_of(text, at), name, [items[k] for k in POSE_KEYS], _pose(items),
-                        _posture(items), language=NAME)
+        target = Target(program.path, line_of(text, at), name, [items[k] for k in POSE_KEYS],
+                        posture=_posture(items), language=NAME)
         program.targets.append(target)
         declared[key] = ("target", target)
     else:
@@ -247,8 +241,8 @@ def _motion(program, text, line, base_offset, number, motion, declared, fdats, s
             if not _is_cartesian(items):
                 program.joint_targets.append(JointTarget(program.path, order, _axes(items)))
             elif all(k in items for k in POSE_KEYS):
-                target = Target(program.path, number, "inline", [items[k] for k in POSE_KEYS], _pose(items),
-                                _posture(items), follows=kind not in POSTURE_MOTIONS, base=base, tool=tool,
+                target = Target(program.path, number, "inline", [items[k] for k in POSE_KEYS],
+                                posture=_posture(items), follows=kind not in POSTURE_MOTIONS, base=base, tool=tool,
                                 order=order, language=NAME)
                 program.targets.append(target)
             else:
@@ -282,17 +276,16 @@ def _axes(items):
     return tuple(items[f"A{k}"].value if f"A{k}" in items else np.nan for k in range(1, 7))
 
 
-def new_numbers(target, pose):
-    """[(Number, text)] writing ``pose`` (4, 4 mm, program frames) into ``target``'s X..C,
-    with A, B, C the equivalent triple nearest to the file's."""
-    x, y, z, a0, b0, c0 = (n.value for n in target.numbers)
-    c, b, a = matrix_to_rpy(pose[:3, :3])
-    old = np.radians([a0, b0, c0])
-    options = [np.array([a, b, c]), np.array([a + np.pi, np.pi - b, c + np.pi])]
-    best = None
-    for option in options:
-        option = closest_angle(option, old)
-        if best is None or np.abs(option - old).sum() < np.abs(best - old).sum():
-            best = option
-    values = [*pose[:3, 3], *np.degrees(best)]
-    return [(n, format_like(v, n, MIN_DECIMALS)) for n, v in zip(target.numbers, values)]
+def new_numbers(targets, poses):
+    """[(Number, text)] writing ``poses`` (N, 4, 4 mm, program frames) into the targets'
+    X..C, with A, B, C the equivalent triple nearest to the file's."""
+    if not targets:
+        return []
+    old = np.radians([[n.value for n in t.numbers[3:]] for t in targets])  # A, B, C
+    c, b, a = np.moveaxis(matrix_to_rpy(poses[:, :3, :3]), -1, 0)
+    first = closest_angle(np.column_stack([a, b, c]), old)
+    second = closest_angle(np.column_stack([a + np.pi, np.pi - b, c + np.pi]), old)
+    nearer = np.abs(second - old).sum(axis=1) < np.abs(first - old).sum(axis=1)
+    angles = np.where(nearer[:, None], second, first)
+    values = np.column_stack([poses[:, :3, 3], np.degrees(angles)])
+    return formatted(targets, values, [MIN_DECIMALS] * 6)

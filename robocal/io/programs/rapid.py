@@ -11,14 +11,15 @@ wobj0 are the flange and the robot's base.  Run-time motions: a target that is a
 """
 from __future__ import annotations
 
+import bisect
 import re
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ...errors import FileFormatError
-from .core import (JointTarget, Number, NUMBER_RE, ProgramFile, RunTime, Target, format_like, line_of, read_text,
-                   strip_comments)
+from .core import (JointTarget, Number, NUMBER_RE, ProgramFile, RunTime, Target, fill_poses, formatted, line_of,
+                   read_text, strip_comments)
 
 NAME = "ABB RAPID"
 COMMENT = "!"
@@ -84,17 +85,17 @@ def _is_robtarget(node):
             and all(isinstance(v, Number) for c in node[:3] for v in c))
 
 
-def _pose(trans, quaternion):
-    w, x, y, z = quaternion
-    pose = np.eye(4)
-    pose[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix()
-    pose[:3, 3] = trans
-    return pose
+def poses_of(values):
+    """(N, 7) x, y, z mm, q1 (scalar), q2, q3, q4 -> (N, 4, 4)."""
+    poses = np.tile(np.eye(4), (len(values), 1, 1))
+    poses[:, :3, :3] = Rotation.from_quat(values[:, [4, 5, 6, 3]]).as_matrix()
+    poses[:, :3, 3] = values[:, :3]
+    return poses
 
 
 def _frame(node):
     """[[x,y,z],[q1..q4]] -> (4, 4)."""
-    return _pose([v.value for v in node[0]], [v.value for v in node[1]])
+    return poses_of(np.array([[v.value for v in node[0] + node[1]]]))[0]
 
 
 def _robtargets(node):
@@ -127,6 +128,7 @@ def parse(files):
     for path in files:
         program = ProgramFile(str(path), read_text(path), NAME)
         _parse(program, strip_comments(program.text, COMMENT))
+        fill_poses(program.targets, poses_of)
         programs.append(program)
     return programs
 
@@ -159,8 +161,10 @@ def _parse(program, text):
         elif kind == "wobjdata":
             program.frames[("wobj", name.upper())] = _frame(node[3]) @ _frame(node[4])
         del line
+    starts = [start for start, _ in declaration_spans]
     for match in _MOTION.finditer(text):
-        if any(start <= match.start() < end for start, end in declaration_spans):
+        k = bisect.bisect_right(starts, match.start()) - 1
+        if k >= 0 and match.start() < declaration_spans[k][1]:
             continue
         end = text.find(";", match.end())
         end = len(text) if end < 0 else end
@@ -185,10 +189,9 @@ def _parse(program, text):
 
 
 def _target(program, literal, line, name):
-    trans, quaternion, conf = ([v.value for v in part] for part in literal[:3])
     numbers = list(literal[0]) + list(literal[1])
-    target = Target(program.path, line, name, numbers, _pose(trans, quaternion),
-                    tuple(int(round(c)) for c in conf), language=NAME)
+    target = Target(program.path, line, name, numbers, posture=tuple(int(round(c.value)) for c in literal[2]),
+                    language=NAME)
     program.targets.append(target)
     return target
 
@@ -242,18 +245,19 @@ def _motion(program, text, match, end, declared, order):
             program.run_time.append(RunTime(program.path, line, f"{instruction} {arg_text}: computed at run time"))
 
 
-def new_numbers(target, pose):
-    """[(Number, text)] writing ``pose`` into x, y, z and the quaternion (the sign nearest
-    the file's)."""
-    old_q = np.array([n.value for n in target.numbers[3:]])
-    x, y, z, w = Rotation.from_matrix(pose[:3, :3]).as_quat()
-    quaternion = np.array([w, x, y, z])
-    if quaternion @ old_q < 0:
-        quaternion = -quaternion
-    out = [(n, format_like(v, n, MIN_DECIMALS["mm"])) for n, v in zip(target.numbers[:3], pose[:3, 3])]
-    # A quaternion written to few decimals is not quite unit: an orientation that has not
-    # turned (by less than the last decimal written) keeps its characters.
-    turned = 2 * np.arccos(min(1.0, abs(quaternion @ old_q) / np.linalg.norm(old_q)))
-    if turned < 10.0 ** -MIN_DECIMALS["quaternion"]:
-        return out + [(n, n.text) for n in target.numbers[3:]]
-    return out + [(n, format_like(v, n, MIN_DECIMALS["quaternion"])) for n, v in zip(target.numbers[3:], quaternion)]
+def new_numbers(targets, poses):
+    """[(Number, text)] writing ``poses`` into x, y, z and the quaternions (the sign nearest
+    the file's); a quaternion that has not turned keeps its characters (written to few
+    decimals, it is not quite unit)."""
+    if not targets:
+        return []
+    old = np.array([[n.value for n in t.numbers[3:]] for t in targets])
+    xyzw = Rotation.from_matrix(poses[:, :3, :3]).as_quat()
+    quaternions = xyzw[:, [3, 0, 1, 2]]
+    dot = (quaternions * old).sum(axis=1)
+    quaternions = np.where(dot[:, None] < 0, -quaternions, quaternions)
+    turned = 2 * np.arccos(np.minimum(1.0, np.abs(dot) / np.linalg.norm(old, axis=1)))
+    values = np.column_stack([poses[:, :3, 3], quaternions])
+    out = formatted(targets, values, [MIN_DECIMALS["mm"]] * 3 + [MIN_DECIMALS["quaternion"]] * 4)
+    still = np.repeat(turned < 10.0 ** -MIN_DECIMALS["quaternion"], 7) & np.tile([False] * 3 + [True] * 4, len(targets))
+    return [(n, n.text) if keep else (n, text) for (n, text), keep in zip(out, still)]

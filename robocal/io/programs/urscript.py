@@ -16,8 +16,8 @@ import re
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .core import JointTarget, ProgramFile, RunTime, Target, format_like, line_of, numbers_in, read_text, \
-    strip_comments
+from .core import (JointTarget, ProgramFile, RunTime, Target, fill_poses, formatted, line_of, numbers_in, read_text,
+                   strip_comments)
 
 NAME = "URScript"
 COMMENT = "#"
@@ -55,7 +55,7 @@ def _enclosing_call(text, position):
             depth_square -= 1
         elif c == "(":
             if depth_round == 0:
-                match = _CALL.search(text, 0, k + 1)
+                match = _CALL.search(text, max(0, k - 64), k + 1)
                 return (match.group(1), commas) if match else None
             depth_round -= 1
         elif c == "," and depth_round == 0 and depth_square == 0:
@@ -85,12 +85,12 @@ def _arguments(text, start):
     return out
 
 
-def _pose(numbers):
-    x, y, z, rx, ry, rz = (n.value for n in numbers)
-    pose = np.eye(4)
-    pose[:3, :3] = Rotation.from_rotvec([rx, ry, rz]).as_matrix()
-    pose[:3, 3] = np.array([x, y, z]) * 1000.0
-    return pose
+def poses_of(values):
+    """(N, 6) x, y, z m, rotation vector rad -> (N, 4, 4) mm."""
+    poses = np.tile(np.eye(4), (len(values), 1, 1))
+    poses[:, :3, :3] = Rotation.from_rotvec(values[:, 3:]).as_matrix()
+    poses[:, :3, 3] = values[:, :3] * 1000.0
+    return poses
 
 
 def parse(files):
@@ -98,6 +98,7 @@ def parse(files):
     for path in files:
         program = ProgramFile(str(path), read_text(path), NAME)
         _parse(program, strip_comments(program.text, COMMENT))
+        fill_poses(program.targets, poses_of)
         programs.append(program)
     return programs
 
@@ -121,15 +122,14 @@ def _parse(program, text):
         if call is not None:
             function, index = call
             if function in MOTIONS and index < (2 if function == "movec" else 1):
-                target = Target(program.path, line, "inline", numbers, _pose(numbers), follows=True, language=NAME)
+                target = Target(program.path, line, "inline", numbers, follows=True, language=NAME)
                 program.targets.append(target)
                 literals[match.start()] = target
             continue
         line_start = text.rfind("\n", 0, match.start()) + 1
         assign = _ASSIGN.match(text, line_start)
         if assign and assign.start(2) == match.start():
-            target = Target(program.path, line, assign.group(1), numbers, _pose(numbers), follows=True,
-                            language=NAME)
+            target = Target(program.path, line, assign.group(1), numbers, follows=True, language=NAME)
             program.targets.append(target)
             named.setdefault(assign.group(1), []).append((match.start(), target))
     for assign in _ASSIGN.finditer(text):
@@ -175,15 +175,15 @@ def _parse(program, text):
     program.targets = [t for t in program.targets if t.name == "inline" or t.order != np.inf]
 
 
-def new_numbers(target, pose):
-    """[(Number, text)] writing ``pose`` into x, y, z (m) and the rotation vector (rad), the
-    equivalent vector nearest the file's."""
-    old = np.array([n.value for n in target.numbers[3:]])
-    vector = Rotation.from_matrix(pose[:3, :3]).as_rotvec()
-    angle = np.linalg.norm(vector)
-    if angle > 1e-9:
-        other = vector * (1.0 - 2.0 * np.pi / angle)
-        if np.linalg.norm(other - old) < np.linalg.norm(vector - old):
-            vector = other
-    values = [*(pose[:3, 3] / 1000.0), *vector]
-    return [(n, format_like(v, n, MIN_DECIMALS)) for n, v in zip(target.numbers, values)]
+def new_numbers(targets, poses):
+    """[(Number, text)] writing ``poses`` into x, y, z (m) and the rotation vectors (rad),
+    each the equivalent vector nearest the file's."""
+    if not targets:
+        return []
+    old = np.array([[n.value for n in t.numbers[3:]] for t in targets])
+    vectors = Rotation.from_matrix(poses[:, :3, :3]).as_rotvec()
+    angle = np.linalg.norm(vectors, axis=1, keepdims=True)
+    other = vectors * (1.0 - 2.0 * np.pi / np.maximum(angle, 1e-12))
+    nearer = (np.linalg.norm(other - old, axis=1) < np.linalg.norm(vectors - old, axis=1)) & (angle[:, 0] > 1e-9)
+    vectors = np.where(nearer[:, None], other, vectors)
+    return formatted(targets, np.column_stack([poses[:, :3, 3] / 1000.0, vectors]), [MIN_DECIMALS] * 6)
