@@ -303,13 +303,14 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
         corrected = np.linalg.inv(bases) @ result.corrected @ invert(model.nominal.tool) @ tools
     comment_words = comment_text(Path(model_path).name, model_digest(model_path))
     edits = {p.path: [] for p in programs}
-    number_files = {id(n): t.file for t in targets for n in t.numbers}
     rows = []
     for language in {t.language for t in targets}:
         chosen = [k for k, t in enumerate(targets) if t.language == language]
         module = LANGUAGES[_key_of(language)]
-        for number, text in module.new_numbers([targets[k] for k in chosen], corrected[chosen]):
-            edits[number_files[id(number)]].append((number, text))
+        chosen_targets = [targets[k] for k in chosen]
+        files = [t.file for t in chosen_targets for _ in t.numbers]
+        for file, pair in zip(files, module.new_numbers(chosen_targets, corrected[chosen])):
+            edits[file].append(pair)
     originals = np.array([t.pose for t in targets]) if targets else np.zeros((0, 4, 4))
     moved = np.linalg.norm(corrected[:, :3, 3] - originals[:, :3, 3], axis=1)
     turned = _angles(corrected, originals)

@@ -48,8 +48,9 @@ def _arm(chain, q):
     return behind, np.sign(elbow)
 
 
-def _elbow_bit(chain, q, reference, value):
-    _, sign = _arm(chain, q)
+def _elbow_bit(chain, sign, reference, value):
+    """The elbow bit of configurations whose elbow sign is ``sign``: ``value`` on the side
+    of the ``reference`` posture (controller deg), 1 - value on the other."""
     _, at_reference = _arm(chain, chain.joints_from_file(np.array([reference])))
     return np.where(sign == at_reference[0], value, 1 - value)
 
@@ -57,8 +58,8 @@ def _elbow_bit(chain, q, reference, value):
 def kuka(chain, q):
     """(S (N,), T (N,)) of controller joints q (N, 6) rad."""
     degrees = np.degrees(q)
-    behind, _ = _arm(chain, q)
-    elbow = _elbow_bit(chain, q, KUKA_ELBOW_SET, 1)
+    behind, sign = _arm(chain, q)
+    elbow = _elbow_bit(chain, sign, KUKA_ELBOW_SET, 1)
     status = behind.astype(int) + 2 * elbow + 4 * (degrees[:, 4] < 0)
     turn = ((degrees < 0) * (1 << np.arange(q.shape[1]))).sum(axis=1)
     return status, turn
@@ -67,8 +68,8 @@ def kuka(chain, q):
 def abb(chain, q):
     """(cf1, cf4, cf6, cfx) (N, 4) of controller joints q (N, 6) rad."""
     degrees = np.degrees(q)
-    behind, _ = _arm(chain, q)
-    elbow = _elbow_bit(chain, q, ABB_ELBOW_CLEAR, 0)
+    behind, sign = _arm(chain, q)
+    elbow = _elbow_bit(chain, sign, ABB_ELBOW_CLEAR, 0)
     quadrants = np.floor(degrees[:, [0, 3, 5]] / 90.0).astype(int)
     cfx = 4 * behind.astype(int) + 2 * elbow + (degrees[:, 4] < 0)
     return np.column_stack([quadrants, cfx])

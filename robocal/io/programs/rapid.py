@@ -79,6 +79,22 @@ def _token(text, start, end):
     return word
 
 
+_N = r"\s*(" + NUMBER_RE.pattern + r")\s*"
+# A robtarget literal as it is nearly always written: read in one match (the general bracket
+# reader, _tree, takes the rest).
+_ROBTARGET = re.compile(r"\[\s*\[" + ",".join([_N] * 3) + r"\]\s*,\s*\[" + ",".join([_N] * 4) + r"\]\s*,\s*\["
+                        + ",".join([_N] * 4) + r"\]\s*,\s*\[[^\[\]]*\]\s*\]")
+
+
+def _literal_at(text, start):
+    """(end, node) of the bracketed literal at ``start``, a robtarget read by one regex."""
+    match = _ROBTARGET.match(text, start)
+    if match is None:
+        return _tree(text, start)
+    numbers = [Number(match.start(k), match.group(k)) for k in range(1, 12)]
+    return match.end(), [numbers[:3], numbers[3:7], numbers[7:], ["external axes"] * 6]
+
+
 def _is_robtarget(node):
     return (isinstance(node, list) and len(node) == 4 and all(isinstance(c, list) for c in node)
             and [len(c) for c in node[:3]] == [3, 4, 4]
@@ -109,6 +125,13 @@ def _robtargets(node):
 
 def _split_arguments(text, start, end):
     """Top-level comma-separated arguments of an instruction: [(offset, text)]."""
+    segment = text[start:end]
+    if "[" not in segment and "(" not in segment:
+        out, at = [], start
+        for piece in segment.split(","):
+            out.append((at, piece))
+            at += len(piece) + 1
+        return out
     out, depth, piece = [], 0, start
     for k in range(start, end):
         c = text[k]
@@ -145,7 +168,7 @@ def _parse(program, text):
         if bracket < 0 or text[match.end():bracket].strip():
             declared[name.upper()] = (kind, None)
             continue
-        end, node = _tree(text, bracket)
+        end, node = _literal_at(text, bracket)
         declaration_spans.append((match.start(), end))
         line = line_of(text, match.start())
         if kind == "robtarget":
@@ -179,7 +202,7 @@ def _parse(program, text):
         rhs_end = text.find(";", match.end())
         rhs = text[match.end():rhs_end].strip()
         if not match.group(3) and rhs.startswith("["):
-            _, node = _tree(text, text.index("[", match.end()))
+            _, node = _literal_at(text, text.index("[", match.end()))
             if _is_robtarget(node):
                 _target(program, node, line, match.group(1))
                 continue
@@ -225,7 +248,7 @@ def _motion(program, text, match, end, declared, order):
     for at, arg in arguments[:count]:
         arg_text = arg.split("\\")[0].strip() if not arg.strip().startswith("[") else arg.strip()
         if arg_text.startswith("["):
-            _, node = _tree(text, text.index("[", at))
+            _, node = _literal_at(text, text.index("[", at))
             if _is_robtarget(node):
                 target = _target(program, node, line, "inline")
                 target.order, target.tool, target.base = order, tool, wobj
