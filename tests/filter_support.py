@@ -31,11 +31,14 @@ def true_robot(name, *, errors=True, seed=3):
     return TrueRobot(nominal=chain, deviations=deviations)
 
 
-def model_of(robot, folder, *, n=300, seed=0):
+def model_of(robot, folder, *, n=300, seed=0, first_joint=None):
     """Calibrate (kinematic, full) on ``n`` exact full-pose measurements of ``robot`` spread
-    over the joint ranges; the model file's path."""
+    over the joint ranges (joint 1 within ``first_joint`` (low, high) deg when given); the
+    model file's path."""
     folder = Path(folder)
     q = uniform_joints(robot.nominal, n, np.random.default_rng(seed))
+    if first_joint is not None:
+        q[:, 0] = np.radians(np.random.default_rng(seed + 1).uniform(*first_joint, n))
     measurements = folder / "measurements.csv"
     write_measurements(measurements, robot.measurements(q, np.random.default_rng(seed), orientation=True))
     model = folder / "model.json"

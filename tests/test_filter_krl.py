@@ -126,3 +126,27 @@ def test_unreachable_targets_are_refused(models, tmp_path):
         filter_job(models["true"], [program], tmp_path / "out", allow_unfiltered=True)
     assert not list((tmp_path / "out").iterdir())
     assert Path(program).exists()
+
+
+def test_targets_outside_the_domain_are_refused_unless_accepted(tmp_path):
+    # Trained with A1 between 0 and 90 deg: XP6, XP7, XP8 (A1 -20, -35, -50) lie outside.
+    model = model_of(true_robot("kr150-2"), tmp_path, first_joint=(0.0, 90.0))
+    (tmp_path / "out").mkdir()
+    with pytest.raises(InputError, match=r"outside the model's domain of validity.*XP6.*--accept-extrapolation"):
+        filter_job(model, [SRC], tmp_path / "out", allow_unfiltered=True)
+    assert not list((tmp_path / "out").iterdir())
+    result = filter_job(model, [SRC], tmp_path / "out", allow_unfiltered=True, accept_extrapolation=True)
+    assert result["outside_domain"] >= 3
+    rows = {r.split(",")[2]: r.split(",")[6] for r in (tmp_path / "out" / "filter-summary.csv").read_text().splitlines()[1:]}
+    assert rows["XP8"] == "0" and rows["XP3"] == "1"
+
+
+def test_unreadable_inputs_are_one_line(models, tmp_path):
+    runner = CliRunner()
+    text = tmp_path / "p.txt"
+    text.write_text("PTP {X 1}\n")
+    for args, says in (([text], "cannot tell the robot language"), ([tmp_path / "missing.src"], "no such program file"),
+                       ([text, "--language", "fanuc"], "unknown --language")):
+        result = runner.invoke(app, ["filter", str(models["true"]), *map(str, args), "--out", str(tmp_path)])
+        lines = [line for line in result.output.splitlines() if line.strip()]
+        assert result.exit_code == 2 and len(lines) == 1 and says in lines[0], result.output

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import FileFormatError, InputError
 from ..io.atomic import check_outputs, write_text_atomic
 from ..io.programs import LANGUAGES, krl, language_of, postures
 from ..io.programs.core import ENCODING, comment_text, is_filtered, model_digest, rewrite
@@ -77,7 +77,13 @@ def read_programs(paths, language=None):
             if key not in seen:
                 seen.add(key)
                 grouped.append(path)
-        for program in module.parse(grouped):
+        try:
+            parsed = module.parse(grouped)
+        except (ValueError, IndexError, KeyError) as error:
+            if isinstance(error, InputError):
+                raise
+            raise FileFormatError(f"cannot read {', '.join(map(str, grouped))} as {module.NAME}: {error}") from None
+        for program in parsed:
             program.module = module
             programs.append(program)
     names = [Path(p.path).name for p in programs]
