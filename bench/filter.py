@@ -23,14 +23,14 @@ from scipy.spatial.transform import Rotation
 from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from filter_support import compensate_targets, model_of, true_robot  # noqa: E402
+from filter_support import compensate_targets, model_of, true_robot
 
-from robocal.interfaces.filter import filter_job, prepare, read_programs  # noqa: E402
-from robocal.io.model_file import load_model  # noqa: E402
-from robocal.io.programs import postures  # noqa: E402
-from robocal.kinematics.ik import solve_ik  # noqa: E402
-from robocal.methods.domain import arm_branches  # noqa: E402
-from robocal.spatial.rotations import matrix_to_rpy  # noqa: E402
+from robocal.interfaces.filter import filter_job, prepare, read_programs
+from robocal.io.model_file import load_model
+from robocal.io.programs import postures
+from robocal.kinematics.ik import solve_ik
+from robocal.methods.domain import arm_branches
+from robocal.spatial.rotations import matrix_to_rpy
 
 ROBOTS = {"krl": "kr150-2", "rapid": "irb120", "urscript": "ur5"}
 

@@ -8,7 +8,7 @@ import numpy as np
 from robocal.interfaces.filter import read_programs
 from robocal.interfaces.jobs import calibrate_job, compensate_job
 from robocal.io.library import load_robot
-from robocal.io.programs.core import MARK, ENCODING
+from robocal.io.programs.core import ENCODING, MARK
 from robocal.io.tables import write_measurements
 from robocal.simulation import TrueRobot, uniform_joints
 from robocal.simulation.presets import _typical_deviations

@@ -4,8 +4,16 @@ line endings kept."""
 import pytest
 
 from robocal.errors import InputError
-from robocal.io.programs import language_of, krl, rapid, urscript
-from robocal.io.programs.core import MARK, Number, format_like, is_filtered, rewrite, ProgramFile, strip_comments
+from robocal.io.programs import krl, language_of, rapid, urscript
+from robocal.io.programs.core import (
+    MARK,
+    Number,
+    ProgramFile,
+    format_like,
+    is_filtered,
+    rewrite,
+    strip_comments,
+)
 
 
 @pytest.mark.parametrize("original, value, decimals, written", [

@@ -6,10 +6,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from filter_support import (
+    PROGRAMS,
+    assert_only_targets_changed,
+    assert_same_poses,
+    filter_and_compensate,
+    model_of,
+    true_robot,
+    without_comment,
+)
 from typer.testing import CliRunner
 
-from filter_support import (PROGRAMS, assert_only_targets_changed, assert_same_poses, filter_and_compensate,
-                            model_of, true_robot, without_comment)
 from robocal.errors import InputError
 from robocal.interfaces.cli import app
 from robocal.interfaces.filter import filter_job
@@ -80,7 +87,7 @@ def test_tool_and_base_from_the_config(models, tmp_path):
         return base2, tool1
 
     (tmp_path / "out").mkdir()
-    before, after, expected, _, _ = filter_and_compensate(models["true"], SRC, tmp_path / "out", tmp_path,
+    _, after, expected, _, _ = filter_and_compensate(models["true"], SRC, tmp_path / "out", tmp_path,
                                                           frames=frames, config=CONFIG)
     assert_same_poses(after, expected)
     # The nominal model still changes nothing, through both frames and back.

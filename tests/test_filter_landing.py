@@ -4,8 +4,8 @@ names) puts the true robot's TCP on the original targets, where the original pro
 by about a millimetre."""
 import numpy as np
 import pytest
-
 from filter_support import PROGRAMS, angle_deg, model_of, true_robot
+
 from robocal.interfaces.filter import filter_job, prepare, read_programs
 from robocal.io.model_file import load_model
 

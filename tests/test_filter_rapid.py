@@ -3,10 +3,17 @@ tooldata and wobjdata, every other byte stays, a nominal model changes nothing, 
 motions and filtered modules are refused."""
 import numpy as np
 import pytest
+from filter_support import (
+    PROGRAMS,
+    assert_only_targets_changed,
+    assert_same_poses,
+    filter_and_compensate,
+    model_of,
+    true_robot,
+    without_comment,
+)
 from scipy.spatial.transform import Rotation
 
-from filter_support import (PROGRAMS, assert_only_targets_changed, assert_same_poses, filter_and_compensate,
-                            model_of, true_robot, without_comment)
 from robocal.errors import InputError
 from robocal.interfaces.filter import filter_job
 from robocal.io.library import load_robot

@@ -3,9 +3,16 @@ gives, in metres and radians; offsets, joint lists and every other byte stay; a 
 model changes nothing; run-time poses and filtered scripts are refused."""
 import numpy as np
 import pytest
+from filter_support import (
+    PROGRAMS,
+    assert_only_targets_changed,
+    assert_same_poses,
+    filter_and_compensate,
+    model_of,
+    true_robot,
+    without_comment,
+)
 
-from filter_support import (PROGRAMS, assert_only_targets_changed, assert_same_poses, filter_and_compensate,
-                            model_of, true_robot, without_comment)
 from robocal.errors import InputError
 from robocal.interfaces.filter import filter_job
 

@@ -37,12 +37,21 @@ import numpy as np
 from ..errors import FileFormatError, InputError
 from ..io.atomic import check_outputs, write_text_atomic
 from ..io.programs import LANGUAGES, krl, language_of, postures
-from ..io.programs.core import ENCODING, comment_text, is_filtered, model_digest, rewrite
+from ..io.programs.core import (
+    ENCODING,
+    comment_text,
+    is_filtered,
+    model_digest,
+    rewrite,
+)
 from ..kinematics.ik.solve import ik_all
 from ..spatial.transforms import invert
 from .jobs import NO_DOMAIN, load_fitted
 
 SUMMARY = "filter-summary.csv"
+# RAPID's tool0: the flange itself.
+FLANGE = np.eye(4)
+FLANGE.flags.writeable = False
 SUMMARY_COLUMNS = ("file", "line", "name", "status", "moved_mm", "turned_deg", "in_domain", "bound_mm")
 
 
@@ -89,7 +98,7 @@ def read_programs(paths, language=None):
     names = [Path(p.path).name for p in programs]
     twice = {n for n in names if names.count(n) > 1}
     if twice:
-        raise InputError(f"two programs are named {sorted(twice)[0]}: they would be written to the same file in --out")
+        raise InputError(f"two programs are named {min(twice)}: they would be written to the same file in --out")
     return programs
 
 
@@ -105,7 +114,7 @@ def _frames_of(target, program, config):
     if program.module is LANGUAGES["rapid"]:
         tool = None if target.tool in (None, "TOOL0") else _module_frame(program, "tool", target.tool, target)
         base = None if target.base in (None, "WOBJ0") else _module_frame(program, "wobj", target.base, target)
-        return base, (np.eye(4) if tool is None and target.tool == "TOOL0" else tool)
+        return base, (FLANGE if tool is None and target.tool == "TOOL0" else tool)
     return None, None
 
 
@@ -245,7 +254,7 @@ def _hints(programs, targets, poses, nominal):
     return hints
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _program_key(path):
     """Files of one program share their motions' order (a KRL .src and its .dat)."""
     return str(Path(path).with_suffix("")).lower()
@@ -310,9 +319,9 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
     comment_words = comment_text(Path(model_path).name, model_digest(model_path))
     edits = {p.path: [] for p in programs}
     rows = []
-    for language in {t.language for t in targets}:
-        chosen = [k for k, t in enumerate(targets) if t.language == language]
-        module = LANGUAGES[_key_of(language)]
+    for name in {t.language for t in targets}:
+        chosen = [k for k, t in enumerate(targets) if t.language == name]
+        module = LANGUAGES[_key_of(name)]
         chosen_targets = [targets[k] for k in chosen]
         files = [t.file for t in chosen_targets for _ in t.numbers]
         for file, pair in zip(files, module.new_numbers(chosen_targets, corrected[chosen])):
@@ -320,8 +329,9 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
     originals = np.array([t.pose for t in targets]) if targets else np.zeros((0, 4, 4))
     moved = np.linalg.norm(corrected[:, :3, 3] - originals[:, :3, 3], axis=1)
     turned = _angles(corrected, originals)
+    names = {p.path: Path(p.path).name for p in programs}
     for target, distance, angle, ok in zip(targets, moved.tolist(), turned.tolist(), inside):
-        rows.append([Path(target.file).name, target.line, target.name, "filtered", f"{distance:.4f}",
+        rows.append([names[target.file], target.line, target.name, "filtered", f"{distance:.4f}",
                      f"{angle:.4f}", "" if fitted.domain_ is None else ("1" if ok else "0"), ""])
     for r in run_time:
         rows.append([Path(r.file).name, r.line, r.what, "unfiltered (run time)", "", "", "", ""])

@@ -77,8 +77,7 @@ def format_like(value, original: Number, min_decimals: int) -> str:
     stays byte for byte), else fixed point with the original's decimals or ``min_decimals``,
     whichever is finer; a leading '+' is kept."""
     decimals = original.decimals
-    if decimals < min_decimals:
-        decimals = min_decimals
+    decimals = max(decimals, min_decimals)
     if abs(value - float(original.text)) < 0.5 * 10.0 ** -decimals:
         return original.text
     text = f"{value:.{decimals}f}"

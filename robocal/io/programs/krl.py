@@ -19,8 +19,20 @@ import numpy as np
 
 from ...errors import FileFormatError
 from ...spatial.rotations import matrix_to_rpy, rpy_to_matrix
-from .core import (JointTarget, NUMBER, Number, ProgramFile, RunTime, Target, closest_angle, fill_poses, formatted,
-                   line_of, read_text, strip_comments)
+from .core import (
+    NUMBER,
+    JointTarget,
+    Number,
+    ProgramFile,
+    RunTime,
+    Target,
+    closest_angle,
+    fill_poses,
+    formatted,
+    line_of,
+    read_text,
+    strip_comments,
+)
 
 NAME = "KUKA KRL"
 COMMENT = ";"
@@ -100,7 +112,7 @@ def _posture(items):
             return None
         if isinstance(value, str):
             return int(value.strip("'").lstrip("Bb"), 2)
-        return int(round(value.value))
+        return round(value.value)
     s, t = bits("S"), bits("T")
     return None if s is None else (s, t)
 

@@ -18,8 +18,19 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ...errors import FileFormatError
-from .core import (JointTarget, Number, NUMBER_RE, ProgramFile, RunTime, Target, fill_poses, formatted, line_of,
-                   read_text, strip_comments)
+from .core import (
+    NUMBER_RE,
+    JointTarget,
+    Number,
+    ProgramFile,
+    RunTime,
+    Target,
+    fill_poses,
+    formatted,
+    line_of,
+    read_text,
+    strip_comments,
+)
 
 NAME = "ABB RAPID"
 COMMENT = "!"
@@ -213,7 +224,7 @@ def _parse(program, text):
 
 def _target(program, literal, line, name):
     numbers = list(literal[0]) + list(literal[1])
-    target = Target(program.path, line, name, numbers, posture=tuple(int(round(c.value)) for c in literal[2]),
+    target = Target(program.path, line, name, numbers, posture=tuple(round(c.value) for c in literal[2]),
                     language=NAME)
     program.targets.append(target)
     return target

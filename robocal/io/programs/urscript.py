@@ -16,8 +16,18 @@ import re
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .core import (JointTarget, ProgramFile, RunTime, Target, fill_poses, formatted, line_of, numbers_in, read_text,
-                   strip_comments)
+from .core import (
+    JointTarget,
+    ProgramFile,
+    RunTime,
+    Target,
+    fill_poses,
+    formatted,
+    line_of,
+    numbers_in,
+    read_text,
+    strip_comments,
+)
 
 NAME = "URScript"
 COMMENT = "#"
