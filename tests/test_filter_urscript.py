@@ -58,6 +58,8 @@ def test_run_time_poses_are_refused_then_listed(models, tmp_path):
         assert f"feeder_to_tray.script line {line}: " in str(refusal.value)
     assert not list(tmp_path.iterdir())
     (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
-    filter_job(models["true"], [SCRIPT], tmp_path / "a", allow_unfiltered=True)
+    result = filter_job(models["true"], [SCRIPT], tmp_path / "a", allow_unfiltered=True)
+    assert sorted(int(item.split(" line ")[1].split(":")[0]) for item in result["unfiltered"]) == [17, 23, 24]
+    assert (tmp_path / "a" / "filter-summary.csv").read_text().count("unfiltered (run time)") == 3
     with pytest.raises(InputError, match="written by robocal filter already"):
         filter_job(models["true"], [tmp_path / "a" / SCRIPT.name], tmp_path / "b", allow_unfiltered=True)
