@@ -28,7 +28,6 @@ from __future__ import annotations
 import csv
 import functools
 import io
-import itertools
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -152,21 +151,40 @@ def prepare(programs, model, *, config=None) -> Prepared:
     return Prepared(programs, targets, controller_poses, hints, frames)
 
 
-def _shifts(nominal, q, turning):
-    """Branches q (N, 8, n) and their turned twins: every combination of turning each joint
-    whose range exceeds a turn by 2 pi towards the other sign (none when the program names no
-    posture that tells turns apart).  NaN where a twin leaves the joint limits: (N, 8 S, n)
-    with S the number of combinations."""
-    turns = [j for j in range(nominal.n_joints) if nominal.upper[j] - nominal.lower[j] > 2 * np.pi] if turning else []
-    options = []
-    for combination in itertools.product((0, 1), repeat=len(turns)):
-        moved = q.copy()
-        for j, flip in zip(turns, combination):
-            if flip:
-                moved[..., j] -= 2 * np.pi * np.sign(moved[..., j])
-        inside = np.all((moved >= nominal.lower - 1e-9) & (moved <= nominal.upper + 1e-9), axis=-1)
-        options.append(np.where(inside[..., None], moved, np.nan))
-    return np.concatenate(options, axis=1), len(options)
+def _turned(nominal, q, wanted):
+    """Branches q (..., n) with each joint whose range exceeds a turn taken 2 pi further
+    where ``wanted(joint, values, turned values)`` (bool arrays) prefers the turned value and
+    the limits allow it."""
+    q = q.copy()
+    for j in np.flatnonzero(nominal.upper - nominal.lower > 2 * np.pi):
+        values = q[..., j]
+        other = values - 2 * np.pi * np.sign(values)
+        allowed = (other >= nominal.lower[j] - 1e-9) & (other <= nominal.upper[j] + 1e-9)
+        q[..., j] = np.where(allowed & wanted(j, values, other), other, values)
+    return q
+
+
+def _named_turns(language, nominal, q, targets):
+    """Branches q (N, 8, n) turned to the turns each target names (KRL T: the sign of each
+    axis; RAPID cf1, cf4, cf6: the quadrants of axes 1, 4 and 6)."""
+    if language == krl.NAME:
+        turn = np.array([t.posture[1] if t.posture and t.posture[1] is not None else -1 for t in targets])
+
+        def wanted(j, values, other):
+            negative = (turn[:, None] >> j) & 1
+            return (turn[:, None] >= 0) & ((other < 0) == negative) & ((values < 0) != negative)
+        return _turned(nominal, q, wanted)
+    if language == LANGUAGES["rapid"].NAME and q.shape[2] == 6:
+        conf = np.array([t.posture if t.posture else (-99,) * 4 for t in targets])
+        column = {0: 0, 3: 1, 5: 2}
+
+        def wanted(j, values, other):
+            if j not in column:
+                return np.zeros(values.shape, dtype=bool)
+            named = conf[:, None, column[j]]
+            return (np.floor(np.degrees(other) / 90) == named) & (np.floor(np.degrees(values) / 90) != named)
+        return _turned(nominal, q, wanted)
+    return q
 
 
 def _branch_postures(language, nominal, q):
@@ -181,20 +199,18 @@ def _branch_postures(language, nominal, q):
     return out
 
 
-def _scores(targets, language, branch_code, candidates, n_shifts):
-    """(N, K) how well each candidate matches the posture its target names: 2 for the
-    branch's part (status, cfx), 1 for each turn or quadrant that matches; 0 without one."""
-    n, k, dof = candidates.shape
-    code = np.tile(branch_code.reshape(n, -1), (1, n_shifts))
+def _scores(targets, language, code, candidates):
+    """(N, 8) how well each branch matches the posture its target names: 2 for the branch's
+    part (status, cfx), 1 for each turn or quadrant that matches; 0 without one."""
     degrees = np.degrees(candidates)
     named = np.array([t.posture is not None for t in targets])
-    scores = np.zeros((n, k))
+    scores = np.zeros(candidates.shape[:2])
     if language == krl.NAME:
         status = np.array([t.posture[0] if t.posture else -1 for t in targets])
         turn = np.array([t.posture[1] if t.posture and t.posture[1] is not None else -1 for t in targets])
-        candidate_turn = ((degrees < 0) * (1 << np.arange(dof))).sum(axis=2)
+        candidate_turn = ((degrees < 0) * (1 << np.arange(candidates.shape[2]))).sum(axis=2)
         scores = 2.0 * (code == status[:, None]) + ((candidate_turn == turn[:, None]) & (turn[:, None] >= 0))
-    elif language == LANGUAGES["rapid"].NAME and dof == 6:
+    elif language == LANGUAGES["rapid"].NAME and candidates.shape[2] == 6:
         conf = np.array([t.posture if t.posture else (-99,) * 4 for t in targets])
         quadrants = np.floor(degrees[..., [0, 3, 5]] / 90.0)
         scores = 2.0 * (code == conf[:, None, 3]) + (quadrants == conf[:, None, :3]).sum(axis=2)
@@ -206,28 +222,21 @@ def _hints(programs, targets, poses, nominal):
     with, taken in program order so that a motion that keeps the posture follows the one
     before."""
     q, valid = ik_all(nominal, poses)
-    q = np.where(valid[..., None], q, np.nan)
-    parts = {}
+    base = np.where(valid[..., None], q, np.nan)
+    named = base.copy()
+    scores = np.zeros(valid.shape)
     for language in {t.language for t in targets}:
         rows = np.array([i for i, t in enumerate(targets) if t.language == language])
-        named = any(targets[i].posture is not None for i in rows)
-        part, n_shifts = _shifts(nominal, q[rows], named)
-        score = np.zeros(part.shape[:2])
-        if named:
-            code = _branch_postures(language, nominal, q[rows].reshape(-1, nominal.n_joints))
-            score = _scores([targets[i] for i in rows], language, code, part, n_shifts)
-        parts[language] = (rows, part, score)
-    width = max(part.shape[1] for _, part, _ in parts.values())
-    candidates = np.full((len(targets), width, nominal.n_joints), np.nan)
-    scores = np.full((len(targets), width), -1.0)
-    for rows, part, score in parts.values():
-        candidates[rows, :part.shape[1]] = part
-        scores[rows, :part.shape[1]] = score
-    exists = np.isfinite(candidates).all(axis=2)
-    scores = np.where(exists, scores, -1.0)
-    # The candidates a named posture allows (those that match it best), and all others.
-    matching = exists & (scores == scores.max(axis=1, keepdims=True))
-    candidates = np.nan_to_num(candidates, nan=1e3)
+        chosen = [targets[i] for i in rows]
+        if any(t.posture is not None for t in chosen):
+            named[rows] = _named_turns(language, nominal, base[rows], chosen)
+            code = _branch_postures(language, nominal, base[rows].reshape(-1, nominal.n_joints)).reshape(len(rows), -1)
+            scores[rows] = _scores(chosen, language, code, named[rows])
+    scores = np.where(valid, scores, -1.0)
+    # The branches a named posture allows (those that match it best).
+    matching = valid & (scores == scores.max(axis=1, keepdims=True))
+    base, named = np.nan_to_num(base, nan=1e3), np.nan_to_num(named, nan=1e3)
+    periodic = np.flatnonzero(nominal.upper - nominal.lower > 2 * np.pi)
     hints = np.zeros((len(targets), nominal.n_joints))
     events = [(t.order, 1, i, t.file) for i, t in enumerate(targets)]
     for program in programs:
@@ -241,14 +250,21 @@ def _hints(programs, targets, poses, nominal):
                 previous[group] = nominal.joints_from_file(joints[None])[0]
             continue
         i, target = item, targets[item]
-        if not exists[i].any():
+        if not valid[i].any():
             hints[i] = np.nan
             continue
         reference = previous.get(group, zero)
-        allowed = matching[i] if target.posture is not None and not (target.follows and group in previous) \
-            else exists[i]
-        distance = ((candidates[i] - reference) ** 2).sum(axis=1)
-        hints[i] = candidates[i, int(np.argmin(np.where(allowed, distance, np.inf)))]
+        if target.posture is not None and not (target.follows and group in previous):
+            allowed, candidates = matching[i], named[i]
+        else:  # the posture the robot has: the branch, and the turns, nearest the joints before
+            allowed, candidates = valid[i], base[i].copy()
+            if len(periodic):
+                turned = candidates[:, periodic]
+                turned += 2 * np.pi * np.round((reference[periodic] - turned) / (2 * np.pi))
+                inside = (turned >= nominal.lower[periodic]) & (turned <= nominal.upper[periodic])
+                candidates[:, periodic] = np.where(inside, turned, candidates[:, periodic])
+        distance = ((candidates - reference) ** 2).sum(axis=1)
+        hints[i] = candidates[int(np.argmin(np.where(allowed, distance, np.inf)))]
         if np.isfinite(order):
             previous[group] = hints[i]
     return hints
