@@ -176,10 +176,25 @@ def fill_poses(targets, poses_of):
 
 
 def formatted(targets, values, min_decimals):
-    """[(Number, text)] for (N, k) new values of the targets' numbers; ``min_decimals`` one
-    per column."""
-    return [(n, format_like(v, n, d)) for t, row in zip(targets, values.tolist())
-            for n, v, d in zip(t.numbers, row, min_decimals)]
+    """[(Number, text)] for (N, k) new values of the targets' numbers (``min_decimals`` one
+    per column), as :func:`format_like` writes each, the unchanged ones found at once."""
+    numbers = [n for t in targets for n in t.numbers]
+    if not numbers:
+        return []
+    old = np.array([float(n.text) for n in numbers])
+    decimals = np.maximum([n.decimals for n in numbers], np.tile(min_decimals, len(targets)))
+    new = np.asarray(values, dtype=float).ravel()
+    keep = np.abs(new - old) < 0.5 * 10.0 ** -decimals.astype(float)
+    out = []
+    for number, value, places, kept in zip(numbers, new.tolist(), decimals.tolist(), keep.tolist()):
+        if kept:
+            out.append((number, number.text))
+        elif places and number.text[0] != "+":  # the common case, as format_like writes it
+            text = f"{value:.{places}f}"
+            out.append((number, text[1:] if text[0] == "-" and not float(text) else text))
+        else:
+            out.append((number, format_like(value, number, places)))
+    return out
 
 
 def read_text(path) -> str:

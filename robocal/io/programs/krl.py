@@ -85,11 +85,26 @@ def comment_offset(text) -> int:
 _PAIR = re.compile(r"([A-Za-z_$][\w$]*)[ \t]+(" + NUMBER + r"|'[^']*')")
 
 
+_VALUE = r"[ \t]+(" + NUMBER + r"|'[^']*')[ \t]*"
+# A Cartesian aggregate as nearly every program writes it, X Y Z A B C (S T) in this order:
+# read in one match (the rest of the aggregate, E1..E6, is not needed).
+_POSE_AGGREGATE = re.compile(r"\{[ \t]*" + r",[ \t]*".join(f"{k}{_VALUE}" for k in POSE_KEYS)
+                             + r"(?:,[ \t]*S" + _VALUE + r",[ \t]*T" + _VALUE + ")?", re.IGNORECASE)
+
+
 def _aggregate(text, start):
     """The aggregate that opens at ``start`` ('{'): (end, {KEY: Number or str})."""
     end = text.find("}", start)
     if end < 0:
         raise FileFormatError(f"an aggregate opened at line {line_of(text, start)} is not closed")
+    fast = _POSE_AGGREGATE.match(text, start, end)
+    if fast is not None:
+        items = {k: Number(fast.start(g), fast.group(g)) for g, k in enumerate(POSE_KEYS, start=1)}
+        for g, k in ((7, "S"), (8, "T")):
+            value = fast.group(g)
+            if value is not None:
+                items[k] = value if value.startswith("'") else Number(fast.start(g), value)
+        return end + 1, items
     items = {}
     for match in _PAIR.finditer(text, start + 1, end):
         value = match.group(2)
