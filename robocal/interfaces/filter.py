@@ -235,6 +235,8 @@ def _hints(programs, targets, poses, nominal):
     scores = np.where(valid, scores, -1.0)
     # The branches a named posture allows (those that match it best).
     matching = valid & (scores == scores.max(axis=1, keepdims=True))
+    named_posture = np.array([t.posture is not None for t in targets])
+    unique, first = named_posture & (matching.sum(axis=1) == 1), np.argmax(matching, axis=1)
     base, named = np.nan_to_num(base, nan=1e3), np.nan_to_num(named, nan=1e3)
     periodic = np.flatnonzero(nominal.upper - nominal.lower > 2 * np.pi)
     hints = np.zeros((len(targets), nominal.n_joints))
@@ -252,6 +254,11 @@ def _hints(programs, targets, poses, nominal):
         i, target = item, targets[item]
         if not valid[i].any():
             hints[i] = np.nan
+            continue
+        if unique[i] and not (target.follows and group in previous):
+            hints[i] = named[i, first[i]]  # the one branch that matches the named posture
+            if np.isfinite(order):
+                previous[group] = hints[i]
             continue
         reference = previous.get(group, zero)
         if target.posture is not None and not (target.follows and group in previous):
