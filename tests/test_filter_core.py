@@ -70,3 +70,20 @@ def test_comments_are_blanked_in_place():
     stripped = strip_comments(text, ";")
     assert len(stripped) == len(text) and "X 1" not in stripped and '"; not a comment"' in stripped
     assert stripped.count("\r\n") == 2
+
+
+def test_a_failed_write_leaves_no_new_file(tmp_path, monkeypatch):
+    from robocal.interfaces import filter as job
+
+    calls = []
+
+    def failing(path, text, encoding="utf-8"):
+        calls.append(path)
+        if len(calls) == 2:
+            raise OSError(28, "No space left on device")
+        (tmp_path / path).write_text(text)
+
+    monkeypatch.setattr(job, "write_text_atomic", failing)
+    with pytest.raises(OSError):
+        job._write_all([(tmp_path / "a.src", "x"), (tmp_path / "a.dat", "y"), (tmp_path / "s.csv", "z")])
+    assert not list(tmp_path.iterdir())

@@ -363,13 +363,27 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
         comment = f"{program.module.COMMENT} {comment_words}"
         text = rewrite(program, edits[program.path], program.module.comment_offset(program.text), comment)
         texts.append((target_path, text))
-    for target_path, text in texts:
-        write_text_atomic(target_path, text, encoding=ENCODING)
-    write_text_atomic(outputs[-1], _summary(rows))
+    _write_all(texts + [(outputs[-1], _summary(rows))])
     return {"files": [str(p) for p, _ in texts], "summary": str(outputs[-1]), "targets": len(targets),
             "unfiltered": [f"{r.file} line {r.line}: {r.what}" for r in run_time],
             "outside_domain": int((~inside).sum()), "domain_summary": domain_summary,
             "max_moved_mm": float(moved.max()) if len(moved) else 0.0}
+
+
+def _write_all(files):
+    """Write [(path, text)] each atomically; if one fails, the ones this call created are
+    removed again, so that a failure leaves no new file behind."""
+    created = []
+    try:
+        for path, text in files:
+            existed = Path(path).exists()
+            write_text_atomic(path, text, encoding=ENCODING)
+            if not existed:
+                created.append(Path(path))
+    except BaseException:
+        for path in created:
+            path.unlink(missing_ok=True)
+        raise
 
 
 def _key_of(language_name):
