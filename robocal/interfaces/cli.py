@@ -38,6 +38,7 @@ from ..methods.base import ERROR_MODEL_INPUTS, REGISTER_CHOICES, option_of
 from ..methods.reregistration import PARAMETER_CHOICES as FRAME_PARAMETERS
 from .jobs import (AUTO, DATASETS, EXPORT_FORMATS, FRAMES, SAMPLINGS, calibrate_job, compare_job, reregister_job, compensate_job, dataset_job, evaluate_job, export_job,
                    simulate_job, validate_job)
+from .filter import filter_job
 
 # The sampling plans simulate_job draws (it owns no list of them to import).
 
@@ -668,6 +669,43 @@ def compensate(
         _say("warning", "yellow", f"{len(result['unreachable_rows'])} target(s) cannot be reached "
                   f"(rows {rows}{more}): their joint cells are empty and reachable = 0")
     _print_result(result if as_json else _without_domain(result), as_json, f"commands -> {out_file}")
+    if not as_json:
+        _say_domain(result)
+
+
+@command(name="filter")
+@user_errors
+def filter_programs(
+    model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
+    programs: list[str] = typer.Argument(..., help="Robot programs: KRL .src (its .dat comes along), RAPID "
+                                                   ".mod/.modx/.prg, URScript .script."),
+    out_dir: str = typer.Option(..., "--out", help="Directory to write the filtered programs (same names) and "
+                                                   "filter-summary.csv into."),
+    language: str = typer.Option(None, "--language", help="krl, rapid or urscript (default: by extension)."),
+    config: str = typer.Option(None, "--config", help="KRL: the robot's $config.dat, for TOOL_DATA and BASE_DATA "
+                                                      "(default: the robot's base and the model's tool)."),
+    allow_unfiltered: bool = typer.Option(False, "--allow-unfiltered",
+                                          help="Write the program even if some motions are computed at run time "
+                                               "(they stay as they are and are listed)."),
+    accept_extrapolation: bool = typer.Option(False, "--accept-extrapolation",
+                                              help="Filter targets outside the model's domain of validity too."),
+    iterate: bool = typer.Option(False, "--iterate", help="Solve c = P - e(c) to a fixed point, as compensate does."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+):
+    """Robot programs in, compensated robot programs out.
+
+    Every Cartesian target of the programs becomes what 'robocal compensate' gives for it, in
+    the program's own base and tool frames and for the posture the point names; every other
+    byte stays as it was, and one comment line naming robocal and the model is added.
+
+    Example: robocal filter model.json pallet_cell.src --out filtered/
+    """
+    result = filter_job(model, programs, out_dir, language=language, config=config,
+                        allow_unfiltered=allow_unfiltered, accept_extrapolation=accept_extrapolation, iterate=iterate)
+    for item in result["unfiltered"]:
+        _say("warning", "yellow", f"not filtered (computed at run time): {item}")
+    shown = result if as_json else {k: v for k, v in _without_domain(result).items() if k != "unfiltered"}
+    _print_result(shown, as_json, f"filtered programs -> {out_dir}")
     if not as_json:
         _say_domain(result)
 

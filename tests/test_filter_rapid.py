@@ -1,0 +1,101 @@
+"""robocal filter on an ABB RAPID module: every robtarget is what compensate gives in its
+tooldata and wobjdata, every other byte stays, a nominal model changes nothing, run-time
+motions and filtered modules are refused."""
+import numpy as np
+import pytest
+from filter_support import (
+    PROGRAMS,
+    assert_only_targets_changed,
+    assert_same_poses,
+    filter_and_compensate,
+    model_of,
+    true_robot,
+    without_comment,
+)
+from scipy.spatial.transform import Rotation
+
+from robocal.errors import InputError
+from robocal.interfaces.filter import filter_job
+from robocal.io.library import load_robot
+from robocal.io.programs import postures
+
+MODULE = PROGRAMS / "rapid" / "PickPlace.mod"
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    return {kind: model_of(true_robot("irb120", errors=errors), tmp_path_factory.mktemp(f"irb-{kind}"))
+            for kind, errors in (("true", True), ("nominal", False))}
+
+
+def _frame(xyz, quaternion):
+    w, x, y, z = quaternion
+    pose = np.eye(4)
+    pose[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix()
+    pose[:3, 3] = xyz
+    return pose
+
+
+# The module's tGripper and wobjTable, as the test reads them.
+GRIPPER = _frame([0, 0, 115.5], [1, 0, 0, 0])
+TABLE = _frame([300, -150, 50], [0.9659258, 0, 0, 0.258819])
+
+
+def frames(target):
+    if target.name in ("pHome", "inline"):  # tool0, wobj0: the flange in the robot's base
+        return np.eye(4), np.eye(4)
+    return TABLE, GRIPPER
+
+
+def test_every_robtarget_is_what_compensate_gives(models, tmp_path):
+    (tmp_path / "out").mkdir()
+    before, after, expected, q, result = filter_and_compensate(models["true"], MODULE, tmp_path / "out", tmp_path,
+                                                               frames=frames)
+    assert result["targets"] == len(before) == 11
+    assert_same_poses(after, expected)
+    moved = np.linalg.norm(np.array([a.pose[:3, 3] - b.pose[:3, 3] for a, b in zip(after, before)]), axis=1)
+    assert 0.2 < moved.mean() < 3.0
+    # Each robtarget is reached with its confdata: quadrants of axes 1, 4, 6 and cfx.
+    irb = load_robot("irb120")
+    conf = postures.abb(irb, irb.joints_from_file(q))
+    named = np.array([t.posture for t in before])
+    assert np.array_equal(conf[:, 3], named[:, 3])
+    # A quadrant may differ only for a joint on its border (pHome's axis 4 at 0 deg).
+    border = np.abs(q[:, [0, 3, 5]] - 90 * np.round(q[:, [0, 3, 5]] / 90)) < 0.5
+    assert np.all((conf[:, :3] == named[:, :3]) | border)
+    # The quaternions stay unit and on the file's side.
+    for a, b in zip(after, before):
+        new, old = (np.array([n.value for n in t.numbers[3:]]) for t in (a, b))
+        assert abs(np.linalg.norm(new) - 1) < 1e-6 and new @ old > 0
+
+
+def test_only_the_targets_numbers_change(models, tmp_path):
+    filter_job(models["true"], [MODULE], tmp_path, allow_unfiltered=True)
+    assert_only_targets_changed(MODULE, tmp_path / MODULE.name, "!")
+    text = (tmp_path / MODULE.name).read_bytes().decode("latin-1")
+    assert text.startswith("MODULE PickPlace\r\n! robocal filter: ")
+
+
+def test_a_nominal_model_reproduces_the_module(models, tmp_path):
+    filter_job(models["nominal"], [MODULE], tmp_path, allow_unfiltered=True)
+    data, count = without_comment((tmp_path / MODULE.name).read_bytes(), "!")
+    assert count == 1 and data == MODULE.read_bytes()
+
+
+def test_run_time_motions_are_refused_then_listed(models, tmp_path):
+    with pytest.raises(InputError) as refusal:
+        filter_job(models["true"], [MODULE], tmp_path)
+    message = str(refusal.value)
+    for line, what in ((41, "Offs(pPick"), (48, "RelTool(pPlace"), (53, "pTemp := CRobT"), (54, "MoveL pTemp")):
+        assert f"PickPlace.mod line {line}: " in message and what in message
+    assert not list(tmp_path.iterdir())
+    result = filter_job(models["true"], [MODULE], tmp_path, allow_unfiltered=True)
+    assert len(result["unfiltered"]) == 4
+
+
+def test_a_filtered_module_is_refused(models, tmp_path):
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    filter_job(models["true"], [MODULE], tmp_path / "a", allow_unfiltered=True)
+    with pytest.raises(InputError, match="written by robocal filter already"):
+        filter_job(models["true"], [tmp_path / "a" / MODULE.name], tmp_path / "b", allow_unfiltered=True)
+    assert not list((tmp_path / "b").iterdir())

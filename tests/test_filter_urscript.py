@@ -1,0 +1,65 @@
+"""robocal filter on a URScript program: every pose a motion takes is what compensate
+gives, in metres and radians; offsets, joint lists and every other byte stay; a nominal
+model changes nothing; run-time poses and filtered scripts are refused."""
+import numpy as np
+import pytest
+from filter_support import (
+    PROGRAMS,
+    assert_only_targets_changed,
+    assert_same_poses,
+    filter_and_compensate,
+    model_of,
+    true_robot,
+    without_comment,
+)
+
+from robocal.errors import InputError
+from robocal.interfaces.filter import filter_job
+
+SCRIPT = PROGRAMS / "urscript" / "feeder_to_tray.script"
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    return {kind: model_of(true_robot("ur5", errors=errors), tmp_path_factory.mktemp(f"ur5-{kind}"))
+            for kind, errors in (("true", True), ("nominal", False))}
+
+
+def test_every_pose_is_what_compensate_gives(models, tmp_path):
+    (tmp_path / "out").mkdir()
+    before, after, expected, q, result = filter_and_compensate(models["true"], SCRIPT, tmp_path / "out", tmp_path)
+    assert result["targets"] == len(before) == 7
+    assert [t.name for t in before[:3]] == ["above_feeder", "at_feeder", "drop"]
+    assert_same_poses(after, expected)
+    # The controller takes the solution nearest where it stands: the branch of the joint
+    # targets before (shoulder, elbow and wrist as in home_q), every point after the other.
+    assert np.all(np.abs(np.diff(q, axis=0)) < 90)
+
+
+def test_only_the_targets_numbers_change(models, tmp_path):
+    filter_job(models["true"], [SCRIPT], tmp_path, allow_unfiltered=True)
+    assert_only_targets_changed(SCRIPT, tmp_path / SCRIPT.name, "#")
+    text = (tmp_path / SCRIPT.name).read_text()
+    assert "approach = p[0, 0, -0.05, 0, 0, 0]" in text  # an offset, not a target
+    assert "pose_add(drop, p[0, 0, 0.08, 0, 0, 0])" in text
+    assert "movej([0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0]" in text
+
+
+def test_a_nominal_model_reproduces_the_script(models, tmp_path):
+    filter_job(models["nominal"], [SCRIPT], tmp_path, allow_unfiltered=True)
+    data, count = without_comment((tmp_path / SCRIPT.name).read_bytes(), "#")
+    assert count == 1 and data == SCRIPT.read_bytes()
+
+
+def test_run_time_poses_are_refused_then_listed(models, tmp_path):
+    with pytest.raises(InputError) as refusal:
+        filter_job(models["true"], [SCRIPT], tmp_path)
+    for line in (17, 23, 24):
+        assert f"feeder_to_tray.script line {line}: " in str(refusal.value)
+    assert not list(tmp_path.iterdir())
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    result = filter_job(models["true"], [SCRIPT], tmp_path / "a", allow_unfiltered=True)
+    assert sorted(int(item.split(" line ")[1].split(":")[0]) for item in result["unfiltered"]) == [17, 23, 24]
+    assert (tmp_path / "a" / "filter-summary.csv").read_text().count("unfiltered (run time)") == 3
+    with pytest.raises(InputError, match="written by robocal filter already"):
+        filter_job(models["true"], [tmp_path / "a" / SCRIPT.name], tmp_path / "b", allow_unfiltered=True)
