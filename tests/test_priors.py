@@ -86,6 +86,26 @@ def test_every_builtin_robots_data_are_refused_as_any_other_builtin_robot(data):
                 KinematicCalibration("full").fit(chain, q, measured)
 
 
+@pytest.mark.parametrize("group", [SIX_AXIS, SEVEN_AXIS], ids=["six axes", "seven axes"])
+def test_every_builtin_robots_socket_data_are_refused_as_any_other_builtin_robot(group):
+    from robocal.io.fixtures import read_fixture
+    from robocal.simulation.sampling import socket_plan
+
+    plate = read_fixture(__import__("pathlib").Path(__file__).resolve().parents[1] / "examples" / "plate-fixture.toml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for data in group:
+            plan = socket_plan(make_true_robot(builtin(data), "typical", seed=1), plate, 3, 8, rng=1)
+            for other in group:
+                fit = lambda: ConstraintCalibration().fit(builtin(other), plan.joints, plan.fixture_ids,  # noqa: E731
+                                                          plan.socket_ids, plate)
+                if other == data:
+                    fit()
+                    continue
+                with pytest.raises(InputError):  # not this robot's, or its socket distances cannot be
+                    fit()
+
+
 def test_the_shipped_real_data_pass_the_check_and_map_keeps_their_held_out_error():
     # Random halves; the MAP fit's held-out mean within 1 % of plain least squares.
     for chain, data in (ur5_tsinghua(), ipa_ur10("A"), ipa_ur10("B")):

@@ -60,8 +60,6 @@ PLAUSIBLE_PROBABILITY = 1e-6
 # well-determined deviations far beyond the tolerance of their kind (the MUKCa Pandas' wrist
 # axes, 24), another robot's geometry hundreds.
 GROSS_TOLERANCES = 50.0
-# A calibration of the right robot explains most of its nominal residual (implausible_fit).
-MIN_EXPLAINED = 0.5
 # ... unless the nominal residual is already within this many times the instrument's noise.
 NOISE_FLOOR = 3.0
 # A parameter whose prior variance the data reduce by less than half is "held by its prior":
@@ -120,14 +118,13 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
       990 for 30, a wrist axis 10 mm, 24 tolerances, from the nominal POE model, well
       determined; a UR10's data fitted as a UR5's move a2 and a3 by 180 mm, over 500
       tolerances);
-    * what calibration explains: a calibration within the tolerances that explains less
-      than MIN_EXPLAINED of the nominal robot's residual variance, and still misses by more
+    * what calibration leaves: a calibration within the tolerances that still misses by more
       than the whole error the tolerances predict for the nominal robot (``tolerance_rms``,
       times the chi-square margin of as many parameters at PLAUSIBLE_PROBABILITY) and than
-      NOISE_FLOOR times the instrument's noise, is not of this robot's data (real
-      arms: 93 to 98 % explained; another robot's data or another unit: under 5 %, missing
-      by hundreds of mm, the prior holding a model that cannot fit them).  A robot already
-      calibrated, whose small residual is mostly what no geometry explains, passes.
+      NOISE_FLOOR times the instrument's noise is not of this robot's data (real arms leave
+      a tenth of it or less; another robot's data or another unit leave tens to hundreds of
+      mm, the prior holding a model that cannot fit them).  A robot already calibrated,
+      whose small residual is mostly what no geometry explains, passes.
 
     names, values, prior_std: (P,) the fitted deviations and their tolerances (internal
     units, inf for none); before_rms, after_rms: mm RMS of the registered nominal and the
@@ -152,15 +149,16 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
                 f"robot's, or not in mm and degrees: check the robot file and the data, or widen the tolerances "
                 f"({override})")
     explained = 1.0 - (after_rms / before_rms) ** 2 if before_rms > 0 else 1.0
-    # A robot within its tolerances leaves at most the whole error they predict, give or take
-    # the chi-square spread of as many parameters at PLAUSIBLE_PROBABILITY.
+    # A robot within its tolerances, calibrated, leaves less than the whole error they predict
+    # for its nominal model, give or take the chi-square spread of as many parameters at
+    # PLAUSIBLE_PROBABILITY.
     margin = float(np.sqrt(limit / max(int(held.sum()), 1)))
-    if after_rms > max(NOISE_FLOOR * noise_rms, margin * tolerance_rms) and explained < MIN_EXPLAINED:
-        return (f"the registered nominal robot misses these data by {before_rms:.1f} mm RMS and its calibration "
-                f"within the tolerances still by {after_rms:.1f} mm (it explains {max(explained, 0.0):.0%} of the "
-                f"error, where a robot within its tolerances misses by {tolerance_rms:.2g} mm RMS): these data are not "
-                f"this robot's, or the robot file or the data are not in mm and degrees; if they are, widen the "
-                f"tolerances ({override})")
+    if after_rms > max(NOISE_FLOOR * noise_rms, margin * tolerance_rms):
+        return (f"the registered nominal robot misses these data by {before_rms:.3g} mm RMS and its calibration "
+                f"within the tolerances still by {after_rms:.3g} mm (it explains {max(explained, 0.0):.0%} of the "
+                f"error), where a robot within its tolerances misses by {tolerance_rms:.2g} mm RMS before any "
+                f"calibration: these data are not this robot's, or the robot file or the data are not in mm and "
+                f"degrees; if they are, widen the tolerances ({override})")
     return None
 
 

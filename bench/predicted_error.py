@@ -1,0 +1,105 @@
+"""The error to expect where the robot will work (``calibrate``'s predicted_error) beside
+what each model then misses there.
+
+A simulated KUKA KR 150-2 (``--errors typical``, seed 2) measured at poses spread over the
+joint space, at poses within ±5 deg of one posture, and after the tracker moved (re-registered
+on 25 spread or clustered poses); a UR5 modelled by Kriging from 80 spread poses; and the
+MUKCa Panda 3 ball-in-socket data with one placement left out at a time.  Held out: the mean
+error over the same 1,000 joint-uniform configurations the prediction is made for, against
+the simulated truth (for the Panda, the socket consistency on the placement left out).  The
+setups are those of ``tests/test_predicted_error.py``, which asserts the factor 2.
+
+    python bench/predicted_error.py      # about half a minute
+"""
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import warnings  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from robocal.estimation import ConstraintCalibration  # noqa: E402
+from robocal.estimation.constraint import socket_errors  # noqa: E402
+from robocal.estimation.constraint.data import socket_data  # noqa: E402
+from robocal.estimation.prediction import socket_prediction, working_range  # noqa: E402
+from robocal.io.datasets import mukca  # noqa: E402
+from robocal.io.library import builtin  # noqa: E402
+from robocal.io.observations import Observations  # noqa: E402
+from robocal.methods import make_method  # noqa: E402
+from robocal.methods.expectation import expected_error  # noqa: E402
+from robocal.methods.reregistration import reregister  # noqa: E402
+from robocal.simulation import make_true_robot, uniform_joints  # noqa: E402
+from robocal.spatial import compose_pose  # noqa: E402
+
+
+def _measured(truth, q, seed):
+    return Observations.of(q, truth.measure(q, np.random.default_rng(seed)))
+
+
+def _cluster(chain, half_width_deg, count, seed):
+    rng = np.random.default_rng(seed)
+    centre = uniform_joints(chain, 1, rng)[0]
+    return centre + np.radians(rng.uniform(-half_width_deg, half_width_deg, size=(count, chain.n_joints)))
+
+
+def _row(label, predicted, held, nominal_held=None):
+    nominal = "" if nominal_held is None else f"{nominal_held:>10.3f}"
+    print(f"{label:<52}{predicted.mean_mm:>10.3f}{held:>10.3f}{predicted.mean_mm / held:>8.2f}"
+          f"{predicted.nominal_mean_mm:>10.3f}{nominal}  {'refused' if predicted.worse_than_nominal else ''}")
+
+
+def main():
+    warnings.simplefilter("ignore")
+    print(f"{'mean error, mm':<52}{'predicted':>10}{'held out':>10}{'ratio':>8}{'nominal':>10}{'(held)':>10}")
+    chain = builtin("kr150-2")
+    truth = make_true_robot(chain, "typical", seed=2)
+    work = working_range(chain).joints
+    true_positions = truth.positions(work)
+
+    def held(method, positions=true_positions):
+        return float(np.linalg.norm(positions - method.predict(work), axis=1).mean())
+
+    spread = _measured(truth, uniform_joints(chain, 60, np.random.default_rng(11)), seed=12)
+    for method, parameters in (("kinematic", "full"), ("kinematic", "full+compliance"), ("hybrid", "full")):
+        fitted = make_method(method, parameters=parameters).fit(chain, spread)
+        _row(f"KR 150-2, 60 spread poses, {method} {parameters}", expected_error(fitted, chain, spread), held(fitted),
+             held(type("Nominal", (), {"predict": staticmethod(fitted.reference_.fk_positions)})))
+    cluster = _measured(truth, _cluster(chain, 5.0, 25, seed=21), seed=22)
+    fitted = make_method("kinematic").fit(chain, cluster)
+    _row("KR 150-2, 25 poses within 5 deg, kinematic full", expected_error(fitted, chain, cluster), held(fitted),
+         held(type("Nominal", (), {"predict": staticmethod(fitted.reference_.fk_positions)})))
+    moved = compose_pose([1500.0, -800.0, 200.0], np.radians([0.5, -0.3, 40.0]))
+    moved_positions = true_positions @ moved[:3, :3].T + moved[:3, 3]
+    for method in ("kinematic", "hybrid"):
+        train = _measured(truth, uniform_joints(chain, 200, np.random.default_rng(31)), seed=32)
+        fitted = make_method(method).fit(chain, train)
+        fitted.record_ = fitted.record_.replace(predicted_error=expected_error(fitted, chain, train).to_dict())
+        for label, q, seed in (("25 spread", uniform_joints(chain, 25, np.random.default_rng(33)), 34),
+                               ("25 within 5 deg", _cluster(chain, 5.0, 25, 35), 36)):
+            poses = Observations.of(q, truth.measure(q, np.random.default_rng(seed)) @ moved[:3, :3].T + moved[:3, 3])
+            new = reregister(fitted, poses)
+            _row(f"KR 150-2 {method} re-registered on {label} poses", expected_error(new, chain, poses),
+                 held(new, moved_positions))
+    ur5 = builtin("ur5")
+    ur5_truth = make_true_robot(ur5, "typical", seed=0)
+    obs = _measured(ur5_truth, uniform_joints(ur5, 80, np.random.default_rng(41)), seed=42)
+    fitted = make_method("kriging").fit(ur5, obs)
+    ur5_work = working_range(ur5).joints
+    _row("UR5, Kriging from 80 spread poses", expected_error(fitted, ur5, obs),
+         float(np.linalg.norm(ur5_truth.positions(ur5_work) - fitted.predict(ur5_work), axis=1).mean()))
+    panda, sockets, fixture = mukca("panda_3")
+    q = panda.joints_from_file(sockets.joints)
+    for left_out in np.unique(sockets.fixture):
+        train = sockets.fixture != left_out
+        cal = ConstraintCalibration(gains=True).fit(panda, q[train], sockets.fixture[train], sockets.socket[train],
+                                                    fixture)
+        data = socket_data(cal.start_chain_, q[train], sockets.fixture[train], sockets.socket[train], fixture)
+        scored = socket_errors(cal.chain_, q[~train], sockets.fixture[~train], sockets.socket[~train], fixture)
+        nominal = socket_errors(panda, q[~train], sockets.fixture[~train], sockets.socket[~train], fixture)
+        _row(f"MUKCa Panda 3, placement {left_out} left out", socket_prediction(cal, data), scored["mean_mm"],
+             nominal["mean_mm"])
+
+
+if __name__ == "__main__":
+    main()
