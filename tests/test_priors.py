@@ -170,3 +170,36 @@ def test_kriging_refuses_rows_in_metres_naming_them(inputs, tmp_path, monkeypatc
     before = copy_inputs(root, tmp_path, monkeypatch)
     assert_refused(["calibrate", "ur5", str(tmp_path / "ur5_five_in_metres.csv"), "--method", "kriging", "--out",
                     str(tmp_path / "model.json")], "not this robot's positions in mm", tmp_path, before)
+
+
+def test_a_model_predicted_worse_than_the_nominal_robot_is_refused_unless_accepted(inputs, tmp_path, monkeypatch):
+    # Kriging over the TCP position from 60 poses spread over a UR5's whole joint space.
+    from typer.testing import CliRunner
+
+    from robocal.interfaces.cli import app
+
+    root, _ = inputs
+    before = copy_inputs(root, tmp_path, monkeypatch)
+    args = ["calibrate", "ur5", str(tmp_path / "ur5.csv"), "--method", "kriging", "--out", str(tmp_path / "model.json")]
+    assert_refused(args, "--accept-extrapolation", tmp_path, before)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        done = CliRunner().invoke(app, args + ["--accept-extrapolation", "--json"])
+    assert done.exit_code == 0, done.output
+    predicted = __import__("json").loads(done.stdout)["predicted_error"]
+    assert predicted["mean_mm"] > predicted["nominal_mean_mm"]
+
+
+def test_re_registration_refuses_another_robots_poses_in_one_line(inputs, tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from robocal.interfaces.cli import app
+
+    root, _ = inputs
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert CliRunner().invoke(app, ["calibrate", "ur5", str(root / "ur5.csv"), "--out",
+                                        str(root / "ur5_model.json")]).exit_code == 0
+    before = copy_inputs(root, tmp_path, monkeypatch)
+    assert_refused(["calibrate", str(tmp_path / "ur5_model.json"), str(tmp_path / "ur10.csv"), "--method", "frames",
+                    "--out", str(tmp_path / "moved.json")], "not this robot's", tmp_path, before)
