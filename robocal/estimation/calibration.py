@@ -425,8 +425,9 @@ class KinematicCalibration(FittedCalibration):
             tolerances = self._prior.sigmas(list(found.names))
             # What a robot within its tolerances misses by: every link parameter's tolerance, whatever
             # set this fit identifies (an offsets-only fit leaves the links' errors in its residual).
-            every = list(dict.fromkeys(candidate_parameters(start.rigid, "full") + list(names)))
-            expected = tolerance_rms(start, q, every,
+            def expected():
+                every = list(dict.fromkeys(candidate_parameters(start.rigid, "full") + list(names)))
+                return tolerance_rms(start, q, every,
                                      prior_sigmas(start, every, tolerances_of(start, self.tolerance_scale), q))
             failure = implausible_fit(found.names, values, tolerances, before, after, noise, expected,
                                       start.parameters, override="--tolerance-scale, or [tolerances] in the robot file")
@@ -539,9 +540,17 @@ class KinematicCalibration(FittedCalibration):
 
 
 def _deviation_from(start):
-    """deviation(chain, names): the named parameters of ``chain`` minus ``start``'s."""
+    """deviation(chain, names): the named parameters of ``chain`` minus ``start``'s (whose
+    values are read once per set of names: the fit asks at every step)."""
+    reference = {}
+
     def deviation(chain, names):
-        return chain.parameter_values(names) - start.parameter_values(names)
+        if chain is start:
+            return np.zeros(len(names))
+        key = tuple(names)
+        if key not in reference:
+            reference[key] = start.parameter_values(list(names))
+        return chain.parameter_values(names) - reference[key]
     return deviation
 
 

@@ -129,7 +129,8 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
     names, values, prior_std: (P,) the fitted deviations and their tolerances (internal
     units, inf for none); before_rms, after_rms: mm RMS of the registered nominal and the
     calibrated model; noise_rms: mm RMS the instrument's noise alone gives; tolerance_rms: mm
-    RMS of the nominal robot's error that the tolerances predict at these poses; space: the chain's
+    RMS of the nominal robot's error that the tolerances predict at these poses (or a callable
+    that computes it, called only when needed); space: the chain's
     parameter space (for units); override: the option that widens the tolerances.
     """
     from scipy.stats import chi2
@@ -153,7 +154,9 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
     # for its nominal model, give or take the chi-square spread of as many parameters at
     # PLAUSIBLE_PROBABILITY.
     margin = float(np.sqrt(limit / max(int(held.sum()), 1)))
-    if after_rms > max(NOISE_FLOOR * noise_rms, margin * tolerance_rms):
+    if after_rms > NOISE_FLOOR * noise_rms and callable(tolerance_rms):
+        tolerance_rms = tolerance_rms()  # a Jacobian over poses: only when it can decide
+    if after_rms > max(NOISE_FLOOR * noise_rms, margin * (0.0 if callable(tolerance_rms) else tolerance_rms)):
         return (f"the registered nominal robot misses these data by {before_rms:.3g} mm RMS and its calibration "
                 f"within the tolerances still by {after_rms:.3g} mm (it explains {max(explained, 0.0):.0%} of the "
                 f"error), where a robot within its tolerances misses by {tolerance_rms:.2g} mm RMS before any "
@@ -162,7 +165,7 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
     return None
 
 
-def tolerance_rms(chain, joints, names, prior_std, rows=3, most=2000):
+def tolerance_rms(chain, joints, names, prior_std, rows=3, most=50):
     """mm RMS of the TCP error the tolerances predict for the nominal robot at ``joints``
     (N, n) rad: sqrt(mean trace(J Σp Jᵀ)) over the position rows of the identification
     Jacobian of ``names`` with prior standard deviations ``prior_std`` (at most ``most``
