@@ -44,6 +44,8 @@ SEED_STRETCH = 1.0 - 1e-3
 MIN_SINE = 0.1
 # Targets per block: the temporaries of one block stay in the processor's cache.
 BLOCK = 4096
+# Up to this many targets, G comes from plain 4x4 products (see ClosedForm._relative).
+FEW = 8
 
 
 class NoFit(InputError):
@@ -207,7 +209,12 @@ class ClosedForm:
     def _relative(self, targets):
         """Rows of the rotation and the translation of G = pre · T · post for a block of
         targets, as coordinate arrays (constant factors multiplied out per coordinate:
-        batched 4x4 matrix products are several times slower)."""
+        batched 4x4 matrix products are several times slower, except for a few targets,
+        where the thirty-odd array operations below cost far more than two products)."""
+        if targets.shape[0] <= FEW:
+            g = self._pre @ targets @ self._post
+            return (tuple(tuple(g[:, i, j] for j in range(3)) for i in range(3)),
+                    tuple(g[:, i, 3] for i in range(3)))
         comps = np.ascontiguousarray(targets[:, :3, :].transpose(1, 2, 0))  # (3, 4, B)
         pre, post = self._pre, self._post
         # M = T · post, then G = pre · M.
