@@ -66,6 +66,25 @@ def test_point_solver_equals_solve_ik_target_by_target(name):
             np.testing.assert_allclose(one, batch.q[i], atol=1e-8)
 
 
+@pytest.mark.parametrize("name", ["kr150-2", "irb120", "fanuc-r2000ic-165f", "ur5", "ur10"])
+def test_closed_form_of_one_target_equals_the_batch(name):
+    """One target goes through the float path (ik/one.py); its branches, masks and seeds
+    are the batch's, including targets out of reach and far off the idealised geometry."""
+    nominal = load_robot(name)
+    solver = closed_form(nominal)
+    rng = np.random.default_rng(7)
+    q = nominal.random_configurations(60, rng)
+    targets = perturbed(nominal, 8).fk(q)
+    targets[:4, :3, 3] *= 3.0
+    for mode in ("solve", "seeds"):
+        batch = getattr(solver, mode)(targets, q)
+        for i in range(len(q)):
+            alone = getattr(solver, mode)(targets[i:i + 1], q[i])
+            np.testing.assert_allclose(alone[0][0], batch[0][i], atol=1e-9, equal_nan=True)
+            for mask_alone, mask_batch in zip(alone[1:], batch[1:]):
+                np.testing.assert_array_equal(mask_alone[0], mask_batch[i])
+
+
 def test_closed_form_is_fitted_once_per_chain():
     chain = load_robot("ur5")
     assert closed_form(chain) is closed_form(chain)
