@@ -216,7 +216,7 @@ class _PointPath:
         controller = compensator.controller if compensator.controller is not None else (
             compensator.nominal or compensator.chain)
         if getattr(controller, "rigid", None) is controller:
-            self._program = PointProgram(controller._compiled[0], controller.joint_map, controller.revolute)
+            self._program = PointProgram.of(controller)
             self._controller = None
         else:
             self._program, self._controller = None, controller

@@ -272,6 +272,16 @@ class PointProgram:
     tangents).
     """
 
+    @classmethod
+    def of(cls, chain):
+        """The point program of a (rigid) chain, built once and kept on the chain (which is
+        immutable), as :func:`robocal.kinematics.ik.closed_form` keeps its solver."""
+        program = chain.__dict__.get("_point_program")
+        if program is None:
+            program = cls(chain._compiled[0], chain.joint_map, chain.revolute)
+            chain.__dict__["_point_program"] = program
+        return program
+
     def __init__(self, ops, joint_map, revolute):
         joint_map = np.asarray(joint_map, dtype=float)
         n = joint_map.shape[0]

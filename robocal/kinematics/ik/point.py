@@ -34,8 +34,7 @@ class PointSolver:
 
     def __init__(self, chain, nominal=None):
         self.chain, self.nominal = chain, nominal
-        ops = chain._compiled[0]
-        self.program = PointProgram(ops, chain.joint_map, chain.revolute)
+        self.program = PointProgram.of(chain)
         self.solver, self.exact = _seed_solver(chain, nominal)
         self._limits = JointLimits(chain)
         self._periodic = periodic_joints(chain)
