@@ -147,7 +147,7 @@ class Answerer:
             sigma = self.fitted.uncertainty(q)
         in_domain = None
         if self.domain is not None:
-            check = self.domain.check(q, pose[None, :3, 3], uncertainty=sigma)
+            check = self.domain.check(q, pose[None, :3, 3])  # (the uncertainty only words its summary)
             in_domain = bool(check.inside[0])
         position, rpy = pose_to_xyz_rpy(result.corrected)
         joints = self.robot.joints_to_file(q)[0]
