@@ -362,6 +362,10 @@ class Chain:
     def fk_positions(self, q):
         """TCP positions only: (N, n) -> (N, 3), or (n,) -> (3,).  Faster than :meth:`fk`."""
         q2, single = self._check_q(q, finite=True)
+        if q2.shape[0] == 1:
+            pose = program.PointProgram.of(self).pose(q2[0].tolist())
+            out = np.array([pose[9:]])
+            return out[0] if single else out
         out = program.positions(self._compiled[0], self.model_joints(q2))
         return out[0] if single else out
 
