@@ -3,9 +3,16 @@ load and fault run (50,000 requests, 10 % malformed, clients that vanish mid-lin
 slowly), every well-formed answer checked against the first answer to the same request.
 
     python bench/serve.py MODEL.json TARGETS.csv            # --quick: 10x fewer requests
+    python bench/serve.py MODEL.json --poses MEASUREMENTS.csv
 
-TARGETS.csv is a targets file (x, y, z, rx, ry, rz[, q1..qN]); its reachable targets are
-asked in turn.  The server runs as its own process (robocal serve --port 0) on 127.0.0.1.
+TARGETS.csv is a targets file (x, y, z, rx, ry, rz[, q1..qN]); with --poses, the targets are
+the model's own FK of the first 200 joint readings of a measurement file (held-out poses,
+say), each with its reading as posture hint.  Its reachable targets are asked in turn.  The
+server runs as its own process (robocal serve --port 0) on 127.0.0.1.  For example:
+
+    robocal dataset ur5-tsinghua --out ur5 --split 0.5
+    robocal calibrate ur5.toml ur5_train.csv --method kinematic --out ur5_kin.json
+    python bench/serve.py ur5_kin.json --poses ur5_test.csv
 """
 import argparse
 import csv
@@ -54,6 +61,19 @@ def requests_of(path):
             fields["q"] = [float(row[k]) for k in hints]
         out.append(json.dumps(fields).encode())
     return out
+
+
+def requests_of_poses(model, path, count=200):
+    """Requests for the model's FK of the first ``count`` joint readings of a measurement file."""
+    from robocal.interfaces.jobs import load_fitted
+    from robocal.io.tables import read_measurements
+    from robocal.spatial import pose_to_xyz_rpy
+
+    loaded, fitted = load_fitted(model)
+    readings = read_measurements(path).joints[:count]
+    xyz, rpy = pose_to_xyz_rpy(fitted.compensator_.chain.fk(loaded.kinematics.joints_from_file(readings)))
+    return [json.dumps({**dict(zip(("x", "y", "z", "rx", "ry", "rz"), p.tolist() + np.degrees(r).tolist())),
+                        "q": h.tolist()}).encode() for p, r, h in zip(xyz, rpy, readings)]
 
 
 def percentiles(latencies):
@@ -122,11 +142,14 @@ def load_and_faults(port, good, expected, total, rng):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("model")
-    parser.add_argument("targets")
+    parser.add_argument("targets", nargs="?")
+    parser.add_argument("--poses", help="a measurement CSV whose joint readings give the targets")
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args()
+    if (args.targets is None) == (args.poses is None):
+        parser.error("give a targets file or --poses, not both")
     scale = 10 if args.quick else 1
-    lines = requests_of(args.targets)
+    lines = requests_of(args.targets) if args.poses is None else requests_of_poses(args.model, args.poses)
     process, port = start(args.model)
     try:
         _, answers = sequential(port, lines, len(lines))

@@ -5,11 +5,11 @@ import pytest
 
 from robocal.compensation import Compensator
 from robocal.io.library import load_robot
+from robocal.io.observations import Observations
 from robocal.kinematics import to_mdh, to_poe
 from robocal.kinematics.ik import PointSolver, closed_form, solve_ik
 from robocal.kinematics.program import PointProgram
 from robocal.methods import KrigingMethod, make_method
-from robocal.io.observations import Observations
 from robocal.simulation import make_true_robot
 
 ROBOTS = ["kr150-2", "irb120", "ur5", "ur10"]
@@ -35,7 +35,7 @@ def test_point_program_equals_batched_fk_and_jacobian(name):
         q = chain.random_configurations(20, np.random.default_rng(2))
         for row in q:
             np.testing.assert_allclose(program.matrix(row.tolist()), chain.fk(row), atol=1e-9)
-            pose, rows = program.pose_jacobian(row.tolist())
+            _, rows = program.pose_jacobian(row.tolist())
             np.testing.assert_allclose(np.array(rows), chain.jacobian(row), atol=1e-9)
 
 

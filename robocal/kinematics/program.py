@@ -231,7 +231,7 @@ def _mix_source(u, v, c, s):
 
 def _shift_source(column, amount):
     """Lines for t += amount * column; amount is a source expression."""
-    return [f"tx, ty, tz = " + ", ".join(f"t{a} + {amount} * {c}" for a, c in zip("xyz", _COLUMNS[column]))]
+    return ["tx, ty, tz = " + ", ".join(f"t{a} + {amount} * {c}" for a, c in zip("xyz", _COLUMNS[column]))]
 
 
 def _op_source(op, constants):
