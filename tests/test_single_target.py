@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from robocal.compensation import Compensator
+from robocal.errors import InputError
 from robocal.io.library import load_robot
 from robocal.io.observations import Observations
 from robocal.kinematics import to_mdh, to_poe
@@ -141,7 +142,11 @@ def test_command_of_one_target_equals_the_batch(ur5_data, method):
         _compare(compensator, targets[:5], hints[:5], iterate=True)
 
 
-def test_command_refuses_a_batch():
+def test_command_refuses_a_batch_and_a_bad_hint():
     chain = load_robot("ur5")
-    with pytest.raises(Exception, match="one"):
+    with pytest.raises(InputError, match="one"):
         Compensator(chain).command(chain.fk(np.zeros((2, 6))))
+    with pytest.raises(InputError, match="hint"):
+        Compensator(chain).command(chain.fk(np.zeros(6)), np.zeros(5))
+    with pytest.raises(InputError, match="hint"):
+        PointSolver(chain).solve(chain.fk(np.zeros(6)), ["a"] * 6)

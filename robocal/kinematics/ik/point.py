@@ -14,9 +14,10 @@ import math
 
 import numpy as np
 
+from ...errors import InputError
 from ..program import PointProgram
 from .limits import JointLimits, nearest_equivalent, periodic_joints
-from .numeric import TOL_ORIENTATION, TOL_POSITION
+from .numeric import TOL_ORIENTATION, TOL_POSITION, as_joints
 from .solve import ALLOWANCE_RANK, _seed_solver, solve_ik
 
 # Newton steps from a closed-form seed of the nominal robot: a calibrated model 1 mm / 0.1 deg
@@ -42,7 +43,9 @@ class PointSolver:
 
     def solve(self, target, hint=None):
         target = np.asarray(target, dtype=float)
-        reference = self._zeros if hint is None else np.asarray(hint, dtype=float)
+        if target.shape != (4, 4):
+            raise InputError(f"a target must be one (4, 4) pose, got shape {target.shape}")
+        reference = self._zeros if hint is None else as_joints(self.chain, hint, 1, "hint")[0]
         q = self._first_attempt(target, reference) if self._fast else None
         if q is None:
             result = solve_ik(self.chain, target[None], hint=None if hint is None else reference[None],
