@@ -33,7 +33,6 @@ from collections import deque
 
 import numpy as np
 
-from ..compensation import Compensator
 from ..errors import RobocalError
 from ..spatial import compose_pose, pose_to_xyz_rpy
 from .jobs import load_fitted
@@ -82,7 +81,9 @@ class Answerer:
         self.n_joints = self.robot.n_joints
         self.compensator = self.fitted.compensator_
         self.domain = self.fitted.domain_
-        self._single = isinstance(self.compensator, Compensator)
+        # A compensator class with a one-target path (Compensator, DomainFallback); anything
+        # else is asked as a batch of one.
+        self._single = callable(getattr(type(self.compensator), "command", None))
 
     # ------------------------------------------------------------------ parsing
     def parse(self, line):

@@ -17,7 +17,7 @@ import numpy as np
 from ...errors import InputError
 from ..program import PointProgram
 from .limits import JointLimits, nearest_equivalent, periodic_joints
-from .numeric import TOL_ORIENTATION, TOL_POSITION, as_joints
+from .numeric import LEVER_ARM, TOL_ORIENTATION, TOL_POSITION, as_joints
 from .solve import ALLOWANCE_RANK, _seed_solver, solve_ik
 
 # Newton steps from a closed-form seed of the nominal robot: a calibrated model 1 mm / 0.1 deg
@@ -78,27 +78,41 @@ class PointSolver:
 
     def _newton(self, target, seed):
         """Newton's method on the 6 x 6 pose residual from ``seed``; the joints (6,) when it
-        converges to TOL_POSITION / TOL_ORIENTATION within the limits, else None."""
+        converges to TOL_POSITION / TOL_ORIENTATION, else None.
+
+        Levenberg–Marquardt from the same seed (the batch) takes these very steps as long as
+        each one lowers the cost and stays within the joint limits (its damping is 1e-9 of
+        the normal matrix); where one does not, the batch damps, projects or gives the seed
+        up, and so this returns None and leaves the target to the batch.
+        """
         goal = target[:3, 3].tolist()
         rt = target[:3, :3].tolist()
-        q = self._limits.project(seed[None])[0]
         lower, upper = self._limits.lower, self._limits.upper
+        if not (np.all(seed >= lower) and np.all(seed <= upper)):
+            return None
+        q = seed
         pose_jacobian = self.program.pose_jacobian
+        cost = math.inf
         for _ in range(NEWTON_STEPS + 1):
             pose, rows = pose_jacobian(q.tolist())
             residual = _residual(goal, rt, pose)
             if residual is None:
                 return None
             dp, dw = residual
-            if (math.sqrt(dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2) <= TOL_POSITION
-                    and math.sqrt(dw[0] ** 2 + dw[1] ** 2 + dw[2] ** 2) <= TOL_ORIENTATION):
-                if np.all(q >= lower) and np.all(q <= upper):
-                    return q
+            position = dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2
+            orientation = dw[0] ** 2 + dw[1] ** 2 + dw[2] ** 2
+            if math.sqrt(position) <= TOL_POSITION and math.sqrt(orientation) <= TOL_ORIENTATION:
+                return q
+            step_cost = position + LEVER_ARM ** 2 * orientation
+            if step_cost >= cost:
                 return None
+            cost = step_cost
             try:
                 # Square: the rows' weights (orientation times the lever arm) cancel.
                 q = q + np.linalg.solve(rows, dp + dw)
             except np.linalg.LinAlgError:
+                return None
+            if not (np.all(q >= lower) and np.all(q <= upper)):
                 return None
         return None
 
