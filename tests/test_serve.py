@@ -158,7 +158,8 @@ BAD = [b"", b"   ", b"garbage", b"{", b"[]", b"null", b'{"x": 1}', b'{"x":1e999,
        b'{"x":NaN,"y":0,"z":0,"rx":0,"ry":0,"rz":0}', b'{"x":"1","y":0,"z":0,"rx":0,"ry":0,"rz":0}',
        b'{"x":1e12,"y":0,"z":0,"rx":0,"ry":0,"rz":0}', b'{"x":1e4,"y":0,"z":0,"rx":0,"ry":0,"rz":0}',
        b'{"x":0,"y":0,"z":0,"rx":0,"ry":0,"rz":0,"q":[1,2]}', b'{"x":0,"y":0,"z":0,"rx":0,"ry":0,"rz":0,"q":"a"}',
-       b"\xff\xfe\x00", b"[" * 50000, b"1" * 5000, b"x" * 70000]
+       b"\xff\xfe\x00", b"[" * 50000, b"1" * 5000, b"x" * 70000,
+       b'{"x":' + b"9" * 400 + b',"y":0,"z":0,"rx":0,"ry":0,"rz":0}']
 
 
 @pytest.mark.filterwarnings("ignore")
@@ -171,6 +172,8 @@ def test_bad_requests_and_bad_clients_leave_the_server_serving(setup):
         # Mixed on one connection: 10 % malformed, every line answered once, in order.
         sock, reader = served.connect()
         with sock:
+            for bad in BAD:  # each refused in one line, the connection kept
+                assert set(json.loads(ask(sock, reader, bad))) == {"error"}
             rng = np.random.default_rng(1)
             for k in range(300):
                 if rng.random() < 0.1:

@@ -60,7 +60,10 @@ class BadRequest(Exception):
 def _number(value, name, bound):
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise BadRequest(f"{name} must be a number, got {json.dumps(value)[:40]}")
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:  # a whole number of hundreds of digits
+        raise BadRequest(f"{name} is absurdly large") from None
     if not math.isfinite(value):
         raise BadRequest(f"{name} must be finite, got {value}")
     if abs(value) > bound:
@@ -70,7 +73,7 @@ def _number(value, name, bound):
 
 class Answerer:
     """A model file loaded once; :meth:`answer` turns one request line (bytes, without its
-    newline) into one answer line (bytes, with its newline)."""
+    newline) into (one answer line (bytes, with its newline), whether it answers or refuses)."""
 
     def __init__(self, model_path, fmt="json"):
         if fmt not in FORMATS:
@@ -156,7 +159,7 @@ class Answerer:
                 "in_domain": in_domain, "bound95_mm": None if sigma is None else float(sigma[0])}
 
     def answer(self, line):
-        """One answer line for one request line; never raises."""
+        """(answer line, True) for one request line, or (error line, False); never raises."""
         try:
             fields = self.compute(*self.parse(line))
         except BadRequest as why:
