@@ -119,11 +119,11 @@ def ur5_data():
     chain = load_robot("ur5")
     truth = make_true_robot(chain, "typical", seed=0)
     rng = np.random.default_rng(6)
-    q = chain.random_configurations(120, rng)
+    q = chain.random_configurations(80, rng)
     q[:, 1] = np.clip(q[:, 1], -2.6, -0.5)
-    observations = Observations.of(q[:80], truth.positions(q[:80]))
-    targets = chain.fk(q[80:])
-    hints = q[80:] + rng.normal(0.0, 0.05, (40, 6))
+    observations = Observations.of(q[:50], truth.positions(q[:50]))
+    targets = chain.fk(q[50:])
+    hints = q[50:] + rng.normal(0.0, 0.05, (30, 6))
     return chain, observations, targets, hints
 
 
@@ -137,7 +137,7 @@ def test_command_of_one_target_equals_the_batch(ur5_data, method):
         fitted = make_method(method, **({"random_state": 0} if method != "kinematic" else {})).fit(chain, observations)
     compensator = fitted.compensator_
     batch = _compare(compensator, targets, hints)
-    assert batch.success.sum() > 30
+    assert batch.success.sum() > 20
     if method == "kriging":
         _compare(compensator, targets[:5], hints[:5], iterate=True)
 
