@@ -66,6 +66,19 @@ def test_commands_take_the_fallback_where_its_configuration_is_outside(half_rang
     assert np.array_equal(mixed.success[out], other.success[out])
 
 
+def test_command_of_one_target_takes_the_fallback_as_commands_do(half_range):
+    _, _, _, _, _, model, q = half_range
+    targets = model.reference_.fk(q[:40])
+    mixed = model.compensator_.commands(targets, hint=q[:40])
+    assert (~model.compensator_.outside_mask(mixed.q[mixed.success])).any()
+    assert model.compensator_.outside_mask(mixed.q[mixed.success]).any()
+    for i in range(40):
+        one = model.compensator_.command(targets[i], q[i])
+        assert one.success[0] == mixed.success[i]
+        np.testing.assert_allclose(one.q[0], mixed.q[i], atol=1e-8, equal_nan=True)
+        np.testing.assert_allclose(one.corrected[0], mixed.corrected[i], atol=1e-6, equal_nan=True)
+
+
 def test_the_model_file_keeps_the_fallback_and_older_files_stay_schema_1(half_range, tmp_path):
     chain, _, _, inside, _, model, q = half_range
     path = tmp_path / "auto.json"

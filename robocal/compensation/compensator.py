@@ -19,11 +19,14 @@ the controller's IK gives back the compensated joints.  Targets come in the meas
 frame; a registered base and tool are part of the calibrated model that solves them.
 """
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from ..errors import InputError
 from ..kinematics.ik import solve_ik
+from ..kinematics.ik.point import PointSolver
+from ..kinematics.program import PointProgram
 from .joint_space import correct_joints
 
 
@@ -126,6 +129,49 @@ class Compensator:
             corrected[ok] = controller.fk(q[ok])
         return CommandResult(q, ok, corrected, error)
 
+    def command(self, target, hint=None, *, iterate=False):
+        """:meth:`commands` of one target (4, 4) in the measurement frame, with an optional
+        posture hint (n,) rad: the same joint command and corrected target (a
+        :class:`CommandResult` of one row), without the batch machinery.
+
+        Built for a controller that asks point by point: the IK solver, the controller's
+        forward kinematics and the checks of the model are prepared once per compensator
+        (:class:`~robocal.kinematics.ik.point.PointSolver`).  ``predicted_error`` is the
+        error model's prediction at the target; without an error model it is NaN (the batch
+        computes it with a second IK, of the nominal geometry, that the command does not need).
+        """
+        target = np.asarray(target, dtype=float)
+        if target.shape != (4, 4):
+            raise InputError(f"a target must be one (4, 4) pose, got shape {target.shape}")
+        point = self._point
+        joint_space = self.error_model is not None and self.error_input == "joints"
+        if self.error_model is None or joint_space:
+            moved, error = target, np.full(3, np.nan)
+        else:
+            corrected, error = self.corrected_targets(target[None], iterate=iterate)
+            moved, error = corrected[0], error[0]
+        q, ok = point.solver.solve(moved, hint)
+        if ok and point.compliant:
+            q = self.chain.commands_for(q[None])[0]
+        if ok and joint_space:
+            # As _joint_space_commands: IK, then the correction against the predicted error.
+            error = np.asarray(self.error_model.predict(q[None]), dtype=float)[0]
+            q = correct_joints(self.chain, self.error_model, q[None],
+                               iterations=JOINT_ITERATIONS if iterate else 1)[0]
+            ok = bool(self.chain.within_limits(q[None])[0])
+            if not ok:
+                q = np.full_like(q, np.nan)
+        corrected = np.full((4, 4), np.nan)
+        if ok:
+            corrected = point.controller_fk(q)
+        return CommandResult(q[None], np.array([ok]), corrected[None], np.asarray(error, dtype=float)[None])
+
+    @cached_property
+    def _point(self):
+        """What :meth:`command` prepares once: the IK of the rigid chain and the
+        controller's forward kinematics of one configuration."""
+        return _PointPath(self)
+
     def _ik(self, targets, hint):
         # A compliant model is solved on its rigid geometry, then the commands are moved so
         # that the joints, once gravity has bent them, stand where the rigid solution is.
@@ -158,3 +204,25 @@ class Compensator:
             ok[ok] = self.chain.within_limits(q[ok])
         q[~ok] = np.nan
         return q, ok, error
+
+
+class _PointPath:
+    """A compensator's one-target machinery (see :meth:`Compensator.command`)."""
+
+    def __init__(self, compensator):
+        rigid = compensator.chain.rigid
+        self.compliant = rigid is not compensator.chain
+        self.solver = PointSolver(rigid, compensator.nominal)
+        controller = compensator.controller if compensator.controller is not None else (
+            compensator.nominal or compensator.chain)
+        if getattr(controller, "rigid", None) is controller:
+            self._program = PointProgram.of(controller)
+            self._controller = None
+        else:
+            self._program, self._controller = None, controller
+
+    def controller_fk(self, q):
+        """The controller's FK (4, 4) of one command (n,)."""
+        if self._program is None:
+            return self._controller.fk(q[None])[0]
+        return self._program.matrix(q.tolist())

@@ -712,6 +712,31 @@ def filter_programs(
 
 @command()
 @user_errors
+def serve(
+    model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
+    port: int = typer.Option(8765, "--port", min=0, max=65535, help="TCP port (0: any free port, printed)."),
+    host: str = typer.Option("127.0.0.1", "--host", help="Address to listen on."),
+    line_format: str = typer.Option("json", "--format", help="Request and answer lines: json or csv."),
+):
+    """Answer a controller point by point over TCP: one target per line in, one command out.
+
+    A request is one line, {"x","y","z","rx","ry","rz","q":[hint]} (mm, deg, the units and
+    frames of a targets file); the answer is one line, {"q":[...],"x","y","z","rx","ry","rz",
+    "in_domain","bound95_mm"}, what 'robocal compensate' writes for that target.  With
+    --format csv: x,y,z,rx,ry,rz[,q1..qN] in, q1..qN,x,y,z,rx,ry,rz,in_domain,bound95_mm out.
+    A bad request gets one {"error": "..."} line.  SIGTERM or Ctrl-C stops it (exit 0).
+
+    Example: robocal serve model.json --port 8765
+    """
+    from .serve import FORMATS, serve as run_server
+
+    if line_format not in FORMATS:
+        raise InputError(f"--format must be one of {', '.join(FORMATS)}, got {line_format!r}")
+    run_server(model, host=host, port=port, fmt=line_format)
+
+
+@command()
+@user_errors
 def report(
     model: str = typer.Argument(..., help="Model file written by 'robocal calibrate'."),
     measurements: str = typer.Argument(..., help="Measurement CSV to score (held-out poses, ideally)."),

@@ -355,12 +355,20 @@ class Chain:
     def fk(self, q):
         """Pose of the TCP in the world frame: (N, n) -> (N, 4, 4), or (n,) -> (4, 4)."""
         q2, single = self._check_q(q, finite=True)
+        if q2.shape[0] == 1:
+            # One configuration: straight-line code on floats, not 60 numpy calls on (3, 1).
+            pose = program.PointProgram.of(self).matrix(q2[0].tolist())
+            return pose if single else pose[None]
         out = program.forward(self._compiled[0], self.model_joints(q2))
         return out[0] if single else out
 
     def fk_positions(self, q):
         """TCP positions only: (N, n) -> (N, 3), or (n,) -> (3,).  Faster than :meth:`fk`."""
         q2, single = self._check_q(q, finite=True)
+        if q2.shape[0] == 1:
+            pose = program.PointProgram.of(self).pose(q2[0].tolist())
+            out = np.array([pose[9:]])
+            return out[0] if single else out
         out = program.positions(self._compiled[0], self.model_joints(q2))
         return out[0] if single else out
 

@@ -7,6 +7,7 @@ four column blocks X, Y, Z, t of shape (3, N) costs a handful of vector operatio
 factor, and skips the many zero angles of a nominal model for free.  The same pass can take
 "marks": snapshots of the running frame that the Jacobians need.
 """
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -192,3 +193,150 @@ def positions(ops, q_model):
         for i in range(3):
             out[start:stop, i] = p[i]
     return out
+
+
+# ------------------------------------------------------------------ one configuration
+# A batch of one pays numpy's per-call overhead (about a microsecond per operation on (3, 1)
+# arrays, some 60 operations for a 6R chain: 71 us).  For one configuration at a time (a
+# controller asking point by point) the same factors are turned once into straight-line
+# Python on floats, constants written in and zero terms left out: about 5 us.
+
+_NAMES = ("xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz", "tx", "ty", "tz")
+_COLUMNS = {"x": ("xx", "xy", "xz"), "y": ("yx", "yy", "yz"), "z": ("zx", "zy", "zz"), "t": ("tx", "ty", "tz")}
+
+
+def _term(coefficient, name):
+    """Source of coefficient * name, or None for a zero coefficient."""
+    if coefficient == 0.0:
+        return None
+    if coefficient == 1.0:
+        return name
+    if coefficient == -1.0:
+        return f"-{name}"
+    return f"{coefficient!r} * {name}"
+
+
+def _sum(terms):
+    terms = [t for t in terms if t is not None]
+    return " + ".join(terms) if terms else "0.0"
+
+
+def _mix_source(u, v, c, s):
+    """Lines for (u, v) -> (c u + s v, c v - s u), per component; c, s are source names."""
+    left = ", ".join(_COLUMNS[u] + _COLUMNS[v])
+    right = ", ".join([f"{c} * {a} + {s} * {b}" for a, b in zip(_COLUMNS[u], _COLUMNS[v])]
+                      + [f"{c} * {b} - {s} * {a}" for a, b in zip(_COLUMNS[u], _COLUMNS[v])])
+    return [f"{left} = {right}"]
+
+
+def _shift_source(column, amount):
+    """Lines for t += amount * column; amount is a source expression."""
+    return ["tx, ty, tz = " + ", ".join(f"t{a} + {amount} * {c}" for a, c in zip("xyz", _COLUMNS[column]))]
+
+
+def _op_source(op, constants):
+    """Lines that right-multiply the frame held in the 12 locals by one factor."""
+    kind = op.kind
+    if kind == "joint":
+        if op.revolute:
+            return _mix_source("x", "y", f"c{op.index}", f"s{op.index}")
+        return _shift_source("z", f"(m{op.index} + {float(op.value)!r})" if op.value else f"m{op.index}")
+    if kind in ("rx", "ry", "rz"):
+        c, s = f"k{len(constants)}", f"k{len(constants) + 1}"
+        constants += [np.cos(op.value), np.sin(op.value)]
+        pair = {"rz": ("x", "y"), "rx": ("y", "z"), "ry": ("z", "x")}[kind]
+        return _mix_source(*pair, c, s)
+    if kind in ("tx", "ty", "tz"):
+        return _shift_source(kind[1], repr(float(op.value)))
+    if kind == "const":
+        m = op.matrix
+        cols = ("x", "y", "z")
+        new = [[_term(float(m[k, j]), c) for k in range(3) for c in [_COLUMNS[cols[k]][a]]]
+               for j in range(4) for a in range(3)]
+        # new[3 * j + a]: component a of new column j, from the terms over k.
+        rotation = [_sum(new[3 * j + a]) for j in range(3) for a in range(3)]
+        shift = [_sum([f"t{'xyz'[a]}"] + new[9 + a]) for a in range(3)]
+        # One assignment: the new origin is made of the old columns.
+        return [", ".join(_NAMES) + " = " + ", ".join(rotation + shift)]
+    return []
+
+
+class PointProgram:
+    """The factor program of a chain for one configuration at a time, on Python floats.
+
+    ``pose(q)`` takes the n controller joints (a sequence of floats, rad / mm) and returns
+    the TCP pose as 12 floats: the columns x, y, z of the rotation, then the origin.
+    ``pose_jacobian(q)`` returns them and the geometric Jacobian with respect to the
+    controller joints, as 6 rows (lists of n floats; rows [dp; dw] as in ``fk_jacobian``).
+    Equal to :func:`forward` to rounding (cos and sin from ``math`` instead of half-angle
+    tangents).
+    """
+
+    @classmethod
+    def of(cls, chain):
+        """The point program of a (rigid) chain, built once and kept on the chain (which is
+        immutable), as :func:`robocal.kinematics.ik.closed_form` keeps its solver."""
+        program = chain.__dict__.get("_point_program")
+        if program is None:
+            program = cls(chain._compiled[0], chain.joint_map, chain.revolute)
+            chain.__dict__["_point_program"] = program
+        return program
+
+    def __init__(self, ops, joint_map, revolute):
+        joint_map = np.asarray(joint_map, dtype=float)
+        n = joint_map.shape[0]
+        self.n_joints = n
+        constants = []
+        head = [f"q{i}" for i in range(n)]
+        lines = [("(" + ", ".join(head) + ",) = q") if n else "pass"]
+        for i in range(n):
+            lines.append(f"m{i} = " + _sum([_term(float(joint_map[i, k]), f"q{k}") for k in range(n)]))
+        offsets = {op.index: op.value for op in ops if op.kind == "joint" and op.revolute}
+        for i, offset in offsets.items():
+            angle = f"m{i} + {float(offset)!r}" if offset else f"m{i}"
+            lines.append(f"c{i} = cos({angle}); s{i} = sin({angle})")
+        lines.append(", ".join(_NAMES) + " = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0")
+        body, marks = [], {}
+        for op in ops:
+            if op.kind == "mark" and op.name.startswith("J") and op.name[1:].isdigit():
+                k = int(op.name[1:]) - 1
+                marks[k] = True
+                body.append(f"j{k} = (zx, zy, zz, tx, ty, tz)")
+            body += _op_source(op, constants)
+        result = "(" + ", ".join(_NAMES) + ")"
+        namespace = {"cos": math.cos, "sin": math.sin}
+        namespace.update({f"k{i}": float(v) for i, v in enumerate(constants)})
+        pose_lines = lines + [b for b in body if not b.startswith("j")] + [f"return {result}"]
+        source = "def pose(q):\n" + "\n".join("    " + line for line in pose_lines) + "\n"
+        jac = self._jacobian_source(n, marks, revolute, joint_map) if len(marks) == n else None
+        if jac is not None:
+            source += ("def pose_jacobian(q):\n"
+                       + "\n".join("    " + line for line in lines + body + jac + [f"return {result}, rows"]) + "\n")
+        exec(compile(source, "<robocal point program>", "exec"), namespace)  # noqa: S102 - our own source
+        self.pose = namespace["pose"]
+        self.pose_jacobian = namespace.get("pose_jacobian")
+        self.source = source
+
+    @staticmethod
+    def _jacobian_source(n, marks, revolute, joint_map):
+        """Lines that build ``rows``: the Jacobian's columns from each joint's z axis and
+        origin (marks J1..Jn), then times the joint map."""
+        lines = []
+        for k in range(n):
+            if revolute[k]:
+                lines.append(f"a, b, c, ox, oy, oz = j{k}; dx, dy, dz = tx - ox, ty - oy, tz - oz")
+                lines.append(f"v{k} = (b * dz - c * dy, c * dx - a * dz, a * dy - b * dx, a, b, c)")
+            else:
+                lines.append(f"v{k} = (j{k}[0], j{k}[1], j{k}[2], 0.0, 0.0, 0.0)")
+        if np.array_equal(joint_map, np.eye(n)):
+            cols = [[f"v{k}[{r}]" for k in range(n)] for r in range(6)]
+        else:
+            cols = [[_sum([_term(float(joint_map[i, k]), f"v{i}[{r}]") for i in range(n)]) for k in range(n)]
+                    for r in range(6)]
+        lines.append("rows = [" + ", ".join("[" + ", ".join(row) + "]" for row in cols) + "]")
+        return lines
+
+    def matrix(self, q):
+        """The TCP pose (4, 4) of one configuration."""
+        xx, xy, xz, yx, yy, yz, zx, zy, zz, tx, ty, tz = self.pose(q)
+        return np.array([[xx, yx, zx, tx], [xy, yy, zy, ty], [xz, yz, zz, tz], [0.0, 0.0, 0.0, 1.0]])

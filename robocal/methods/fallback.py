@@ -72,8 +72,18 @@ class DomainFallback:
         """Joint commands for (N, 4, 4) targets: the fallback's IK decides where each target
         lies (it is parametric, so its configuration does not depend on an error model), and
         the targets inside the domain take the chosen model's commands."""
-        mine = self.inside.commands(targets, hint, iterate=iterate)
-        other = self.outside.commands(targets, hint, iterate=iterate)
+        return self._pick(self.inside.commands(targets, hint, iterate=iterate),
+                          self.outside.commands(targets, hint, iterate=iterate))
+
+    def command(self, target, hint=None, *, iterate=False):
+        """:meth:`commands` of one target (4, 4), each model through its
+        :meth:`Compensator.command` (without the forwarding below, the chosen model's would
+        answer alone)."""
+        return self._pick(self.inside.command(target, hint, iterate=iterate),
+                          self.outside.command(target, hint, iterate=iterate))
+
+    def _pick(self, mine, other):
+        """The chosen model's commands inside the domain, the fallback's outside."""
         q = np.where(other.success[:, None], other.q, mine.q)
         use_other = ~self._inside(q) & other.success
         pick = use_other[:, None]

@@ -19,6 +19,7 @@ import numpy as np
 from ...errors import InputError
 from ...spatial import invert, make_transform, rot_y, rot_z
 from ..conversions import to_poe
+from . import one
 from .limits import LIMIT_TOL, nearest_equivalent, periodic_joints
 from .subproblems import TwoLink, matvec, sinusoid_roots
 
@@ -44,6 +45,8 @@ SEED_STRETCH = 1.0 - 1e-3
 MIN_SINE = 0.1
 # Targets per block: the temporaries of one block stay in the processor's cache.
 BLOCK = 4096
+# Up to this many targets, G comes from plain 4x4 products (see ClosedForm._relative).
+FEW = 8
 
 
 class NoFit(InputError):
@@ -106,6 +109,12 @@ class ClosedForm:
         self._worst_sine = 0.0
         self._worst_length = 0.0
         self._fit()
+        self._floats()
+
+    def _floats(self):
+        """The constants of :meth:`_angles_one` as floats (subclasses add their own)."""
+        self._f = {"n": _triple(self.n), "ex": _triple(self.plane[0]), "ey": _triple(self.plane[1]),
+                   "link": one.Link(self.link), "along": float(self.along)}
 
     @property
     def exact(self):
@@ -193,7 +202,23 @@ class ClosedForm:
                                self.along - n[2] * p[2])
         return p, roots
 
+    def _shoulder_one(self, rows, t, kept):
+        """:meth:`_shoulder` for one target (``rows``, ``t`` and ``kept`` float triples):
+        (p, the two roots of t1, their excess); see :mod:`.one`."""
+        n = self._f["n"]
+        moved = one.matvec(rows, kept)
+        p = (moved[0] + t[0], moved[1] + t[1], moved[2] + t[2])
+        roots, excess = one.sinusoid_roots(n[0] * p[0] + n[1] * p[1], n[0] * p[1] - n[1] * p[0],
+                                           self._f["along"] - n[2] * p[2])
+        return p, roots, excess
+
     def _fit(self):
+        raise NotImplementedError
+
+    def _angles_one(self, rows, t, stretch):
+        """:meth:`_angles` for one target, G's rows and translation as float triples:
+        angles (6, 2, 2, 2) and the length and cosine excesses (2, 2, 2), on floats (raises
+        :class:`.one.Degenerate` where only the batched code can follow the batch)."""
         raise NotImplementedError
 
     def _angles(self, rows, t, stretch):
@@ -207,7 +232,12 @@ class ClosedForm:
     def _relative(self, targets):
         """Rows of the rotation and the translation of G = pre · T · post for a block of
         targets, as coordinate arrays (constant factors multiplied out per coordinate:
-        batched 4x4 matrix products are several times slower)."""
+        batched 4x4 matrix products are several times slower, except for a few targets,
+        where the thirty-odd array operations below cost far more than two products)."""
+        if targets.shape[0] <= FEW:
+            g = self._pre @ targets @ self._post
+            return (tuple(tuple(g[:, i, j] for j in range(3)) for i in range(3)),
+                    tuple(g[:, i, 3] for i in range(3)))
         comps = np.ascontiguousarray(targets[:, :3, :].transpose(1, 2, 0))  # (3, 4, B)
         pre, post = self._pre, self._post
         # M = T · post, then G = pre · M.
@@ -255,14 +285,18 @@ class ClosedForm:
     def _branches(self, targets, reference, seeds):
         targets = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
         count = targets.shape[0]
+        if count == 1:
+            try:
+                return self._branches_one(targets[0], reference, seeds)
+            except one.Degenerate:
+                pass
         margin = SEED_MARGIN if seeds else 0.0
         q = np.empty((count, 8, 6))
         usable = np.empty((count, 8), dtype=bool)
         preferred = np.empty((count, 8), dtype=bool)
         for start in range(0, count, BLOCK):
             block = slice(start, min(start + BLOCK, count))
-            angles, length_excess, cosine_excess = self._angles(
-                *self._relative(targets[block]), SEED_STRETCH if seeds else 1.0)
+            angles, length_excess, cosine_excess = self._block_angles(targets[block], SEED_STRETCH if seeds else 1.0)
             joints = self._controller_joints(angles.reshape(6, 8, -1))
             near = 0.0 if reference is None else np.broadcast_to(reference, (count, 6))[block].T[:, None, :]
             joints, inside = nearest_equivalent(joints, near, self._lower - margin,
@@ -282,6 +316,32 @@ class ClosedForm:
             usable[block], preferred[block] = ok.T, best.T
         return q, usable, preferred
 
+    def _block_angles(self, targets, stretch):
+        """:meth:`_angles` of a block of targets (N, 4, 4)."""
+        return self._angles(*self._relative(targets), stretch)
+
+    def _branches_one(self, target, reference, seeds):
+        """:meth:`_branches` of one target (4, 4): the same steps on (6, 8) arrays, the
+        angles from :meth:`_angles_one` (raises :class:`.one.Degenerate` where that cannot
+        follow the batch)."""
+        g = (self._pre @ target @ self._post).tolist()
+        angles, length, cosine = self._angles_one(tuple(tuple(row[:3]) for row in g[:3]),
+                                                  tuple(row[3] for row in g[:3]), SEED_STRETCH if seeds else 1.0)
+        joints = self._unmap @ (angles.reshape(6, 8) - self._offsets[:, None])
+        near = 0.0 if reference is None else np.broadcast_to(reference, (1, 6)).reshape(6, 1)
+        margin = SEED_MARGIN if seeds else 0.0
+        lower, upper = self._lower[:, :, 0], self._upper[:, :, 0]
+        joints, inside = nearest_equivalent(joints, near, lower - margin, upper + margin, self._periodic[:, :, 0])
+        length, cosine = length.reshape(8), cosine.reshape(8)
+        exact = (length <= EXACT_REACH[0]) & (cosine <= EXACT_REACH[1])
+        if seeds:
+            ok = (length <= SEED_REACH[0]) & (cosine <= SEED_REACH[1]) & np.all(inside, axis=0)
+            best = exact & np.all((joints >= lower) & (joints <= upper), axis=0)
+        else:
+            ok = best = exact & np.all(inside, axis=0)
+        joints[:, ~ok] = np.nan
+        return joints.T[None], ok[None], best[None]
+
     def _controller_joints(self, angles):
         """Exponential angles (6, ...) -> controller joints (6, ...)."""
         model = [angles[i] - self._offsets[i] for i in range(6)]
@@ -293,6 +353,10 @@ def flip_coefficients(u, w5, w6):
     the condition that gives joint 5 (the "wrist flip") in both solvers, from Rodrigues'
     formula R5(t) w6 = w6 cos t + (w5 x w6) sin t + w5 (w5 · w6)(1 - cos t)."""
     return (u @ w6 - (u @ w5) * (w5 @ w6), u @ np.cross(w5, w6), (u @ w5) * (w5 @ w6))
+
+
+def _triple(v):
+    return tuple(float(x) for x in v)
 
 
 def _reach(length_excess, cosine_excess, tolerances):

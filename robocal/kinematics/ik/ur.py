@@ -19,7 +19,8 @@ Branch k = 4 * shoulder + 2 * wrist + elbow, each 0 or 1.
 """
 import numpy as np
 
-from .closed_form import ClosedForm, flip_coefficients
+from . import one
+from .closed_form import ClosedForm, _triple, flip_coefficients
 from .subproblems import (
     angle_about, angle_of, dot, expand, matvec, planar_two_link, rotate, rotate_z, sinusoid_roots,
     transposed_matvec,
@@ -80,3 +81,33 @@ class OffsetWrist(ClosedForm):
         ])
         return (angles, shoulder.excess[:, None, None, :],
                 np.maximum(flip.excess[..., None, :], elbow.excess))
+
+    def _floats(self):
+        super()._floats()
+        self._f.update(sign3=float(self.sign3), sign4=float(self.sign4), meet=_triple(self.meet), w5=_triple(self.w5), w6=_triple(self.w6), arm4=_triple(self.arm4),
+                       flip=tuple(float(v) for v in self.flip))
+
+    def _angles_one(self, rows, t, stretch):
+        f = self._f
+        n, ex, ey, w5, w6, arm4 = f["n"], f["ex"], f["ey"], f["w5"], f["w6"], f["arm4"]
+        a, b, offset = f["flip"]
+        p, shoulders, shoulder_excess = self._shoulder_one(rows, t, f["meet"])
+        rows_w6 = one.matvec(rows, w6)
+        angles, cosine = [], []  # branch by branch, in the order of the batch's axes
+        for i, (t1, c1, s1) in enumerate(shoulders):
+            n1 = one.rotate_z(c1, s1, n)
+            flips, flip_excess = one.sinusoid_roots(a, b, one.dot(n1, rows_w6) - offset, free=False)
+            back_n = one.transposed_matvec(rows, n1)
+            for j, (t5, c5, s5) in enumerate(flips):
+                s5 = -s5
+                t6, c6, s6 = one.angle_about(w6, back_n, one.rotate(w5, c5, s5, n))
+                s6 = -s6
+                swung = one.rotate_z(c1, -s1, one.matvec(rows, one.rotate(w6, c6, s6, one.rotate(w5, c5, s5, ex))))
+                phi = one.angle_of(one.dot(ex, swung), one.dot(ey, swung))
+                moved = one.matvec(rows, one.rotate(w6, c6, s6, one.rotate(w5, c5, s5, arm4)))
+                point = one.rotate_z(c1, -s1, (moved[0] + p[0], moved[1] + p[1], moved[2] + p[2]))
+                elbows, elbow_excess = one.planar_two_link(f["link"], one.dot(ex, point), one.dot(ey, point), stretch)
+                for first, _, _, second, _, _ in elbows:
+                    angles.append((t1, first, f["sign3"] * second, f["sign4"] * (phi - first - second), t5, t6))
+                    cosine.append(max(flip_excess, elbow_excess))
+        return np.array(angles).T.reshape(6, 2, 2, 2), np.full((2, 2, 2), shoulder_excess), np.reshape(cosine, (2, 2, 2))
