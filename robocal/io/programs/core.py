@@ -166,6 +166,19 @@ class ProgramFile:
         return "\r\n" if end > 0 and self.text[end - 1] == "\r" else "\n"
 
 
+def parse_each(files, language, comment, parse_one, poses_of):
+    """[ProgramFile] of a language whose files stand alone (RAPID, URScript): each read,
+    ``parse_one(program, text without comments)`` finding its targets, their poses filled by
+    ``poses_of`` (values (N, k) in the language's units -> (N, 4, 4) mm)."""
+    programs = []
+    for path in files:
+        program = ProgramFile(str(path), read_text(path), language)
+        parse_one(program, strip_comments(program.text, comment))
+        fill_poses(program.targets, poses_of)
+        programs.append(program)
+    return programs
+
+
 def fill_poses(targets, poses_of):
     """Set every target's pose at once from its numbers (``poses_of``: (N, k) file values ->
     (N, 4, 4), the language's conversion)."""

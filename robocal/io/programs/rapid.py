@@ -22,14 +22,11 @@ from .core import (
     NUMBER_RE,
     JointTarget,
     Number,
-    ProgramFile,
     RunTime,
     Target,
-    fill_poses,
     formatted,
     line_of,
-    read_text,
-    strip_comments,
+    parse_each,
 )
 
 NAME = "ABB RAPID"
@@ -158,13 +155,8 @@ def _split_arguments(text, start, end):
 
 
 def parse(files):
-    programs = []
-    for path in files:
-        program = ProgramFile(str(path), read_text(path), NAME)
-        _parse(program, strip_comments(program.text, COMMENT))
-        fill_poses(program.targets, poses_of)
-        programs.append(program)
-    return programs
+    """[ProgramFile] of the program's files, targets found and their poses filled."""
+    return parse_each(files, NAME, COMMENT, _parse, poses_of)
 
 
 def _parse(program, text):

@@ -18,15 +18,12 @@ from scipy.spatial.transform import Rotation
 
 from .core import (
     JointTarget,
-    ProgramFile,
     RunTime,
     Target,
-    fill_poses,
     formatted,
     line_of,
     numbers_in,
-    read_text,
-    strip_comments,
+    parse_each,
 )
 
 NAME = "URScript"
@@ -104,13 +101,8 @@ def poses_of(values):
 
 
 def parse(files):
-    programs = []
-    for path in files:
-        program = ProgramFile(str(path), read_text(path), NAME)
-        _parse(program, strip_comments(program.text, COMMENT))
-        fill_poses(program.targets, poses_of)
-        programs.append(program)
-    return programs
+    """[ProgramFile] of the program's files, targets found and their poses filled."""
+    return parse_each(files, NAME, COMMENT, _parse, poses_of)
 
 
 def _literal(text, match):
