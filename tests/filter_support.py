@@ -31,6 +31,13 @@ def true_robot(name, *, errors=True, seed=3):
     return TrueRobot(nominal=chain, deviations=deviations)
 
 
+def true_and_nominal_models(name, tmp_path_factory):
+    """{"true": the model of ``name`` with geometric errors, "nominal": of the nominal robot},
+    each calibrated by :func:`model_of` in a folder of its own."""
+    return {kind: model_of(true_robot(name, errors=errors), tmp_path_factory.mktemp(f"{name}-{kind}"))
+            for kind, errors in (("true", True), ("nominal", False))}
+
+
 def model_of(robot, folder, *, n=300, seed=0, first_joint=None):
     """Calibrate (kinematic, full) on ``n`` exact full-pose measurements of ``robot`` spread
     over the joint ranges (joint 1 within ``first_joint`` (low, high) deg when given); the

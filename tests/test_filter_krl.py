@@ -12,6 +12,7 @@ from filter_support import (
     assert_same_poses,
     filter_and_compensate,
     model_of,
+    true_and_nominal_models,
     true_robot,
     without_comment,
 )
@@ -31,11 +32,7 @@ CONFIG = KRL / "$config.dat"
 
 @pytest.fixture(scope="module")
 def models(tmp_path_factory):
-    out = {}
-    for kind, errors in (("true", True), ("nominal", False)):
-        folder = tmp_path_factory.mktemp(f"kr-{kind}")
-        out[kind] = model_of(true_robot("kr150-2", errors=errors), folder)
-    return out
+    return true_and_nominal_models("kr150-2", tmp_path_factory)
 
 
 def test_every_target_is_what_compensate_gives(models, tmp_path):

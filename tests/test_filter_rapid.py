@@ -8,8 +8,7 @@ from filter_support import (
     assert_only_targets_changed,
     assert_same_poses,
     filter_and_compensate,
-    model_of,
-    true_robot,
+    true_and_nominal_models,
     without_comment,
 )
 from scipy.spatial.transform import Rotation
@@ -24,8 +23,7 @@ MODULE = PROGRAMS / "rapid" / "PickPlace.mod"
 
 @pytest.fixture(scope="module")
 def models(tmp_path_factory):
-    return {kind: model_of(true_robot("irb120", errors=errors), tmp_path_factory.mktemp(f"irb-{kind}"))
-            for kind, errors in (("true", True), ("nominal", False))}
+    return true_and_nominal_models("irb120", tmp_path_factory)
 
 
 def _frame(xyz, quaternion):

@@ -8,8 +8,7 @@ from filter_support import (
     assert_only_targets_changed,
     assert_same_poses,
     filter_and_compensate,
-    model_of,
-    true_robot,
+    true_and_nominal_models,
     without_comment,
 )
 
@@ -21,8 +20,7 @@ SCRIPT = PROGRAMS / "urscript" / "feeder_to_tray.script"
 
 @pytest.fixture(scope="module")
 def models(tmp_path_factory):
-    return {kind: model_of(true_robot("ur5", errors=errors), tmp_path_factory.mktemp(f"ur5-{kind}"))
-            for kind, errors in (("true", True), ("nominal", False))}
+    return true_and_nominal_models("ur5", tmp_path_factory)
 
 
 def test_every_pose_is_what_compensate_gives(models, tmp_path):
