@@ -114,3 +114,23 @@ def test_predicted_socket_consistency_matches_placements_left_out():
         predicted = socket_prediction(cal, data)
         held = socket_errors(cal.chain_, q[~train], sockets.fixture[~train], sockets.socket[~train], fixture)["mean_mm"]
         assert held / FACTOR <= predicted.mean_mm <= FACTOR * held, (left_out, predicted.mean_mm, held)
+
+
+def test_the_domain_of_a_model_re_registered_on_a_corner_does_not_call_the_rest_inside(kr150):
+    from robocal.methods.domain import Domain
+
+    chain, truth, work, _ = kr150
+    obs = _measured(truth, uniform_joints(chain, 200, np.random.default_rng(31)), seed=32)
+    fitted = make_method("kinematic").fit(chain, obs)
+    fitted.record_ = fitted.record_.replace(predicted_error=expected_error(fitted, chain, obs).to_dict())
+    assert fitted.domain_.check(work).inside.all()
+    spread = Observations.of(q := uniform_joints(chain, 25, np.random.default_rng(33)),
+                             truth.measure(q, np.random.default_rng(34)))
+    assert reregister(fitted, spread).domain_.check(work).inside.mean() > 0.95
+    corner = Observations.of(q := _cluster(chain, 5.0, 25, 35), truth.measure(q, np.random.default_rng(36)))
+    moved = reregister(fitted, corner)
+    check = moved.domain_.check(work)
+    assert check.inside.mean() < 0.1 and "base and tool pinned too loosely" in check.summary
+    # The model file keeps it.
+    again = Domain.from_dict(moved.domain_.to_dict(), chain)
+    assert np.array_equal(again.check(work).inside, check.inside)

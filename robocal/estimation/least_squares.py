@@ -96,17 +96,19 @@ class Prior:
         return self.deviation(chain, list(names)) * inverse, inverse
 
 
-def noise_variance(linear_residual, columns):
-    """The residual rows' noise variance a fit will leave: the scatter of the rows that no
-    step of the linearised model explains (``linear_residual``, (m,)), from their median
+def noise_variance(residual, columns):
+    """The residual rows' noise variance: their scatter (``residual``, (m,)) from their median
     absolute value (1.4826 x median is sigma for Gaussian rows, and a few gross outliers do
     not inflate it), corrected for the ``columns`` degrees of freedom the fit takes.
     Estimated at every linearisation, it weighs the prior against the data as the data's own
-    scatter says, so data that fit to their noise need no stated sigma to be weighed right."""
-    rows = len(linear_residual)
+    scatter says, so data that fit to their noise need no stated sigma to be weighed right;
+    far from the optimum it is large and the prior holds the steps near nominal, and at the
+    optimum it is the fit's own.  (The residual alone, not the rows' Jacobian: large data hold
+    only the normal equations, and must reach the same optimum.)"""
+    rows = len(residual)
     if rows == 0:
         return 0.0
-    sigma = 1.4826 * float(np.median(np.abs(linear_residual)))
+    sigma = 1.4826 * float(np.median(np.abs(residual)))
     return sigma * sigma * rows / max(rows - columns, 1)
 
 
@@ -119,6 +121,8 @@ def noise_variance(linear_residual, columns):
 # let the poorly seen last axis slide 28 mm).
 SCALE_BOUNDS = (0.05, 1.0)
 SCALE_STEPS = 10
+# The noise and the scale count as settled when a linearisation changes them by less than this.
+SETTLED = 0.01
 
 
 def tolerance_scale_estimate(normal, gradient, column_scale, noise, deviation, inverse, start=1.0):
@@ -264,7 +268,7 @@ def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50
         z = x * inverse_sigma / tau
         return noise * float(z @ z)
 
-    tau = 1.0
+    noise, tau, settled = 0.0, 1.0, False
 
     converged = False
     iteration = 0
@@ -280,19 +284,18 @@ def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50
             scale[scale == 0] = 1.0
             a_s = jac / scale
             normal, gradient = a_s.T @ a_s, -(a_s.T @ current)
-        noise = 0.0
         if prior is not None:
-            step_linear = _inverse(normal) @ gradient
-            if isinstance(jac, NormalEquations):
-                # Only the normal equations are held: the explained part of the cost, spread evenly.
-                rss = max(cost - float(gradient @ step_linear), 0.0)
-                noise = rss / max(len(current) - count, 1)
-            else:
-                noise = noise_variance(current + a_s @ step_linear, count)
-            inverse = inverse_sigma
-            deviation = offset * inverse
-            tau = tolerance_scale_estimate(normal, gradient, scale, noise, deviation, inverse, tau)
-            deviation, inverse = deviation / tau, inverse / tau
+            if not settled:
+                # The noise and the tolerances' scale are re-estimated until they hold still
+                # (SETTLED), then kept, so that the last steps minimise one objective and stop
+                # as a plain fit does.
+                was = (noise, tau)
+                noise = noise_variance(current, count)
+                tau = tolerance_scale_estimate(normal, gradient, scale, noise, offset * inverse_sigma,
+                                               inverse_sigma, tau)
+                settled = (iteration > 1 and abs(noise - was[0]) <= SETTLED * max(was[0], 1e-300)
+                           and abs(tau - was[1]) <= SETTLED * was[1])
+            deviation, inverse = offset * inverse_sigma / tau, inverse_sigma / tau
             normal = normal + np.diag(noise * (inverse / scale) ** 2)
             gradient = gradient - noise * deviation * inverse / scale
             cost += noise * float(deviation @ deviation)

@@ -183,6 +183,7 @@ def socket_prediction(calibration, data, seed=0):
     from ..kinematics.tolerances import prior_sigmas, tolerances_of
     from .constraint.data import constraint_pairs, pair_weights
     from .constraint.estimator import constraint_rows
+    from .constraint.metrics import deviation_jacobian
 
     result = calibration.result_
     start, chain = calibration.start_chain_, calibration.chain_
@@ -197,13 +198,10 @@ def socket_prediction(calibration, data, seed=0):
     cov = _posterior(jac.T @ jac, prior_std * result.tolerance_scale, noise)
     nominal_cov = _posterior(np.zeros_like(cov), prior_std * result.tolerance_scale, noise)
     # Each configuration's ball centre minus its socket's mean, as a linear map of the deviations.
-    positions = chain.identification_jacobian(data.joints, names)[:, :3, :]
-    sizes = np.bincount(data.group)
-    means = np.stack([np.stack([np.bincount(data.group, weights=positions[:, r, c], minlength=len(sizes))
-                                for c in range(len(names))], axis=1) for r in range(3)], axis=1) / sizes[:, None, None]
-    shared = sizes[data.group] > 1
-    deviation = (positions - means[data.group])[shared].reshape(-1, len(names))
-    count = int(np.count_nonzero(shared))
+    deviation_rows = deviation_jacobian(chain, data, names)
+    count = len(deviation_rows)
+    deviation = deviation_rows.reshape(-1, len(names))
+    shared = np.bincount(data.group)[data.group] > 1
     scatter = result.residual_after.get("rms_mm", 0.0) ** 2 / 3.0
     calibrated = error_norms(deviation, cov, scatter, count, seed)
     nominal = error_norms(deviation, nominal_cov, scatter, count, seed)

@@ -156,6 +156,11 @@ class Domain:
         scaled by each joint's training range (dimensionless).
     n_poses : int
         The training poses the domain was computed from.
+    frames : tuple or None
+        A re-registered model's (names, (P, P) covariance in mm and rad, limit mm): the
+        posterior of the base and tool its few poses gave; a configuration where that
+        uncertainty moves the TCP by more than the limit (the model's own error) lies outside,
+        since there the re-registration, not the model, decides the error.
     """
 
     chain: object = field(repr=False, compare=False)
@@ -171,6 +176,7 @@ class Domain:
     neighbours: np.ndarray | None = None
     neighbour_radius: float = np.inf
     n_poses: int = 0
+    frames: tuple | None = None
 
     # ------------------------------------------------------------------ building
     @classmethod
@@ -287,6 +293,13 @@ class Domain:
                 flag(beyond, f"{axis} beyond the training box",
                      lambda i, a=a, axis=axis: (f"{axis} = {p[i, a]:.1f} mm beyond the training box "
                                                 f"{self.box_min[a]:.1f}..{self.box_max[a]:.1f} mm"))
+        if self.frames is not None:
+            names, covariance, limit = self.frames
+            jac = self.chain.identification_jacobian(qk, list(names))[:, :3, :]
+            spread = np.sqrt(np.maximum(np.einsum("nip,pq,niq->n", jac, covariance, jac), 0.0))
+            flag(spread > limit, "base and tool pinned too loosely here",
+                 lambda i: (f"the re-registration's poses pin base and tool to {spread[i]:.2g} mm RMS here, more than "
+                            f"the model's own {limit:.2g} mm"))
         if self.neighbours is not None:
             # Only where nothing else was found: the gap is then the one reason left to give.
             unexplained = np.array([not r for r in reasons]) & known
@@ -353,6 +366,10 @@ class Domain:
             "neighbours": None if self.neighbours is None else {
                 "joints": to_file(self.neighbours).tolist(), "radius": self.neighbour_radius},
         }
+        if self.frames is not None:
+            names, covariance, limit = self.frames
+            doc["frames"] = {"names": list(names), "covariance_mm_rad": np.asarray(covariance).tolist(),
+                             "limit_mm": float(limit)}
         return doc
 
     @classmethod
@@ -401,6 +418,14 @@ class Domain:
                 if kept.ndim != 2 or kept.shape[1] != n or len(kept) == 0 or not np.all(np.isfinite(kept)):
                     raise damaged(f"neighbours.joints must be rows of {n} finite numbers")
                 fields.update(neighbours=chain.joints_from_file(kept), neighbour_radius=float(neighbours["radius"]))
+            frames = document.get("frames")
+            if frames is not None:
+                names = tuple(str(n) for n in frames["names"])
+                covariance = np.asarray(frames["covariance_mm_rad"], dtype=float)
+                if covariance.shape != (len(names), len(names)) or not np.all(np.isfinite(covariance)) \
+                        or any(n not in chain.parameters for n in names):
+                    raise damaged("frames must name the model's parameters with a square finite covariance")
+                fields["frames"] = (names, covariance, float(frames["limit_mm"]))
         except FileFormatError:
             raise
         except (KeyError, TypeError, ValueError, AttributeError) as exc:

@@ -76,20 +76,11 @@ def reregistered_error(method, work_joints=None, seed=0):
     base and tool (their posterior propagated to the working range) on top of the error the
     model had before it moved (its own prediction, else its training residual), against the
     registered nominal robot's on the same poses."""
-    names, cov = method.frames_posterior_
+    names, cov, own = method.frames_posterior_
     chain = method.compensator_.chain
     before = method.record_.predicted_error or {}
-    training = method.record_.residual_after_training or {}
-    # E|e| of an isotropic 3-D Gaussian of sigma s per axis is s * sqrt(8 / pi).
-    own = before.get("mean_mm", training.get("rms_mm", 0.0) * np.sqrt(8 / np.pi / 3)) / np.sqrt(8 / np.pi)
     nominal = before.get("nominal_mean_mm", (method.record_.residual_before or {}).get("rms_mm", 0.0)
                          * np.sqrt(8 / np.pi / 3)) / np.sqrt(8 / np.pi)
-    # The frames were fitted through the model's own errors as well as the tracker's noise: on
-    # poses that cover little, those errors are systematic and the frames take them up, so the
-    # frames' covariance is that of the larger of the two (the fit's residual per axis, or the
-    # model's own error).
-    fitted = method.reregistration_.residual_after.get("rms_mm", 0.0) ** 2 / 3.0
-    cov = cov * max(1.0, own ** 2 / max(fitted, 1e-300))
     where = working_range(chain, work_joints)
     jac = chain.identification_jacobian(where.joints, list(names))[:, :3, :].reshape(-1, len(names))
     moved = error_norms(jac, cov, own ** 2, len(where.joints), seed)

@@ -447,7 +447,12 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
         new.domain_ = _moved_box(domain, problem.frame(chain))
     after = error_stats(positions - new.predict(q))
     training_rms = _training_rms(fitted.record_)
-    new.frames_posterior_ = (tuple(found.names), found.covariance)
+    new.frames_posterior_ = _frames_posterior(fitted, found, after)
+    if getattr(new, "domain_", None) is not None:
+        # The domain follows: where the few poses pin the frames more loosely than the model's
+        # own error, the model is not what answers there.
+        names, covariance, own = new.frames_posterior_
+        new.domain_ = dataclasses.replace(new.domain_, frames=(names, covariance, own * np.sqrt(3.0)))
     notes = _warnings(old, chain, q, found.names, after["rms_mm"], training_rms)
     for note in notes:
         warnings.warn(note, RobocalWarning, stacklevel=2)
@@ -456,6 +461,21 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
                                   training_rms, notes)
     new.record_ = fitted.record_.replace(reregistration=new.reregistration_.to_dict())
     return new
+
+
+def _frames_posterior(fitted, found, after):
+    """(names, covariance (mm, rad), the model's own error per axis, mm) of a re-registration's
+    frames.  The frames were fitted through the model's own errors as well as the tracker's
+    noise: on poses that cover little those errors are systematic and the frames take them up,
+    so their covariance is that of the larger of the two (the fit's residual per axis, or the
+    model's own error before it moved: its predicted error, else its training residual)."""
+    before = fitted.record_.predicted_error or {}
+    training = fitted.record_.residual_after_training or {}
+    # E|e| of an isotropic 3-D Gaussian of sigma s per axis is s * sqrt(8 / pi).
+    own = before.get("mean_mm", training.get("rms_mm", 0.0) * np.sqrt(8 / np.pi / 3)) / np.sqrt(8 / np.pi)
+    residual = after.get("rms_mm", 0.0) ** 2 / 3.0
+    covariance = found.covariance * max(1.0, own ** 2 / max(residual, 1e-300))
+    return tuple(found.names), covariance, float(own)
 
 
 def _moved_box(domain, frame):

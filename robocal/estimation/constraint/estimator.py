@@ -39,11 +39,11 @@ from ...kinematics.parameters import FRAME_KINDS
 from ...spatial import so3_log
 from ..identifiability import analyse
 from ..identification import (BASE, TOOL_POSITION, Analysis, FittedCalibration, IdentifiedResult, check_iterations,
-                              check_prior, implausible_fit, tolerance_prior, tolerance_rms,
+                              check_prior, implausible_fit, tolerance_prior,
                               check_payload, identify, one_of)
 from ..least_squares import damped_least_squares
 from .data import PAIRINGS, check_groups, constraint_pairs, pair_weights, socket_data
-from .metrics import grouped_socket_errors
+from .metrics import deviation_jacobian, grouped_socket_errors
 
 SCALE = "scale"
 # Beyond this the combination a parameter would need to explain, once the base (and scale)
@@ -280,7 +280,7 @@ class ConstraintCalibration(FittedCalibration):
             tolerances = self._prior.sigmas(list(found.names))
             failure = implausible_fit(
                 found.names, poe_deviations(start, found.chain, found.names), tolerances, before["rms_mm"],
-                after["rms_mm"], 0.0, tolerance_rms(start, data.joints, candidates, self._prior.sigmas(candidates)),
+                after["rms_mm"], 0.0, lambda: _tolerance_consistency(start, data, candidates, self._prior),
                 start.parameters,
                 override="--tolerance-scale, or [tolerances] in the robot file")
             if failure is not None:
@@ -426,6 +426,15 @@ def _label(parameter, reason, absolute, column, previous):
     if leftover(list(range(7))) <= _LABEL_TOLERANCE:
         return f"{name} is fixed with the scale: " + _SCALE_REASON
     return reason
+
+
+def _tolerance_consistency(start, data, names, prior):
+    """mm RMS of the socket consistency a robot within its tolerances shows before any
+    calibration: each ball centre's deviation from its socket's mean under the prior."""
+    sigma = prior.sigmas(list(names))
+    held = np.isfinite(sigma)
+    rows = deviation_jacobian(start, data, [n for n, h in zip(names, held) if h]) * sigma[held]
+    return float(np.sqrt(np.sum(rows ** 2) / max(len(rows), 1)))
 
 
 def _check_equations(spanning, chain, with_distance):

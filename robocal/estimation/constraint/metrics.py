@@ -57,3 +57,16 @@ def grouped_socket_errors(chain, data, per_placement=False):
     if per_placement:
         return out, errors, where, p - means[data.group], means
     return out
+
+
+def deviation_jacobian(chain, data, names):
+    """(K, 3, P): how each ball centre's deviation from its socket's mean (the K
+    configurations whose socket holds more than one) moves with the named parameters:
+    what socket consistency sees of a parameter deviation."""
+    positions = chain.identification_jacobian(data.joints, list(names))[:, :3, :]
+    sizes = np.bincount(data.group)
+    flat = positions.reshape(len(positions), -1)
+    means = np.stack([np.bincount(data.group, weights=flat[:, c], minlength=len(sizes))
+                      for c in range(flat.shape[1])], axis=1) / sizes[:, None]
+    shared = sizes[data.group] > 1
+    return (flat - means[data.group])[shared].reshape(-1, 3, len(names))
