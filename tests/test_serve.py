@@ -49,7 +49,10 @@ def setup(tmp_path_factory):
     models = {}
     for method in ("kinematic", "kriging", "hybrid"):
         model = root / f"{method}.json"
-        result = runner.invoke(app, ["calibrate", "ur5", str(meas), "--method", method, "--out", str(model)])
+        # Kriging over the position from 120 poses spread over the joint space is predicted to
+        # miss by more than the registered nominal robot: the server is tested with it anyway.
+        result = runner.invoke(app, ["calibrate", "ur5", str(meas), "--method", method, "--out", str(model),
+                                     "--accept-extrapolation"])
         assert result.exit_code == 0, result.output
         commands = root / f"{method}-commands.csv"
         result = runner.invoke(app, ["compensate", str(model), str(targets), "--out", str(commands)])

@@ -23,6 +23,9 @@ from ..spatial import so3_log
 # Tracker data fit a kinematic model almost linearly: starting nearly undamped (Gauss–Newton)
 # reaches the optimum in fewer steps; the damping still rises when a step fails.
 KINEMATIC_DAMPING = 1e-7
+# A prior's noise is read from the linearised residual of at most this many poses, evenly
+# spread (all of them below it, whether the Jacobian is held whole or in blocks).
+NOISE_POSES = 2000
 # Above this many poses the identification Jacobian is formed BLOCK_POSES poses at a time and
 # reduced to normal equations or an R factor (see the module docstring).  A block of 20,000
 # poses and 40 parameters is 38 MB of Jacobian; measured on 1,000,000 simulated KR 150-2
@@ -33,10 +36,13 @@ BLOCK_POSES = 20_000
 @dataclass(frozen=True)
 class NormalEquations:
     """The normal equations of a linearised least-squares problem r + J x: ``normal`` JᵀJ
-    (P, P) and ``projected`` Jᵀr (P,), accumulated over blocks of rows."""
+    (P, P) and ``projected`` Jᵀr (P,), accumulated over blocks of rows; ``sample``: (r, J) of
+    some of the rows (at most NOISE_POSES poses, evenly spread), from which a prior's noise is
+    read, or None."""
 
     normal: np.ndarray
     projected: np.ndarray
+    sample: tuple | None = None
 
 
 def held_in_blocks(count):
@@ -97,14 +103,12 @@ class Prior:
 
 
 def noise_variance(residual, columns):
-    """The residual rows' noise variance: their scatter (``residual``, (m,)) from their median
-    absolute value (1.4826 x median is sigma for Gaussian rows, and a few gross outliers do
-    not inflate it), corrected for the ``columns`` degrees of freedom the fit takes.
-    Estimated at every linearisation, it weighs the prior against the data as the data's own
-    scatter says, so data that fit to their noise need no stated sigma to be weighed right;
-    far from the optimum it is large and the prior holds the steps near nominal, and at the
-    optimum it is the fit's own.  (The residual alone, not the rows' Jacobian: large data hold
-    only the normal equations, and must reach the same optimum.)"""
+    """The residual rows' noise variance: their scatter (``residual``, (m,): the rows a step of
+    the linearised model leaves) from their median absolute value (1.4826 x median is sigma
+    for Gaussian rows, and a few gross outliers do not inflate it), corrected for the
+    ``columns`` degrees of freedom the fit takes.  Estimated at every linearisation, it weighs
+    the prior against the data as the data's own scatter says, so data that fit to their
+    noise need no stated sigma to be weighed right."""
     rows = len(residual)
     if rows == 0:
         return 0.0
@@ -228,7 +232,12 @@ def levenberg_marquardt(chain, joints, positions, names, *, rotations=None, weig
         r = r * root[:, None]
         if not held_in_blocks(len(joints)):
             return r.reshape(-1), jacobian_rows(slice(None))
-        return r.reshape(-1), blocked_normal_equations(jacobian_rows, r, len(joints))
+        equations = blocked_normal_equations(jacobian_rows, r, len(joints))
+        if prior is None:
+            return r.reshape(-1), equations
+        poses = np.unique(np.linspace(0, len(joints) - 1, min(len(joints), NOISE_POSES)).astype(int))
+        return r.reshape(-1), NormalEquations(equations.normal, equations.projected,
+                                              (r[poses].reshape(-1), jacobian_rows(poses)))
 
     def weighted_only(c):
         return (weighted(c) * np.sqrt(state["robust"])[:, None]).reshape(-1)
@@ -288,9 +297,17 @@ def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50
             if not settled:
                 # The noise and the tolerances' scale are re-estimated until they hold still
                 # (SETTLED), then kept, so that the last steps minimise one objective and stop
-                # as a plain fit does.
+                # as a plain fit does.  The noise is that of the rows the linearised model
+                # cannot explain (the residual itself would read the unfitted error as noise
+                # and hold the first steps at nominal, where the scale then collapses).
                 was = (noise, tau)
-                noise = noise_variance(current, count)
+                step_linear = _inverse(normal) @ gradient
+                if not isinstance(jac, NormalEquations):
+                    noise = noise_variance(current + a_s @ step_linear, count)
+                elif jac.sample is not None:
+                    noise = noise_variance(jac.sample[0] + (jac.sample[1] / scale) @ step_linear, count)
+                else:
+                    noise = max(cost - float(gradient @ step_linear), 0.0) / max(len(current) - count, 1)
                 tau = tolerance_scale_estimate(normal, gradient, scale, noise, offset * inverse_sigma,
                                                inverse_sigma, tau)
                 settled = (iteration > 1 and abs(noise - was[0]) <= SETTLED * max(was[0], 1e-300)
