@@ -183,16 +183,19 @@ class GPBoostModel:
         import gpboost
 
         self.mean, self.scale = X.mean(axis=0), X.std(axis=0)
+        X = np.ascontiguousarray(X)
         self.models = []
         for j in range(Y.shape[1]):
             model = gpboost.GPModel(gp_coords=(X - self.mean) / self.scale, cov_function="matern_ard",
                                     cov_fct_shape=2.5, gp_approx="vecchia", num_neighbors=30,
                                     num_parallel_threads=1, seed=0)
-            model.fit(y=Y[:, j], X=np.ones((len(X), 1)))
+            # GPBoost 1.8 reads a strided column as if it were contiguous: it would fit the
+            # wrong targets (its earlier 0.54 mm held out here), so hand it a contiguous copy.
+            model.fit(y=np.ascontiguousarray(Y[:, j]), X=np.ones((len(X), 1)))
             self.models.append(model)
 
     def _predict(self, X, variance):
-        Z = (X - self.mean) / self.scale
+        Z = np.ascontiguousarray((X - self.mean) / self.scale)
         out = [m.predict(gp_coords_pred=Z, X_pred=np.ones((len(Z), 1)), predict_var=variance) for m in self.models]
         return np.column_stack([o["mu"] for o in out]), (np.column_stack([o["var"] for o in out]) if variance else None)
 
