@@ -64,7 +64,6 @@ QUICK_SIZES = (50, 200)
 LARGE_SIZES = (2000, 10_000, 100_000)
 EXACT_UP_TO = 3000  # robocal's exact Kriging holds d·n² squared differences: 216 MB at 3,000
 NOISE_MM = 0.01  # tracker noise of the noisy comparison
-NOISY_UP_TO = 10_000  # the noisy comparison at every n up to this (and at the first n)
 UR10_TRAIN = 2000
 BOX_LOW = np.array([1000.0, -500.0, 500.0])  # mm: a 1000 mm cube in front of the robot
 BOX_SIZE = 1000.0
@@ -328,7 +327,8 @@ def small_benchmark(sizes):
                   f"{mse_time:>12.3f}{rms:>11.2e}{worst:>11.2e}", flush=True)
 
 
-def large_benchmark(budget, sizes=LARGE_SIZES, with_peers=True):
+def large_benchmark(budget, sizes=LARGE_SIZES, with_peers=True, noises=(0.0, NOISE_MM), peer_names=None,
+                    with_robocal=True):
     _, X_test, Y_test, X_predict = test_data()
     print(f"\nlarge data: every fit in its own process (peak memory: that whole process); peers stopped "
           f"after {budget:.0f} s; one core")
@@ -336,15 +336,17 @@ def large_benchmark(budget, sizes=LARGE_SIZES, with_peers=True):
               f"{'(CPU s)':>9}{'+MSE 10k s':>12}{'RMS mm':>10}{'mean mm':>10}{'max mm':>10}{'RMS/exact':>11}")
     rule(header)
     peers = available_peers(large=True) if with_peers else []
+    if peer_names:
+        peers = [p for p in peers if any(name in p.name.lower() for name in peer_names)]
     given_up = {}
-    cases = [(n, noise) for n in sizes for noise in ((0.0, NOISE_MM) if n == sizes[0] or n <= NOISY_UP_TO else (0.0,))]
+    cases = [(n, noise) for n in sizes for noise in noises]
     for n, noise in cases:
         rng = np.random.default_rng(n)
         X = latin_hypercube(n, rng)
         Y = error_field(X) + noise * rng.normal(size=(n, 3))
         nugget = "estimate" if noise else 0.0
-        models = ([RobocalModel(False, "exact", nugget)] if n <= EXACT_UP_TO else []) + \
-            [RobocalModel(False, "vecchia", nugget)] + peers
+        models = ((([RobocalModel(False, "exact", nugget)] if n <= EXACT_UP_TO else []) +
+                   [RobocalModel(False, "vecchia", nugget)]) if with_robocal else []) + peers
         label = f"{n:>7,}" + (f"  with {noise} mm noise" if noise else "")
         if noise:
             print(label)
@@ -499,6 +501,11 @@ def main():
     parser.add_argument("--sizes", type=int, nargs="+", default=list(LARGE_SIZES),
                         help="the large section's n (the first also with noise)")
     parser.add_argument("--without-ur10", action="store_true", help="no UR10 comparison")
+    parser.add_argument("--peers", nargs="+", choices=("sklearn", "gpboost"),
+                        help="the large section's peers (default: every one installed)")
+    parser.add_argument("--without-robocal", action="store_true", help="the large section's peers only")
+    parser.add_argument("--noise", choices=("both", "noisy", "noise-free"), default="both",
+                        help=f"the large section's readings: exact, with {NOISE_MM} mm noise, or both (default)")
     parser.add_argument("--search", action="store_true",
                         help="only the search of Vecchia fits of 1,000 to 2,000 points: exact against blocks")
     parser.add_argument("--search-splits", action="store_true", help="with --search: 8 more training sets")
@@ -509,7 +516,9 @@ def main():
     if not args.large:
         small_benchmark(QUICK_SIZES if args.quick else SIZES)
     if not args.quick:
-        large_benchmark(args.budget, sizes=tuple(args.sizes), with_peers=not args.without_peers)
+        noises = {"both": (0.0, NOISE_MM), "noisy": (NOISE_MM,), "noise-free": (0.0,)}[args.noise]
+        large_benchmark(args.budget, sizes=tuple(args.sizes), with_peers=not args.without_peers, noises=noises,
+                        peer_names=args.peers, with_robocal=not args.without_robocal)
         if not args.without_ur10:
             ur10_benchmark()
 
