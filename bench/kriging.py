@@ -492,7 +492,18 @@ def search_benchmark(splits=False):
               flush=True)
 
 
+def one_blas_thread():
+    """One BLAS thread for robocal and every peer (the child processes inherit it): the
+    environment above is read only when a library loads, threadpoolctl holds it after."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        return
+    threadpool_limits(1)
+
+
 def main():
+    one_blas_thread()
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="n = 50 and 200 only")
     parser.add_argument("--large", action="store_true", help="only n = 2,000, 10,000 and 100,000, and UR10")
