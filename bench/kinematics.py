@@ -176,6 +176,11 @@ def print_table(title, rows, columns):
 
 
 def main():
+    try:  # one BLAS thread for robocal and the peers alike, held after the libraries load
+        from threadpoolctl import threadpool_limits
+        threadpool_limits(1)
+    except ImportError:
+        pass
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="shorter timing budget")
     args = parser.parse_args()
