@@ -122,7 +122,7 @@ NOISE_FREE_UP_TO = 4000
 # no noise in the conditionals, so the screening effect holds; two sparse triangular solves
 # per product), ℓ this share of the nugget τ²: a latent field with a little noise of its own
 # conditions far better than the noise-free one.  Bench field, n = 10,000, 0.01 mm noise, the
-# Vecchia fit's θ and nugget (3 outputs, one core, machine shared with one other process):
+# Vecchia fit's θ and nugget (3 outputs, one core, on a machine shared with other work):
 # share 1e-4, 1e-3, 1e-2, 1e-1: held-out RMS 1.60e-3, 1.49e-3, 1.51e-3, 2.10e-3 mm (exact
 # products: 1.41e-3; readings averaged: 4.05e-3); 150-174, 133-157, 96-110, 47-58 iterations;
 # fit 11.6, 9.9, 9.6, 8.0 s of CPU against 6.1 with the readings averaged.
