@@ -19,8 +19,9 @@ Vecchia approximation (ARD Matérn 5/2, 30 neighbours, one thread).  Each fit ru
 child process, so its peak memory (the whole process) is its own; the peers' fits are stopped
 after ``--budget`` seconds.  It prints wall and CPU seconds of the fit and of the 100,000
 predictions (the machine may be shared) and, where robocal's exact Kriging ran, each RMS
-relative to exact Kriging's (the UR10 table: the mean error relative to it); at n = 2,000
-and 10,000 also with 0.01 mm noise on the readings (nugget estimated); then the UR10
+relative to exact Kriging's (the UR10 table: the mean error relative to it); at every n
+also with 0.01 mm noise on the readings (nugget estimated; ``--noise noisy`` for those
+alone, ``--peers gpboost`` for that peer alone, ``--without-robocal`` for the peers); then the UR10
 comparison: Kriging and the hybrid on 2,000 random series-A poses, held out on the other
 9,911, exact against Vecchia, and the hybrid on all 1,495 series-B poses as
 ``calibrate --method hybrid`` fits it (``--kriging auto``).
@@ -510,7 +511,7 @@ def main():
     parser.add_argument("--budget", type=float, default=600.0, help="seconds a peer's large fit may take")
     parser.add_argument("--without-peers", action="store_true", help="robocal only in the large section")
     parser.add_argument("--sizes", type=int, nargs="+", default=list(LARGE_SIZES),
-                        help="the large section's n (the first also with noise)")
+                        help="the large section's n")
     parser.add_argument("--without-ur10", action="store_true", help="no UR10 comparison")
     parser.add_argument("--peers", nargs="+", choices=("sklearn", "gpboost"),
                         help="the large section's peers (default: every one installed)")
