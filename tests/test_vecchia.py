@@ -193,7 +193,8 @@ def test_with_all_earlier_neighbours_the_latent_gradients_solve_the_noisy_correl
     from robocal.estimation import vecchia
     from robocal.estimation.kriging import correlation_from_squared
 
-    X, Y = standardised(*(lambda X: (X, wavy(X)))(rng.random((120, 3))))
+    X = rng.random((120, 3))
+    X, Y = standardised(X, wavy(X))
     problem = VecchiaProblem.of(X, trend_basis(X, "constant"), "gaussian", len(X) - 1)
     theta, nugget = np.array([0.8, 1.3, 0.5]), 1e-3
     problem.focus(theta)
