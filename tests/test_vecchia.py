@@ -189,20 +189,68 @@ def test_conjugate_gradients_solve_the_noisy_correlation_system(rng):
     assert np.abs(solved - exact).max() < 1e-5 * np.abs(exact).max()
 
 
-def test_above_the_noise_free_limit_the_predictors_average_the_readings(rng, monkeypatch):
+def test_with_all_earlier_neighbours_the_latent_gradients_solve_the_noisy_correlation_system(rng):
+    from robocal.estimation import vecchia
+    from robocal.estimation.kriging import correlation_from_squared
+
+    X = rng.random((120, 3))
+    X, Y = standardised(X, wavy(X))
+    problem = VecchiaProblem.of(X, trend_basis(X, "constant"), "gaussian", len(X) - 1)
+    theta, nugget = np.array([0.8, 1.3, 0.5]), 1e-3
+    problem.focus(theta)
+    Z = problem.X * np.sqrt(theta)
+    C = correlation_from_squared(((Z[:, None] - Z[None]) ** 2).sum(axis=2), "gaussian") + nugget * np.eye(len(Z))
+    B = Y[problem.rows]
+    solved, noise, diagonal = vecchia._latent_conjugate_gradients(problem, theta, nugget, 0.0, B,
+                                                                  *problem.factors(theta, nugget))
+    latent = vecchia.LATENT_NUGGET_SHARE * nugget
+    assert noise == pytest.approx(nugget - latent) and diagonal == pytest.approx(latent)
+    # With m = n − 1 the Vecchia factor of R + ℓI is exact, so R̂ + (τ² − ℓ)I is C.
+    assert np.abs(solved - np.linalg.solve(C, B)).max() < 1e-5 * np.abs(solved).max()
+
+
+def noisy_smooth_field(n, rng, noise=0.05):
+    X = latin_hypercube(n, 3, rng)
+    return X, smooth(X) + rng.normal(scale=noise, size=(n, 2))
+
+
+def test_above_the_noise_free_limit_the_latent_field_gives_about_the_exact_products_predictions(rng, monkeypatch):
     from robocal.estimation import vecchia
 
     # The smooth noisy field of the accuracy test below, with about its fitted θ and nugget.
-    X = latin_hypercube(300, 3, rng)
-    Y = smooth(X) + rng.normal(scale=0.05, size=(300, 2))
-    settings = dict(theta0=[0.1, 0.05, 0.02], n_starts=0, nugget=3e-3, approximation="vecchia", neighbours=20)
+    X, Y = noisy_smooth_field(300, rng)
+    settings = dict(theta0=[0.1, 0.05, 0.02], n_starts=0, nugget=3e-3, approximation="vecchia")
     below = Kriging(**settings).fit(X, Y)
     monkeypatch.setattr(vecchia, "NOISE_FREE_UP_TO", 299)
     above = Kriging(**settings).fit(X, Y)
-    assert below._states[0].noise_free and not above._states[0].noise_free
+    monkeypatch.setattr(vecchia, "CG_ITERATIONS", 2)  # not converged: the readings averaged
+    averaged = Kriging(**settings).fit(X, Y)
+    assert below._states[0].noise_free and above._states[0].noise_free and not averaged._states[0].noise_free
     targets = rng.random((1000, 3))
-    errors = [np.sqrt(np.mean((model.predict(targets) - smooth(targets)) ** 2)) for model in (below, above)]
-    assert errors[0] < 0.8 * errors[1], errors
+    errors = [np.sqrt(np.mean((model.predict(targets) - smooth(targets)) ** 2)) for model in (below, above, averaged)]
+    assert errors[1] <= 1.1 * errors[0], errors
+    assert errors[1] < 0.8 * errors[2], errors
+
+
+def test_a_vecchia_fit_on_twice_the_noisy_points_is_better_held_out(rng, monkeypatch):
+    # As at 2,000 points (exact likelihood, exact products) against 4,000 to 100,000 (the
+    # Vecchia likelihood searched on a subset and refined, the latent field's products), here
+    # at 300 against 600 random points.  Measured on this field (seeds 2024, 1, 2): 600 points
+    # 0.63, 0.61, 0.67 times the error of 300; with the k noisy readings averaged above the
+    # limit (as before) 0.93, 1.00, 1.12 times.
+    from robocal.estimation import vecchia
+
+    for name in ("NOISE_FREE_UP_TO", "EXACT_SEARCH_UP_TO", "BLOCK_SEARCH_ABOVE", "SEARCH_POINTS"):
+        monkeypatch.setattr(vecchia, name, 300)
+    X = rng.random((600, 3))
+    Y = smooth(X) + rng.normal(scale=0.05, size=(len(X), 2))
+    targets = rng.random((1000, 3))
+    errors = {}
+    for n in (300, 600):
+        model = Kriging(nugget="estimate", approximation="vecchia", random_state=0).fit(X[:n], Y[:n])
+        assert model._states[0].noise_free
+        errors[n] = np.sqrt(np.mean((model.predict(targets) - smooth(targets)) ** 2))
+    assert errors[600] <= 0.85 * errors[300], errors
 
 
 # --------------------------------------------------------------------------- accuracy
