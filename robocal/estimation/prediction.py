@@ -144,20 +144,29 @@ def predicted_draws(chain, train_joints, residual, names, prior_std, *, identifi
     return calibrated, nominal, where
 
 
+def _posterior_names(calibration, joints):
+    """(names, (P,) tolerances) of what a fitted calibration's posterior covers: the
+    parameters it identified, then those it held fixed that have a tolerance (at nominal:
+    on poses that do not see them their prior is all there is)."""
+    from ..kinematics.tolerances import prior_sigmas, tolerances_of
+
+    result, start = calibration.result_, calibration.start_chain_
+    tolerances = tolerances_of(start, getattr(calibration, "tolerance_scale", 1.0))
+    names = list(result.names) + [n for n in result.identifiability.fixed if n in start.parameters]
+    prior_std = prior_sigmas(start, names, tolerances, joints)
+    keep = np.isfinite(prior_std) | (np.arange(len(names)) < len(result.names))
+    return [n for n, k in zip(names, keep) if k], prior_std[keep]
+
+
 def prediction_draws(calibration, joints, positions, work_joints=None, seed=0):
     """:func:`predicted_draws` of a fitted
     :class:`~robocal.estimation.calibration.KinematicCalibration` on its training data
     ``joints`` (N, n) rad and ``positions`` (N, 3) mm: its identified parameters and, at
     their nominal values, those it held fixed that have a tolerance."""
-    from ..kinematics.tolerances import prior_sigmas, tolerances_of
 
     result = calibration.result_
     start = calibration.start_chain_
-    tolerances = tolerances_of(start, getattr(calibration, "tolerance_scale", 1.0))
-    names = list(result.names) + [n for n in result.identifiability.fixed if n in start.parameters]
-    prior_std = prior_sigmas(start, names, tolerances, joints)
-    keep = np.isfinite(prior_std) | (np.arange(len(names)) < len(result.names))
-    names, prior_std = [n for n, k in zip(names, keep) if k], prior_std[keep]
+    names, prior_std = _posterior_names(calibration, joints)
     frames = [n for n in names if start.parameters[n].group in ("base", "tool")]
     residual = np.asarray(positions, dtype=float) - calibration.chain_.fk_positions(joints)
     return predicted_draws(calibration.chain_, joints, residual, names, prior_std, identified=len(result.names),
@@ -180,18 +189,13 @@ def socket_prediction(calibration, data, seed=0):
     posterior comes from the constraint rows (spanning pairs) with the tolerances at the
     scale the fit estimated; the ball's own scatter is the training consistency's.
     """
-    from ..kinematics.tolerances import prior_sigmas, tolerances_of
     from .constraint.data import constraint_pairs, pair_weights
     from .constraint.estimator import constraint_rows
     from .constraint.metrics import deviation_jacobian
 
     result = calibration.result_
-    start, chain = calibration.start_chain_, calibration.chain_
-    tolerances = tolerances_of(start, getattr(calibration, "tolerance_scale", 1.0))
-    names = list(result.names) + [n for n in result.identifiability.fixed if n in start.parameters]
-    prior_std = prior_sigmas(start, names, tolerances, data.joints)
-    keep = np.isfinite(prior_std) | (np.arange(len(names)) < len(result.names))
-    names, prior_std = [n for n, k in zip(names, keep) if k], prior_std[keep]
+    chain = calibration.chain_
+    names, prior_std = _posterior_names(calibration, data.joints)
     spanning = constraint_pairs(data, "spanning")
     residual, jac = constraint_rows(chain, data.joints, spanning, names, pair_weights(spanning))
     noise = float(residual @ residual) / max(len(residual) - len(result.names), 1)

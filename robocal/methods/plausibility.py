@@ -15,7 +15,7 @@ import warnings
 import numpy as np
 
 from ..errors import InputError, RobocalWarning
-from ..estimation.calibration import KinematicCalibration, OutlierError, OutlierWarning
+from ..estimation.calibration import KinematicCalibration, OutlierError, OutlierWarning, candidate_parameters
 
 # The check fits at most this many poses, evenly spread over the file: the verdict of a few
 # thousand poses is that of all of them, at a bounded cost.
@@ -38,7 +38,7 @@ def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.
     sigmas = None if observations.sigmas is None else observations.sigmas[pick]
     for parameters in ("full", "offsets"):
         calibration = KinematicCalibration(parameters, tolerance_scale=tolerance_scale)
-        needed = len(_candidates(chain, parameters)) * EQUATIONS_PER_PARAMETER
+        needed = len(candidate_parameters(chain, parameters)) * EQUATIONS_PER_PARAMETER
         if 3 * len(np.unique(np.round(joints, 9), axis=0)) >= needed:
             break
     else:
@@ -55,8 +55,3 @@ def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.
     calibration.fitted_poses_ = pick
     return calibration
 
-
-def _candidates(chain, parameters):
-    from ..estimation.calibration import candidate_parameters
-
-    return candidate_parameters(chain, parameters)
