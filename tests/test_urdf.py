@@ -263,7 +263,7 @@ def test_no_movable_joint():
 
 
 def test_missing_file(tmp_path):
-    with pytest.raises(InputError, match="not found"):
+    with pytest.raises(InputError, match="absent.urdf does not exist"):
         read_urdf(tmp_path / "absent.urdf")
 
 

@@ -11,7 +11,6 @@ import itertools
 import math
 import os
 import re
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,11 +18,7 @@ import numpy as np
 
 from robocal.errors import FileFormatError, InputError
 from robocal.io.atomic import write_text_atomic
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - exercised on Python 3.10 only
-    import tomli as tomllib
+from robocal.io.reading import load_toml
 
 # Two sockets closer than this are the same socket typed twice, not a usable distance.
 _SAME_POSITION_MM = 1e-6
@@ -112,13 +107,7 @@ def read_fixture(path: str | os.PathLike) -> Fixture:
         FileFormatError: the file is missing, is not TOML, or does not describe a usable
             fixture; the message names the file and says what to change.
     """
-    try:
-        with open(path, "rb") as stream:
-            document = tomllib.load(stream)
-    except FileNotFoundError:
-        raise FileFormatError(f"{path} does not exist: check the path of the fixture file") from None
-    except tomllib.TOMLDecodeError as error:
-        raise FileFormatError(f"{path} is not valid TOML: {error}") from None
+    document = load_toml(path, "fixture file")
     sockets = document.get("sockets")
     if not isinstance(sockets, dict):
         raise FileFormatError(f"{path} has no [sockets] table{_suggestion(document)}: list the sockets as id = [x, y, z] (mm)")

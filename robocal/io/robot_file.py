@@ -15,7 +15,6 @@ Keys beyond the basic format (docs/ARCHITECTURE.md, "File formats"), all optiona
 """
 import difflib
 import sys
-from pathlib import Path
 
 import numpy as np
 
@@ -23,6 +22,7 @@ from ..errors import FileFormatError, InputError
 from ..kinematics import Chain
 from ..spatial import compose_pose, pose_to_xyz_rpy
 from .atomic import write_text_atomic
+from .reading import load_toml
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -237,15 +237,7 @@ def _convention_fields(path, doc, convention, columns):
 
 def read_robot(path) -> Chain:
     """Read a robot TOML file."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileFormatError(f"robot file {path} does not exist")
-    try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise FileFormatError(f"{path}: not valid TOML ({exc}); fix the file or regenerate it with 'robocal export'") from None
-    except UnicodeDecodeError:
-        raise FileFormatError(f"{path}: not a text file; a robot file is TOML") from None
+    doc = load_toml(path, "robot file", "fix the file or regenerate it with 'robocal export'")
     return chain_from_dict(doc, str(path))
 
 

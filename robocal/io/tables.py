@@ -22,6 +22,7 @@ import numpy as np
 
 from robocal.errors import FileFormatError, InputError, RobocalWarning
 from robocal.io.atomic import write_text_atomic
+from robocal.io.reading import read_text
 
 POSITION_COLUMNS = ("x", "y", "z")
 ORIENTATION_COLUMNS = ("rx", "ry", "rz")
@@ -439,20 +440,7 @@ def _records(path: str):
 
 
 def _read_text(path: str) -> str:
-    try:
-        raw = Path(path).read_bytes()
-    except FileNotFoundError:
-        raise FileFormatError(f"{path} does not exist: check the path") from None
-    except IsADirectoryError:
-        raise FileFormatError(f"{path} is a directory, not a CSV file") from None
-    if raw.startswith(b"PK\x03\x04") or b"\x00" in raw:
-        raise FileFormatError(f"{path} is not a text CSV file (a spreadsheet workbook?): export it as CSV")
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        # Spreadsheets on Windows export in a legacy 8-bit encoding; the column names that
-        # matter are ASCII either way, so Latin-1 (which decodes any byte) is good enough.
-        return raw.decode("latin-1")
+    return read_text(path, "CSV file", "table", form="CSV")
 
 
 def _check_header_line(path: str, header: list[str]) -> None:

@@ -25,6 +25,7 @@ import numpy as np
 
 from robocal.errors import FileFormatError, InputError
 from robocal.io.atomic import write_text_atomic
+from robocal.io.reading import check_line_lengths, read_bytes
 from robocal.kinematics import Chain
 from robocal.spatial import compose_pose, make_transform, matrix_to_rpy, rot_x, rot_y, rot_z, translation
 
@@ -142,18 +143,14 @@ def _check_not_mimic(joint: ET.Element, path: Path) -> None:
 
 def _parse(path: Path) -> ET.Element:
     """The ``<robot>`` element of a URDF file, or a one-line error naming the file."""
-    if not path.exists():
-        raise InputError(f"URDF file {path} not found: check the path")
-    if path.is_dir():
-        raise InputError(f"{path} is a directory: give the path of a .urdf file")
+    raw = read_bytes(path, "URDF file", "settings")
+    check_line_lengths(raw, path, "URDF file")
     try:
-        robot = ET.parse(path).getroot()
+        robot = ET.fromstring(raw)
     except ET.ParseError as error:
         raise FileFormatError(
             f"{path} is not well-formed XML ({error}): fix the file or export the URDF again"
         ) from None
-    except OSError as error:
-        raise InputError(f"cannot read URDF file {path}: {error.strerror}") from None
     if any(element.tag.startswith(_XACRO_NAMESPACE) for element in robot.iter()):
         raise FileFormatError(
             f"{path} is a xacro file: expand it first, e.g. `xacro {path.name} > robot.urdf`"

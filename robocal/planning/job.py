@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import FileFormatError, InputError
 from ..io.atomic import check_outputs, write_text_atomic
+from ..io.reading import read_text
 from ..io.library import load_robot
 from ..io.observations import check_robot_in_mm, read_observations, read_target_poses
 from ..kinematics.ik import solve_ik
@@ -45,11 +46,7 @@ NOISE_FIT_RATIO = 1.5
 
 def _table(path):
     """(header, rows of text) of a CSV file; FileFormatError for an empty one."""
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as handle:
-            text = handle.read()
-    except UnicodeDecodeError:
-        raise FileFormatError(f"{path} is not a text (UTF-8) CSV file") from None
+    text = read_text(path, "CSV file", "table", form="CSV")
     first = text.splitlines()[0] if text.strip() else ""
     delimiter = ";" if first.count(";") > first.count(",") else ","
     rows = [row for row in csv.reader(io.StringIO(text), delimiter=delimiter) if any(cell.strip() for cell in row)]

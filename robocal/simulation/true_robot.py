@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import FileFormatError, InputError
 from ..io.atomic import write_text_atomic
+from ..io.reading import load_json
 from ..io.robot_file import chain_from_dict, robot_to_toml, tomllib
 from ..io.observations import Observations, check_robot_in_mm
 from ..io.tables import Measurements
@@ -244,11 +245,5 @@ def write_truth(path, truth):
 
 def read_truth(path):
     """Read a truth file written by :func:`write_truth`."""
-    try:
-        with open(path, encoding="utf-8") as stream:
-            doc = json.load(stream)
-    except FileNotFoundError:
-        raise FileFormatError(f"truth file {path} does not exist") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as why:
-        raise FileFormatError(f"{path}: not a JSON truth file ({why})") from None
+    doc = load_json(path, "truth file", "settings")
     return TrueRobot.from_dict(doc, str(path))

@@ -23,6 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ...errors import FileFormatError
+from .. import reading
 
 ENCODING = "latin-1"
 # A number as the three languages write it: sign, digits, optional fraction and exponent.
@@ -211,9 +212,11 @@ def formatted(targets, values, min_decimals):
 
 
 def read_text(path) -> str:
-    """A program file's bytes as Latin-1 text (one character per byte)."""
-    with open(path, "rb") as stream:
-        return stream.read().decode(ENCODING)
+    """A program file's bytes as Latin-1 text (one character per byte: written back, every
+    byte is what it was), read by robocal's one bounded reader."""
+    raw = reading.read_bytes(path, "robot program", "program")
+    reading.check_line_lengths(raw, path, "robot program")
+    return raw.decode(ENCODING)
 
 
 def model_digest(model_path) -> str:
