@@ -111,15 +111,20 @@ def test_subset_refuses_a_mask_of_the_wrong_length(tmp_path):
         measurements.subset(np.array([True]))
 
 
-def test_commands_round_trip_through_read_targets(tmp_path):
+def test_commands_keep_every_digit_and_are_refused_as_targets(tmp_path):
     joints = degrees(20)
     positions = RNG.uniform(-2000.0, 2000.0, size=(20, 3)) + 1.23456789012e-5
     orientations = RNG.uniform(-180.0, 180.0, size=(20, 3))
     path = write_commands(tmp_path / "commands.csv", joints, positions, orientations)
-    targets = read_targets(path, n_joints=6)
-    assert np.max(np.abs(targets.positions - positions)) < 1e-9
-    np.testing.assert_array_equal(targets.orientations, orientations)
-    np.testing.assert_array_equal(targets.hints, joints)
+    with open(path, newline="") as stream:
+        rows = list(csv.reader(stream))
+    values = np.array([[float(cell) for cell in row[:12]] for row in rows[1:]])
+    assert np.max(np.abs(values[:, 6:9] - positions)) < 1e-9
+    np.testing.assert_array_equal(values[:, 9:12], orientations)
+    np.testing.assert_array_equal(values[:, :6], joints)
+    # Given back as targets, they would be corrected a second time.
+    with pytest.raises(FileFormatError, match="written by 'robocal compensate', not a targets file"):
+        read_targets(path, n_joints=6)
 
 
 def test_unreachable_commands_have_empty_joint_cells(tmp_path):
@@ -129,10 +134,10 @@ def test_unreachable_commands_have_empty_joint_cells(tmp_path):
     path = write_commands(tmp_path / "c.csv", joints, positions, orientations, joint_ok=[True, False, True])
     with open(path, newline="") as stream:
         rows = list(csv.reader(stream))
-    assert rows[0] == ["q1", "q2", "x", "y", "z", "rx", "ry", "rz", "reachable"]
-    assert rows[1] == ["1.5", "2.0", "1.0", "2.0", "3.0", "0.0", "0.0", "0.0", "1"]
-    assert rows[2] == ["", "", "", "", "", "0.0", "0.0", "0.0", "0"]
-    assert rows[3][-1] == "1"
+    assert rows[0] == ["q1", "q2", "x", "y", "z", "rx", "ry", "rz", "reachable", "robocal_file"]
+    assert rows[1] == ["1.5", "2.0", "1.0", "2.0", "3.0", "0.0", "0.0", "0.0", "1", "commands"]
+    assert rows[2] == ["", "", "", "", "", "0.0", "0.0", "0.0", "0", "commands"]
+    assert rows[3][-2] == "1"
 
 
 def test_unreachable_row_never_carries_a_joint_vector(tmp_path):
@@ -507,4 +512,4 @@ def test_written_numbers_carry_no_rounding_noise(tmp_path):
     path = write_commands(tmp_path / "c.csv", joints, np.array([[-1e-14, 1.5, 0.0]]), np.array([[0.0, -0.0, 180.0]]))
     with open(path, newline="") as stream:
         rows = list(csv.reader(stream))
-    assert rows[1] == ["0.0", "0.0", "90.0", "0.0", "1.5", "0.0", "0.0", "0.0", "180.0"]
+    assert rows[1] == ["0.0", "0.0", "90.0", "0.0", "1.5", "0.0", "0.0", "0.0", "180.0", "commands"]

@@ -22,13 +22,14 @@ import numpy as np
 
 from robocal.errors import FileFormatError, InputError, RobocalWarning
 from robocal.io.atomic import write_text_atomic
+from robocal.io.file_kinds import KIND_COLUMN, check_kind, marked
 from robocal.io.reading import read_text
 
 POSITION_COLUMNS = ("x", "y", "z")
 ORIENTATION_COLUMNS = ("rx", "ry", "rz")
 SIGMA_COLUMNS = ("sx", "sy", "sz")
 CONSTRAINT_COLUMNS = ("fixture", "socket")
-_NAMED_COLUMNS = POSITION_COLUMNS + ORIENTATION_COLUMNS + SIGMA_COLUMNS + CONSTRAINT_COLUMNS
+_NAMED_COLUMNS = POSITION_COLUMNS + ORIENTATION_COLUMNS + SIGMA_COLUMNS + CONSTRAINT_COLUMNS + (KIND_COLUMN,)
 _JOINT_COLUMN = re.compile(r"q([1-9][0-9]*)")
 # Joint names offered as spelling suggestions even when the file has fewer joints.
 _SUGGESTED_JOINT_COUNT = 12
@@ -252,11 +253,18 @@ def read_measurements(path: str | os.PathLike, n_joints: int | None = None) -> M
         RobocalWarning: joint values that look like radians; identical rows.
     """
     table = _read_table(path)
+    # A design's poses file becomes a measurement file when the measured x, y, z (or the
+    # sockets) are added to it.
+    kind = check_kind(table.path, table.header, _kind_cells(table), ("measurements", "poses"), "a measurement file",
+                      "measured data: q1..qN with the x, y, z the instrument measured")
     joint_names = _check_header(table, n_joints)
     has_positions = _column_group_present(table, POSITION_COLUMNS, "measured positions")
     has_orientations = _column_group_present(table, ORIENTATION_COLUMNS, "measured orientations")
     has_sigmas = _column_group_present(table, SIGMA_COLUMNS, "standard deviations")
     has_constraints = _column_group_present(table, CONSTRAINT_COLUMNS, "constraint data")
+    if kind == "poses" and not (has_positions or has_constraints):
+        raise FileFormatError(f"{table.path} is robocal's planned poses, written by 'robocal design': measure them "
+                              "and add the measured x, y, z (mm) to each row, then calibrate on it")
     if not (has_positions or has_constraints):
         raise FileFormatError(
             f"{table.path} has neither measured positions nor constraint data: add columns x, y, z "
@@ -296,6 +304,8 @@ def read_targets(path: str | os.PathLike, n_joints: int | None = None) -> Target
         RobocalWarning: orientations that look like radians.
     """
     table = _read_table(path)
+    check_kind(table.path, table.header, _kind_cells(table), ("measurements",), "a targets file",
+               "the targets themselves (x, y, z, rx, ry, rz)")
     joint_names = _check_header(table, n_joints, joints_required=False)
     missing = [name for name in POSITION_COLUMNS + ORIENTATION_COLUMNS if name not in table.header]
     if missing:
@@ -312,6 +322,11 @@ def read_targets(path: str | os.PathLike, n_joints: int | None = None) -> Target
     )
     _warn_if_radian_orientations(targets)
     return targets
+
+
+def _kind_cells(table):
+    """The cells of the column that says which robocal file this is (None: it has none)."""
+    return table.column(KIND_COLUMN) if KIND_COLUMN in table.header else None
 
 
 @dataclass(frozen=True)
@@ -648,6 +663,7 @@ def write_measurements(path: str | os.PathLike, data: Measurements) -> Path:
         columns["socket"] = data.socket.tolist()
     for name, values in data.extra.items():
         columns[name] = values.tolist()
+    # Not marked: a simulated measurement file is what a user's is, and is read as one.
     return _write_csv(path, columns)
 
 
@@ -705,7 +721,7 @@ def write_commands(
         if name in columns or len(cells) != count:
             raise InputError(f"extra column {name!r} clashes with a command column or does not have {count} cells")
         columns[name] = [str(cell) for cell in cells]
-    return _write_csv(path, columns)
+    return _write_csv(path, marked(columns, "commands"))
 
 
 def _add_number_columns(columns: dict[str, list[str]], names, values: np.ndarray, blank: np.ndarray | None = None) -> None:

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import FileFormatError, InputError
 from ..io.atomic import check_outputs, write_text_atomic
+from ..io.file_kinds import KIND_COLUMN, check_kind, marked
 from ..io.reading import read_text
 from ..io.library import load_robot
 from ..io.observations import check_robot_in_mm, read_observations, read_target_poses
@@ -79,6 +80,10 @@ def read_joints(path, chain, what="configurations"):
     ignored) -> ((N, n) rad, header).  One-line errors for missing columns, empty, non-numeric
     or NaN cells, radian-looking values and values beyond the joint limits."""
     header, rows = _table(path)
+    kind_cells = [row[header.index(KIND_COLUMN)] for row in rows if len(row) == len(header)] \
+        if KIND_COLUMN in header else None
+    check_kind(path, header, kind_cells, ("measurements", "poses"), f"a file of {what}",
+               "measured or planned joint configurations (q1..qN)")
     names = [f"q{k}" for k in range(1, chain.n_joints + 1)]
     missing = [name for name in names if name not in header]
     if missing:
@@ -128,6 +133,7 @@ def _write_poses(path, chain, joints, extra=None):
     for c, axis in enumerate("xyz"):
         columns[f"{axis}_nominal"] = [f"{v:.3f}" for v in nominal[:, c]]
     columns.update(extra or {})
+    columns = marked(columns, "poses")
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(list(columns))
