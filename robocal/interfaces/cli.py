@@ -994,6 +994,8 @@ def design(
     rpy: str = typer.Option(None, help="With --box: the TCP orientation rx,ry,rz in deg (default 180,0,0).", **_numbers(count=3)),
     hint: str = typer.Option(None, help="With --box: a posture q1,...,qn in deg whose IK branch every candidate takes.", **_numbers()),
     tool: str = typer.Option(None, help="The TCP x,y,z in mm in the flange frame, in place of the robot file's tool.", **_numbers(count=3)),
+    floor: str = typer.Option(None, metavar="<mm|none>", help="The lowest z (mm, robot base frame) the arm's joints and TCP may take in a drawn candidate. Default 0: above the mounting plane (a table- or floor-mounted robot); none for a wall or ceiling mount."),
+    walls: str = typer.Option(None, help="Keep the arm's joints and TCP within xmin,xmax,ymin,ymax (mm, robot base frame).", **_numbers(count=4)),
     margin: float = typer.Option(5.0, help="Degrees the candidates keep from joint limits and singularities.", **_number(at_least=0, at_most=45)),
     existing: str = typer.Option(None, help="Measurement (or poses) CSV of poses measured before: design the --n poses that best complement them; with x, y, z their calibration's residual sets the noise unless --noise is given."),
     targets: str = typer.Option(None, help="Where the robot will work: a CSV of configurations (q1..qN, deg) or of targets (x, y, z, rx, ry, rz; mm, deg, robot base frame). Default: the candidates."),
@@ -1026,6 +1028,7 @@ def design(
     Ball in sockets: robocal design panda --fixture plate.toml --placements where.csv --n 72 --per-socket 8 --out plan.csv
     """
     from ..planning.job import design_job, socket_job
+    from ..planning.workspace import WorkingVolume, parse_floor
 
     if noise is not None and noise <= 0:
         raise InputError(f"--noise is a standard deviation and must be > 0 mm, got {noise}")
@@ -1036,6 +1039,7 @@ def design(
                          f"{'it' if len(given) == 1 else 'them'} out")
     if fixture is not None:
         pose_options = {"--candidates": candidates, "--box": box, "--rpy": rpy, "--hint": hint, "--existing": existing,
+                        "--floor": floor, "--walls": walls,
                         "--targets": targets, "--tracker": tracker, "--payload": payload,
                         "--joint-noise": joint_noise or None, "--sag": sag or None,
                         "--parameters": parameters if parameters != "full" else None,
@@ -1055,7 +1059,7 @@ def design(
                             candidates=candidates, pool=pool, sampling=sampling, box=box, rpy=rpy, hint=hint,
                             tool=tool, margin=margin, existing=existing, targets=targets, noise=noise,
                             tracker=tracker, payload=payload, order=order, root=root, tip=tip,
-                            joint_noise=joint_noise, sag=sag)
+                            joint_noise=joint_noise, sag=sag, volume=WorkingVolume(parse_floor(floor), walls))
     if as_json:
         print(json.dumps(result, indent=2))
         return
@@ -1079,7 +1083,7 @@ def design(
     table = Table(title=f"{result['poses']} poses of {result['candidates']} candidates ({result['criterion']}) -> {out_file}",
                   show_header=False)
     for key, value in (("robot", result["robot"]), ("candidates", result["candidates_from"]),
-                       ("targets", result["targets"]), ("measured before", result["existing"]),
+                       ("working volume", result["working_volume"]), ("targets", result["targets"]), ("measured before", result["existing"]),
                        ("noise", f"{result['noise_mm']:.4f} mm ({result['noise_from']})"
                         + (f", {result['joint_noise_deg']:g} deg at every joint" if result["joint_noise_deg"] else "")
                         + (f", sag {result['sag_deg']:g} deg left out" if result["sag_deg"] else "")),

@@ -51,10 +51,11 @@ def _limits(chain, margin):
     return lower, upper
 
 
-def joint_candidates(chain, count, seed=0, *, sampling="uniform", margin_deg=MARGIN_DEG):
+def joint_candidates(chain, count, seed=0, *, sampling="uniform", margin_deg=MARGIN_DEG, volume=None):
     """``count`` joint vectors (count, n) rad drawn ``uniform`` or as a Latin hypercube
     (``lhs``) within the limits less ``margin_deg``, those near a singularity (see
-    :func:`usable`) replaced by further draws; reproducible for ``seed``."""
+    :func:`usable`) or, with ``volume`` (a :class:`~robocal.planning.workspace.WorkingVolume`),
+    outside the working volume replaced by further draws; reproducible for ``seed``."""
     if sampling not in SAMPLINGS:
         raise InputError(f"sampling must be one of {', '.join(SAMPLINGS)}, got {sampling!r}")
     lower, upper = _limits(chain, np.radians(margin_deg))
@@ -66,9 +67,14 @@ def joint_candidates(chain, count, seed=0, *, sampling="uniform", margin_deg=MAR
         else:
             unit = rng.random((count, chain.n_joints))
         q = lower + unit * (upper - lower)
-        kept.append(q[usable(chain, q, margin_deg)])
+        q = q[usable(chain, q, margin_deg)]
+        kept.append(q if volume is None else q[volume.inside(chain, q)])
         if sum(len(k) for k in kept) >= count:
             return np.concatenate(kept)[:count]
+    if volume is not None:
+        raise InputError(f"hardly any configuration of robot {chain.name!r} keeps the arm in the working volume "
+                         f"({volume.describe()}) {margin_deg:g} deg from its singularities: check --floor and --walls "
+                         "(mm, robot base frame)")
     raise InputError(f"hardly any configuration of robot {chain.name!r} lies {margin_deg:g} deg from its "
                      "singularities: give a smaller --margin")
 
@@ -89,7 +95,7 @@ def _branch(chain, targets, hint):
     return int(np.argmin(np.where(ok[0], np.linalg.norm(difference, axis=1), np.inf)))
 
 
-def box_candidates(chain, count, low, high, orientation, seed=0, *, hint=None, margin_deg=MARGIN_DEG):
+def box_candidates(chain, count, low, high, orientation, seed=0, *, hint=None, margin_deg=MARGIN_DEG, volume=None):
     """Joint vectors putting the TCP at ``count`` Latin-hypercube points of the box
     ``low``..``high`` (x, y, z mm, robot base frame) with the rotation ``orientation`` (3x3),
     on one IK branch (the ``hint`` posture's, rad, else the one reaching most points), kept
@@ -107,11 +113,14 @@ def box_candidates(chain, count, low, high, orientation, seed=0, *, hint=None, m
     result = solve_ik(chain, targets, hint, branch=_branch(chain, targets, hint) if hint is None else None)
     q = result.q[result.success]
     q = q[usable(chain, q, margin_deg)] if len(q) else q
+    if volume is not None and len(q):
+        q = q[volume.inside(chain, q)]
     if len(q) < max(REACHABLE_SHARE * count, 1):
         raise InputError(
             f"only {len(q)} of {count} points of the box x {low[0]:g}..{high[0]:g}, y {low[1]:g}..{high[1]:g}, "
             f"z {low[2]:g}..{high[2]:g} mm are reachable by robot {chain.name!r} with that orientation, "
-            f"{margin_deg:g} deg from its joint limits and singularities: move the box to where the robot reaches "
+            f"{margin_deg:g} deg from its joint limits and singularities"
+            + ("" if volume is None else f", with {volume.describe()}") + ": move the box to where the robot reaches "
             "in that posture (robot base frame, mm), or change --rpy or --margin")
     return q
 

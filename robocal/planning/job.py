@@ -32,6 +32,7 @@ from ..spatial import compose_pose, rpy_to_matrix
 from .candidates import DEFAULT_COUNT, MARGIN_DEG, box_candidates, joint_candidates
 from .criteria import DEFAULT_CRITERION, VarianceKernel
 from .design import design_poses
+from .workspace import WorkingVolume
 
 # Joint values in a file that all lie within this (and spread by at least RADIAN_SPREAD over
 # RADIAN_ROWS rows or more) are radians, not the degrees robocal reads.
@@ -197,15 +198,18 @@ def _variance_kernel(path, chain, parameters, payload):
 def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters="full", candidates=None,
                pool=DEFAULT_COUNT, sampling="uniform", box=None, rpy=None, hint=None, tool=None,
                margin=MARGIN_DEG, existing=None, targets=None, noise=None, tracker=None, payload=None,
-               order="tour", root=None, tip=None, joint_noise=0.0, sag=0.0):
+               order="tour", root=None, tip=None, joint_noise=0.0, sag=0.0, volume=None):
     """Design ``n`` poses for ``robot`` and write them to ``out`` (module notes); returns the
     JSON-ready result: the design's :meth:`~robocal.planning.Design.to_dict` and where the
-    candidates, the noise and the poses came from and went."""
+    candidates, the noise and the poses came from and went.  ``volume``: the
+    :class:`~robocal.planning.workspace.WorkingVolume` drawn candidates keep to (default:
+    above the mounting plane); a user's own ``candidates`` are taken as given."""
     check_outputs([out], [robot, candidates, existing, targets])
     chain = load_robot(robot, root=root, tip=tip)
     if tool is not None:
         chain = chain.replace(tool=compose_pose(np.asarray(tool, dtype=float), np.zeros(3)))
     check_robot_in_mm(chain)
+    volume = WorkingVolume() if volume is None else volume
     if candidates is not None:
         given = {"--pool": pool != DEFAULT_COUNT or None, "--sampling": sampling != "uniform" or None, "--box": box,
                  "--rpy": rpy, "--hint": hint}
@@ -219,12 +223,12 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
         rotation = rpy_to_matrix(np.radians(rpy if rpy is not None else [180.0, 0.0, 0.0]))
         hint_rad = None if hint is None else chain.joints_from_file(np.asarray(hint, dtype=float))
         q = box_candidates(chain, pool, np.asarray(box[0::2], float), np.asarray(box[1::2], float), rotation, seed,
-                           hint=hint_rad, margin_deg=margin)
+                           hint=hint_rad, margin_deg=margin, volume=volume)
         source = f"{len(q)} reachable of {pool} Latin-hypercube points in the box"
     else:
         if rpy is not None or hint is not None:
             raise InputError("--rpy and --hint set the TCP orientation in a --box: give --box too, or leave them out")
-        q = joint_candidates(chain, pool, seed, sampling=sampling, margin_deg=margin)
+        q = joint_candidates(chain, pool, seed, sampling=sampling, margin_deg=margin, volume=volume)
         source = f"{len(q)} {sampling} joint configurations {margin:g} deg inside the limits"
     if n > len(q):
         raise InputError(f"--n {n} poses asked for but there are {len(q)} candidates: ask for at most {len(q)}, or give "
@@ -247,6 +251,7 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
                           joint_noise=joint_noise, sag=sag)
     _write_poses(out, chain, design.joints)
     return {"robot": chain.name, "out": str(out), "candidates_from": source, "noise_from": noise_note,
+            "working_volume": ("your candidates, as given" if candidates is not None else volume.describe()),
             "targets": "the candidates" if targets is None else f"{len(target_q)} configurations of {targets}",
             **design.to_dict()}
 

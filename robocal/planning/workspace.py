@@ -1,0 +1,94 @@
+"""Where a planned pose may put the arm: the working volume of a design.
+
+A pose drawn uniformly in the joint limits is often one the robot cannot take: half of a
+UR5's put the wrist or the TCP below its own base, through the table it stands on.  A
+design (``robocal design``) therefore keeps only candidates whose arm stays in the working
+volume:
+
+* above a floor, by default the robot's mounting plane (z = 0 of the robot base frame: a
+  table- or floor-mounted arm); ``--floor`` sets another height, ``--floor none`` lifts it
+  (a wall or ceiling mount, where the walls or a box say where the cell is);
+* within walls (``--walls xmin,xmax,ymin,ymax``), when given;
+
+and says which volume it assumed.  The arm is checked at the origin of every joint beyond
+the first (which sits on the mounting) and at the TCP: where the links and the tool are,
+to first order.  Positions are in mm in the robot base frame (the robot file's base
+transform is not applied: the mounting is the robot's own).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+
+
+@dataclass(frozen=True)
+class WorkingVolume:
+    """``floor_mm``: the lowest z any point of the arm may take (None: no floor);
+    ``walls_mm``: (xmin, xmax, ymin, ymax) or None."""
+
+    floor_mm: float | None = 0.0
+    walls_mm: tuple | None = None
+
+    def __post_init__(self):
+        if self.walls_mm is not None:
+            walls = tuple(float(v) for v in self.walls_mm)
+            if len(walls) != 4 or walls[0] >= walls[1] or walls[2] >= walls[3]:
+                raise InputError(f"--walls must be xmin,xmax,ymin,ymax (mm) with each min below its max, got "
+                                 f"{','.join(f'{v:g}' for v in walls)}")
+            object.__setattr__(self, "walls_mm", walls)
+
+    def points(self, chain, joints):
+        """(N, n, 3) mm: the origins of joints 2..n and the TCP, robot base frame."""
+        mounted = chain.replace(base=np.eye(4))
+        _, origins, tcp = mounted.joint_frames(np.asarray(joints, dtype=float))
+        return np.concatenate([origins[:, 1:, :], tcp[:, None, :3, 3]], axis=1)
+
+    def inside(self, chain, joints):
+        """(N,) bool: the configurations ``joints`` (N, n) rad whose arm stays in the volume."""
+        joints = np.asarray(joints, dtype=float)
+        if len(joints) == 0:
+            return np.zeros(0, dtype=bool)
+        points = self.points(chain, joints)
+        keep = np.ones(len(joints), dtype=bool)
+        if self.floor_mm is not None:
+            keep &= points[:, :, 2].min(axis=1) >= self.floor_mm
+        if self.walls_mm is not None:
+            x, y = points[:, :, 0], points[:, :, 1]
+            xmin, xmax, ymin, ymax = self.walls_mm
+            keep &= (x.min(axis=1) >= xmin) & (x.max(axis=1) <= xmax) & (y.min(axis=1) >= ymin) & (y.max(axis=1) <= ymax)
+        return keep
+
+    def describe(self):
+        """One line: what the design assumed."""
+        parts = []
+        if self.floor_mm is None:
+            parts.append("no floor (a wall or ceiling mount)")
+        elif self.floor_mm == 0.0:
+            parts.append("above the mounting plane, z >= 0 mm (a table or floor mount; --floor to change)")
+        else:
+            parts.append(f"above z = {self.floor_mm:g} mm (--floor)")
+        if self.walls_mm is not None:
+            parts.append("within x {:g}..{:g}, y {:g}..{:g} mm (--walls)".format(*self.walls_mm))
+        return ", ".join(parts)
+
+    def to_dict(self):
+        return {"floor_mm": self.floor_mm, "walls_mm": None if self.walls_mm is None else list(self.walls_mm),
+                "assumed": self.describe()}
+
+
+def parse_floor(text):
+    """``--floor``: a height in mm, or ``none``."""
+    if text is None:
+        return 0.0
+    if str(text).strip().lower() == "none":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"--floor takes a height in mm (robot base frame) or none, got {text!r}") from None
+    if not np.isfinite(value):
+        raise InputError(f"--floor must be a finite height in mm, got {text!r}")
+    return value
