@@ -23,21 +23,13 @@ from ..spatial import compose_pose, pose_to_xyz_rpy, rpy_to_matrix
 from .fixtures import Fixture, fixture_from_dict, fixture_to_dict, read_fixture
 from .library import load_robot
 from .tables import Measurements, read_measurements, read_targets, write_commands
+from .units import check_hint_units, check_measurement_units
 
 # Joint readings may pass a limit by a little (limits in data sheets are rounded, encoders
 # overshoot); beyond this they are not the robot's (the packaged Panda data come within
 # 1.1 deg of the limits, the UR data within 55 deg).
 LIMIT_TOLERANCE_DEG = 0.5
 LIMIT_TOLERANCE_MM = 0.5
-# The measured positions' spread (RMS distance from their centroid) over the nominal model's
-# at the same joints.  Right unit and robot: 0.9992 (UR5), 0.9995 and 1.0008 (UR10 A and B);
-# an unknown tool or base shifts it a little (base: not at all).  Metres give 1/1000, inches
-# 1/25.4, cm 1/10, micrometres 1000; the band leaves a factor of 2 to cm and 20 to µm, for a
-# tool the robot file does not have.
-SPREAD_RATIO_BAND = (0.2, 50.0)
-# The model must move this much (RMS, mm) over the poses for the ratio to mean anything.
-SPREAD_JUDGED_MM = 10.0
-LENGTH_UNITS = {"metres": 1e-3, "inches": 1 / 25.4, "cm": 0.1, "micrometres": 1e3}
 # The flange of an industrial robot reaches hundreds of mm from its base; a model that stays
 # within this over every pose has its lengths in metres.
 SMALLEST_REACH_MM = 10.0
@@ -176,7 +168,7 @@ def observations(chain, data: Measurements, fixture: Fixture | None = None, *, b
         _check_limits(chain, data, joints)
     check_robot_in_mm(chain, joints)
     if data.positions is not None:
-        _check_length_unit(chain, data, joints)
+        check_measurement_units(chain, data.joints, data.positions, data.path)
     return Observations(
         path=data.path, joints=joints, positions=data.positions,
         rotations=None if data.orientations is None else rpy_to_matrix(np.radians(data.orientations)),
@@ -251,11 +243,6 @@ def _check_limits(chain, data: Measurements, joints):
         "or the robot file's min and max, or accept values beyond the limits (--beyond-limits; beyond_limits=True in Python)")
 
 
-def _spread(points):
-    """RMS distance (mm) of the points from their centroid."""
-    return float(np.sqrt(np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))
-
-
 def check_robot_in_mm(chain, joints=None):
     """InputError when the robot's flange stays within SMALLEST_REACH_MM of its base over
     ``joints`` (N, n) rad, or over its joint range when None: its file gives lengths in
@@ -274,31 +261,6 @@ def check_robot_in_mm(chain, joints=None):
             "industrial robot reaches hundreds of mm: its robot file looks like metres; give its lengths in mm")
 
 
-def _check_length_unit(chain, data: Measurements, joints):
-    """InputError when the measured positions spread over the poses by another scale than the
-    robot's model at the same joints: they are in another unit than mm."""
-    if len(joints) < 2:
-        return
-    model = _spread(chain.rigid.fk_positions(joints))
-    if model < SPREAD_JUDGED_MM:
-        return
-    measured = _spread(np.asarray(data.positions, dtype=float))
-    ratio = measured / model
-    low, high = SPREAD_RATIO_BAND
-    if low <= ratio <= high:
-        return
-    unit = min(LENGTH_UNITS, key=lambda name: abs(np.log(max(ratio, 1e-300) / LENGTH_UNITS[name])))
-    if measured == 0.0:
-        looks = "every row gives the same position"
-    elif abs(np.log(ratio / LENGTH_UNITS[unit])) > np.log(2.0):
-        looks = f"they are not in mm for this robot (1 mm of the model is {ratio:.3g} in the file)"
-    else:
-        looks = f"they look like {unit}"
-    raise InputError(
-        f"the measured positions of {data.path or 'the data'} spread {measured:.3g} over these poses where the "
-        f"model of '{chain.name}' spreads {model:.0f} mm: {looks}; give x, y, z in mm (or check the robot file)")
-
-
 @dataclass(frozen=True, eq=False)
 class TargetPoses:
     """A targets file in internal units: ``poses`` (N, 4, 4) (mm) in the measurement frame,
@@ -313,6 +275,8 @@ class TargetPoses:
 def read_target_poses(path, chain) -> TargetPoses:
     """Read a targets CSV (x, y, z mm; rx, ry, rz deg; optional q1..qN deg) for ``chain``."""
     targets = read_targets(path, n_joints=chain.n_joints)
+    if targets.hints is not None:
+        check_hint_units(chain, targets.hints, targets.positions, targets.path)
     hints = None if targets.hints is None else chain.joints_from_file(targets.hints)
     return TargetPoses(targets.path, compose_pose(targets.positions, np.radians(targets.orientations)), hints,
                        np.asarray(targets.rows))
