@@ -1,0 +1,1 @@
+"""Acceptance tests of a robot's accuracy in the language of standards (ISO 9283)."""

@@ -1,0 +1,68 @@
+"""The ISO 9283 campaign file: one row per visit of a commanded pose.
+
+Columns: ``pose`` (optional: the commanded pose's name; without it visits are grouped by
+their commanded position), ``cycle`` (optional), ``x_cmd, y_cmd, z_cmd`` (mm) and the
+measured ``x, y, z`` (mm); optionally ``rx_cmd, ry_cmd, rz_cmd`` with ``rx, ry, rz`` (deg)
+for the orientation characteristics.  Other columns are kept and ignored.  ``robocal
+iso9283 plan`` writes the same columns without the measured ones.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import FileFormatError
+from .tables import _read_table
+
+COMMANDED = ("x_cmd", "y_cmd", "z_cmd")
+ATTAINED = ("x", "y", "z")
+COMMANDED_ANGLES = ("rx_cmd", "ry_cmd", "rz_cmd")
+ATTAINED_ANGLES = ("rx", "ry", "rz")
+
+
+@dataclass(frozen=True)
+class IsoCampaign:
+    """Visits of an ISO 9283 campaign as in the file: ``commanded``/``attained`` (N, 3) mm,
+    the angles (N, 3) deg or None, ``pose`` (N,) names or None, ``cycle`` (N,) or None,
+    ``rows`` (N,) file lines."""
+
+    path: str
+    commanded: np.ndarray
+    attained: np.ndarray
+    commanded_angles: np.ndarray | None
+    attained_angles: np.ndarray | None
+    pose: np.ndarray | None
+    cycle: np.ndarray | None
+    rows: np.ndarray
+
+
+def read_iso_campaign(path) -> IsoCampaign:
+    """Read an ISO 9283 campaign file (module notes).
+
+    Raises:
+        FileFormatError: a missing column group, cells that are not finite numbers, or
+            orientation columns on one side only.
+    """
+    table = _read_table(path)
+    missing = [c for c in COMMANDED + ATTAINED if c not in table.header]
+    if missing:
+        raise FileFormatError(f"{table.path} lacks column{'s' if len(missing) > 1 else ''} {', '.join(missing)}: an "
+                              "ISO 9283 campaign gives each visit's commanded x_cmd, y_cmd, z_cmd and measured x, y, z "
+                              "(mm), and optionally pose, cycle, rx_cmd..rz_cmd and rx..rz (deg)")
+    present = [set(group) <= set(table.header) for group in (COMMANDED_ANGLES, ATTAINED_ANGLES)]
+    if present[0] != present[1]:
+        have, lack = (COMMANDED_ANGLES, ATTAINED_ANGLES) if present[0] else (ATTAINED_ANGLES, COMMANDED_ANGLES)
+        raise FileFormatError(f"{table.path} has {', '.join(have)} but not {', '.join(lack)}: orientation "
+                              "characteristics need the commanded and the measured angles")
+    angles = present[0]
+    cycle = None
+    if "cycle" in table.header:
+        cycle = table.numbers(["cycle"])[:, 0]
+    return IsoCampaign(
+        path=table.path,
+        commanded=table.numbers(COMMANDED), attained=table.numbers(ATTAINED),
+        commanded_angles=table.numbers(COMMANDED_ANGLES) if angles else None,
+        attained_angles=table.numbers(ATTAINED_ANGLES) if angles else None,
+        pose=table.texts("pose") if "pose" in table.header else None,
+        cycle=cycle, rows=table.lines)
