@@ -93,3 +93,43 @@ def test_posture_hints_in_radians_are_refused_and_in_degrees_read(hinted):
 def test_the_command_line_refuses_other_units_in_one_line(args, says, hinted, tmp_path, monkeypatch):
     before = copy_inputs(hinted, tmp_path, monkeypatch)
     assert_refused(args.split(), says, tmp_path, before)
+
+
+def _tagged_copy(source, target, joints="rad", lengths="m"):
+    rows = list(csv.reader(open(source, newline="")))
+    header = rows[0]
+    to_joint = {"rad": np.radians, "deg": lambda v: v}[joints]
+    to_length = {"m": 1e-3, "mm": 1.0, "in": 1 / 25.4}[lengths]
+    with open(target, "w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow([f"{c}[{joints}]" if c.startswith("q") else f"{c}[{lengths}]" if c in ("x", "y", "z") else c
+                         for c in header])
+        for row in rows[1:]:
+            writer.writerow([repr(float(to_joint(float(v)))) if c.startswith("q") else
+                             repr(float(v) * to_length) if c in ("x", "y", "z") else v for c, v in zip(header, row)])
+
+
+@pytest.mark.parametrize("joints, lengths", [("rad", "m"), ("deg", "in"), ("rad", "mm")])
+def test_a_file_whose_header_tags_its_units_calibrates_to_the_same_model(hinted, tmp_path, joints, lengths):
+    _tagged_copy(hinted / "meas.csv", tmp_path / "tagged.csv", joints, lengths)
+    plain = run_ok("calibrate", "ur5", hinted / "meas.csv", "--out", tmp_path / "a.json", "--json").output
+    tagged = run_ok("calibrate", "ur5", tmp_path / "tagged.csv", "--out", tmp_path / "b.json", "--json").output
+    import json
+    a, b = json.loads(plain), json.loads(tagged)
+    assert abs(a["residual_after_training"]["mean_mm"] - b["residual_after_training"]["mean_mm"]) < 1e-9
+    assert a["calibration"]["parameters"].keys() == b["calibration"]["parameters"].keys()
+
+
+@pytest.mark.parametrize("header, says", [
+    ("q1[furlong],q2,q3,q4,q5,q6,x,y,z", "unit 'furlong', which robocal does not know"),
+    ("q1,q2,q3,q4,q5,q6,x[deg],y,z", "x is a length, not in deg"),
+    ("q1,q2,q3,q4,q5,q6,x,y,z,rx[m],ry,rz", "rx is an angle, not in m"),
+])
+def test_unit_tags_robocal_cannot_apply_are_refused(header, says, tmp_path):
+    from robocal.errors import FileFormatError
+    from robocal.io.tables import read_measurements
+
+    width = len(header.split(","))
+    (tmp_path / "t.csv").write_text(header + "\n" + ",".join(["1"] * width) + "\n")
+    with pytest.raises(FileFormatError, match=says):
+        read_measurements(tmp_path / "t.csv")

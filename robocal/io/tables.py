@@ -337,16 +337,20 @@ class _Table:
     header: list[str]
     cells: np.ndarray  # (N, number of columns) str
     lines: np.ndarray  # (N,) line number of each row
+    # Column name -> the factor that brings its numbers to robocal's units (its header's
+    # unit tag, see _unit_tags); columns without a tag are not in it.
+    scales: dict = dataclasses.field(default_factory=dict)
 
     def column(self, name: str) -> np.ndarray:
         """The raw cells of one column."""
         return self.cells[:, self.header.index(name)]
 
     def numbers(self, names) -> np.ndarray:
-        """The named columns as an (N, k) float array; every cell a finite number."""
+        """The named columns as an (N, k) float array in robocal's units (deg, mm); every
+        cell a finite number."""
         values = np.empty((len(self.lines), len(names)))
         for position, name in enumerate(names):
-            values[:, position] = self._number_column(name)
+            values[:, position] = self._number_column(name) * self.scales.get(name, 1.0)
         return values
 
     def texts(self, name: str) -> np.ndarray:
@@ -419,7 +423,7 @@ def _read_table(path: str | os.PathLike) -> _Table:
     if not records:
         raise FileFormatError(f"{name} is empty: expected a header line such as q1,q2,…,x,y,z and one row per measurement")
     header_line, header = records[0]
-    header = [cell.strip() for cell in header]
+    header, scales = _unit_tags(name, [cell.strip() for cell in header])
     _check_header_line(name, header)
     data = records[1:]
     if not data:
@@ -438,6 +442,7 @@ def _read_table(path: str | os.PathLike) -> _Table:
         header=header,
         cells=np.array([cells for _, cells in data], dtype=str).reshape(len(data), len(header)),
         lines=np.array([line for line, _ in data], dtype=int),
+        scales=scales,
     )
     return _without_blank_unnamed_columns(table)
 
@@ -456,6 +461,42 @@ def _records(path: str):
 
 def _read_text(path: str) -> str:
     return read_text(path, "CSV file", "table", form="CSV")
+
+
+# A header cell may carry its unit: "x[m]", "q2[rad]", "rz[deg]".  Factors to deg and mm.
+_UNIT_TAG = re.compile(r"(.+?)\s*\[\s*([^\]]+?)\s*\]")
+_ANGLE_TAGS = {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "rad": 180.0 / np.pi, "radian": 180.0 / np.pi,
+               "radians": 180.0 / np.pi}
+_LENGTH_TAGS = {"mm": 1.0, "m": 1000.0, "cm": 10.0, "in": 25.4, "inch": 25.4, "um": 1e-3, "µm": 1e-3}
+# Columns whose unit is an angle, a length, or either (a joint: revolute or prismatic).
+_ANGLE_NAMES = ORIENTATION_COLUMNS
+_LENGTH_NAMES = POSITION_COLUMNS + SIGMA_COLUMNS
+
+
+def _unit_tags(path: str, header: list[str]) -> tuple[list[str], dict]:
+    """(header without unit tags, {column: factor to deg or mm}) of a header whose cells may
+    end in a unit in brackets; an unknown unit, or a length unit on an angle (and the
+    reverse), is refused."""
+    names, scales = [], {}
+    for cell in header:
+        match = _UNIT_TAG.fullmatch(cell)
+        if match is None:
+            names.append(cell)
+            continue
+        name, unit = match.group(1).strip(), match.group(2).strip()
+        unit_key = unit.lower() if unit != "µm" else unit
+        angle, length = _ANGLE_TAGS.get(unit_key), _LENGTH_TAGS.get(unit_key)
+        is_joint = _JOINT_COLUMN.fullmatch(name) is not None
+        if angle is None and length is None:
+            raise FileFormatError(f"{path}: column {cell!r} has the unit {unit!r}, which robocal does not know: use "
+                                  "deg or rad for angles, mm, m, cm, in or um for lengths")
+        if (name in _ANGLE_NAMES and angle is None) or (name in _LENGTH_NAMES and length is None):
+            raise FileFormatError(f"{path}: column {cell!r}: {name} is {'an angle' if angle is None else 'a length'}, "
+                                  f"not in {unit}")
+        if name in _ANGLE_NAMES or name in _LENGTH_NAMES or is_joint:
+            scales[name] = angle if angle is not None else length
+        names.append(name)
+    return names, scales
 
 
 def _check_header_line(path: str, header: list[str]) -> None:
