@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import FileFormatError
-from .tables import _read_table
+from .csv_table import _read_table
 
 COMMANDED = ("x_cmd", "y_cmd", "z_cmd")
 ATTAINED = ("x", "y", "z")

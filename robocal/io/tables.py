@@ -8,29 +8,28 @@ with the header on line 1, which is also the row number a spreadsheet shows.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import difflib
-import io
 import os
-import re
 import warnings
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from robocal.errors import FileFormatError, InputError, RobocalWarning
-from robocal.io.atomic import write_text_atomic
-from robocal.io.file_kinds import KIND_COLUMN, check_kind, marked
-from robocal.io.reading import read_text
+from robocal.io.csv_table import (  # noqa: F401  (the column names are this module's vocabulary too)
+    CONSTRAINT_COLUMNS,
+    JOINT_COLUMN as _JOINT_COLUMN,
+    ORIENTATION_COLUMNS,
+    POSITION_COLUMNS,
+    SIGMA_COLUMNS,
+    _Table,
+    _read_table,
+)
+from robocal.io.csv_writing import write_commands, write_measurements  # noqa: F401  (re-exported)
+from robocal.io.file_kinds import KIND_COLUMN, check_kind
 
-POSITION_COLUMNS = ("x", "y", "z")
-ORIENTATION_COLUMNS = ("rx", "ry", "rz")
-SIGMA_COLUMNS = ("sx", "sy", "sz")
-CONSTRAINT_COLUMNS = ("fixture", "socket")
 _NAMED_COLUMNS = POSITION_COLUMNS + ORIENTATION_COLUMNS + SIGMA_COLUMNS + CONSTRAINT_COLUMNS + (KIND_COLUMN,)
-_JOINT_COLUMN = re.compile(r"q([1-9][0-9]*)")
 # Joint names offered as spelling suggestions even when the file has fewer joints.
 _SUGGESTED_JOINT_COUNT = 12
 
@@ -39,11 +38,6 @@ _SUGGESTED_JOINT_COUNT = 12
 _RADIAN_BOUND = 6.3
 _RADIAN_MIN_ROWS = 5
 _RADIAN_MIN_SPREAD = 0.5
-
-# No measured or commanded value of a robot comes near this (mm for positions and prismatic
-# joints, degrees for joints and orientations: a kilometre, ~2800 turns); beyond it a cell is
-# a slip (an exponent, a pasted id) and would only show up later as a meaningless spread.
-_LARGEST_VALUE = 1e6
 
 # Target orientations in radians: every rx, ry, rz within one half-turn in radians, and one
 # that a degree file would hardly hold within that bound — either a fraction beyond
@@ -329,221 +323,6 @@ def _kind_cells(table):
     return table.column(KIND_COLUMN) if KIND_COLUMN in table.header else None
 
 
-@dataclass(frozen=True)
-class _Table:
-    """The cells of a CSV file as strings, before any interpretation."""
-
-    path: str
-    header: list[str]
-    cells: np.ndarray  # (N, number of columns) str
-    lines: np.ndarray  # (N,) line number of each row
-    # Column name -> the factor that brings its numbers to robocal's units (its header's
-    # unit tag, see _unit_tags); columns without a tag are not in it.
-    scales: dict = dataclasses.field(default_factory=dict)
-
-    def column(self, name: str) -> np.ndarray:
-        """The raw cells of one column."""
-        return self.cells[:, self.header.index(name)]
-
-    def numbers(self, names) -> np.ndarray:
-        """The named columns as an (N, k) float array in robocal's units (deg, mm); every
-        cell a finite number."""
-        values = np.empty((len(self.lines), len(names)))
-        for position, name in enumerate(names):
-            values[:, position] = self._number_column(name) * self.scales.get(name, 1.0)
-        return values
-
-    def texts(self, name: str) -> np.ndarray:
-        """A text column (ids), stripped; every cell non-empty."""
-        texts = np.char.strip(self.column(name))
-        empty = np.flatnonzero(texts == "")
-        if empty.size:
-            raise FileFormatError(f"{self.where(empty[0], name)} is empty: every row needs a {name} id")
-        return texts
-
-    def check_positive(self, names, values: np.ndarray, problem: str) -> None:
-        """Fail at the first cell of ``values`` (columns ``names``) that is not > 0."""
-        bad_rows, bad_columns = np.nonzero(values <= 0)
-        if bad_rows.size:
-            row, column = bad_rows[0], bad_columns[0]
-            raise FileFormatError(
-                f"{self.where(row, names[column])}: {problem}, got {self.column(names[column])[row].strip()}"
-            )
-
-    def where(self, row_index: int, name: str) -> str:
-        """``"file, row R, column 'c'"`` for messages."""
-        return f"{self.path}, row {self.lines[row_index]}, column '{name}'"
-
-    def _number_column(self, name: str) -> np.ndarray:
-        cells = self.column(name)
-        try:
-            values = cells.astype(float)
-        except ValueError:
-            values = self._parse_cell_by_cell(name, cells)
-        not_finite = np.flatnonzero(~np.isfinite(values))
-        if not_finite.size:
-            row = not_finite[0]
-            raise FileFormatError(
-                f"{self.where(row, name)}: '{cells[row].strip()}' is not a finite number: "
-                f"replace it with a measured value or delete the row"
-            )
-        absurd = np.flatnonzero(np.abs(values) > _LARGEST_VALUE)
-        if absurd.size:
-            row = absurd[0]
-            raise FileFormatError(
-                f"{self.where(row, name)}: {cells[row].strip()} is beyond ±{_LARGEST_VALUE:.0e}, more than any "
-                f"robot measures (mm, degrees): fix the cell or delete the row"
-            )
-        return values
-
-    def _parse_cell_by_cell(self, name: str, cells: np.ndarray) -> np.ndarray:
-        """Find the offending cell after the fast vectorised parse failed."""
-        values = np.empty(len(cells))
-        for row, cell in enumerate(cells):
-            try:
-                values[row] = float(cell)
-            except ValueError:
-                raise FileFormatError(f"{self.where(row, name)}: {_describe_bad_number(cell)}") from None
-        return values
-
-
-def _describe_bad_number(cell: str) -> str:
-    text = cell.strip()
-    if not text:
-        return "the cell is empty: every row needs a value; fill it in or delete the row"
-    if re.fullmatch(r"[+-]?[0-9]*,[0-9]+", text):
-        return f"'{text}' is not a number: use '.' as the decimal point, not ','"
-    return f"'{text}' is not a number: fix the cell or delete the row"
-
-
-def _read_table(path: str | os.PathLike) -> _Table:
-    """Read a comma-separated file with a header into strings, checking its shape."""
-    name = str(path)
-    records = list(_records(name))
-    if not records:
-        raise FileFormatError(f"{name} is empty: expected a header line such as q1,q2,…,x,y,z and one row per measurement")
-    header_line, header = records[0]
-    header, scales = _unit_tags(name, [cell.strip() for cell in header])
-    _check_header_line(name, header)
-    data = records[1:]
-    if not data:
-        raise FileFormatError(f"{name} has a header but no data rows")
-    lengths = np.fromiter((len(cells) for _, cells in data), dtype=int, count=len(data))
-    wrong = np.flatnonzero(lengths != len(header))
-    if wrong.size:
-        line, cells = data[wrong[0]]
-        hint = " (a decimal comma such as 1,5 splits a number in two: use '.')" if len(cells) > len(header) else ""
-        raise FileFormatError(
-            f"{name}, row {line}: {len(cells)} cells but the header has {len(header)} columns{hint}: "
-            f"every row needs one value per header column"
-        )
-    table = _Table(
-        path=name,
-        header=header,
-        cells=np.array([cells for _, cells in data], dtype=str).reshape(len(data), len(header)),
-        lines=np.array([line for line, _ in data], dtype=int),
-        scales=scales,
-    )
-    return _without_blank_unnamed_columns(table)
-
-
-def _records(path: str):
-    """Yield (line number, cells) of every non-blank line of a CSV file."""
-    text = _read_text(path)
-    reader = csv.reader(io.StringIO(text, newline=""))
-    try:
-        for cells in reader:
-            if cells:
-                yield reader.line_num, cells
-    except csv.Error as error:
-        raise FileFormatError(f"{path}, row {reader.line_num}: {error}: check the quoting of that line") from None
-
-
-def _read_text(path: str) -> str:
-    return read_text(path, "CSV file", "table", form="CSV")
-
-
-# A header cell may carry its unit: "x[m]", "q2[rad]", "rz[deg]".  Factors to deg and mm.
-_UNIT_TAG = re.compile(r"(.+?)\s*\[\s*([^\]]+?)\s*\]")
-_ANGLE_TAGS = {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "rad": 180.0 / np.pi, "radian": 180.0 / np.pi,
-               "radians": 180.0 / np.pi}
-_LENGTH_TAGS = {"mm": 1.0, "m": 1000.0, "cm": 10.0, "in": 25.4, "inch": 25.4, "um": 1e-3, "µm": 1e-3}
-# Columns whose unit is an angle, a length, or either (a joint: revolute or prismatic).
-_ANGLE_NAMES = ORIENTATION_COLUMNS
-_LENGTH_NAMES = POSITION_COLUMNS + SIGMA_COLUMNS
-
-
-def _unit_tags(path: str, header: list[str]) -> tuple[list[str], dict]:
-    """(header without unit tags, {column: factor to deg or mm}) of a header whose cells may
-    end in a unit in brackets; an unknown unit, or a length unit on an angle (and the
-    reverse), is refused."""
-    names, scales = [], {}
-    for cell in header:
-        match = _UNIT_TAG.fullmatch(cell)
-        if match is None:
-            names.append(cell)
-            continue
-        name, unit = match.group(1).strip(), match.group(2).strip()
-        unit_key = unit.lower() if unit != "µm" else unit
-        angle, length = _ANGLE_TAGS.get(unit_key), _LENGTH_TAGS.get(unit_key)
-        is_joint = _JOINT_COLUMN.fullmatch(name) is not None
-        if angle is None and length is None:
-            raise FileFormatError(f"{path}: column {cell!r} has the unit {unit!r}, which robocal does not know: use "
-                                  "deg or rad for angles, mm, m, cm, in or um for lengths")
-        if (name in _ANGLE_NAMES and angle is None) or (name in _LENGTH_NAMES and length is None):
-            raise FileFormatError(f"{path}: column {cell!r}: {name} is {'an angle' if angle is None else 'a length'}, "
-                                  f"not in {unit}")
-        if name in _ANGLE_NAMES or name in _LENGTH_NAMES or is_joint:
-            scales[name] = angle if angle is not None else length
-        names.append(name)
-    return names, scales
-
-
-def _check_header_line(path: str, header: list[str]) -> None:
-    if not any(header):
-        raise FileFormatError(f"{path} has no header: the first line must name the columns (q1,q2,…,x,y,z)")
-    if header[0].lstrip().startswith("#"):
-        raise FileFormatError(f"{path}: line 1 is a comment ('#'); comment lines are not read: delete them so that "
-                              "the first line names the columns (q1,q2,…,x,y,z)")
-    if len(header) == 1 and re.search(r"[;\t]", header[0]):
-        raise FileFormatError(
-            f"{path} is not comma-separated: export it with ',' between fields and '.' as the decimal point"
-        )
-    if all(_is_number(cell) for cell in header):
-        raise FileFormatError(
-            f"{path}: the first line holds numbers, not column names: add a header line such as q1,q2,…,x,y,z"
-        )
-    seen: dict[str, int] = {}
-    for column, name in enumerate(header, start=1):
-        if name and name in seen:
-            raise FileFormatError(f"{path}: column '{name}' appears twice (columns {seen[name]} and {column}): rename or delete one")
-        seen[name] = column
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
-def _without_blank_unnamed_columns(table: _Table) -> _Table:
-    """Drop columns without a name and without content (trailing commas from spreadsheets)."""
-    unnamed = [column for column, name in enumerate(table.header) if not name]
-    if not unnamed:
-        return table
-    for column in unnamed:
-        filled = np.flatnonzero(np.char.strip(table.cells[:, column]) != "")
-        if filled.size:
-            raise FileFormatError(
-                f"{table.path}, row {table.lines[filled[0]]}: column {column + 1} has values but no name in the header: "
-                f"name it or delete it"
-            )
-    kept = [column for column in range(len(table.header)) if table.header[column]]
-    return dataclasses.replace(table, header=[table.header[c] for c in kept], cells=table.cells[:, kept])
-
-
 def _check_header(table: _Table, n_joints: int | None, joints_required: bool = True) -> list[str]:
     """Check the column names and return the joint columns in order q1 … qN."""
     indices = sorted(int(match.group(1)) for name in table.header if (match := _JOINT_COLUMN.fullmatch(name)))
@@ -684,122 +463,3 @@ def _describe_rows(lines: np.ndarray) -> str:
 
 
 # --------------------------------------------------------------------------- writing
-
-
-def write_measurements(path: str | os.PathLike, data: Measurements) -> Path:
-    """Write ``data`` as a measurement CSV file, atomically, and return the path.
-
-    Columns: q1 … qn, then x, y, z / rx, ry, rz / sx, sy, sz / fixture, socket where
-    present, then the extra columns.  Floats are written exactly (shortest repr), so
-    :func:`read_measurements` gives back the same numbers; ``rows`` become the lines of
-    the new file.
-    """
-    columns: dict[str, list[str]] = {}
-    _add_number_columns(columns, data.joint_names, data.joints)
-    for names, values in ((POSITION_COLUMNS, data.positions), (ORIENTATION_COLUMNS, data.orientations), (SIGMA_COLUMNS, data.sigmas)):
-        if values is not None:
-            _add_number_columns(columns, names, values)
-    if data.fixture is not None:
-        columns["fixture"] = data.fixture.tolist()
-        columns["socket"] = data.socket.tolist()
-    for name, values in data.extra.items():
-        columns[name] = values.tolist()
-    # Not marked: a simulated measurement file is what a user's is, and is read as one.
-    return _write_csv(path, columns)
-
-
-def write_commands(
-    path: str | os.PathLike,
-    joints: np.ndarray,
-    positions: np.ndarray,
-    orientations: np.ndarray,
-    *,
-    joint_ok: np.ndarray | None = None,
-    frame: str | None = None,
-    extra: dict[str, list[str]] | None = None,
-) -> Path:
-    """Write a commands CSV file (docs/ARCHITECTURE.md, "File formats"), atomically.
-
-    Args:
-        joints: (N, n) joint commands in degrees.
-        positions: (N, 3) corrected Cartesian targets in mm.
-        orientations: (N, 3) corrected rx, ry, rz in degrees.
-        joint_ok: optional (N,) bool, False for targets the robot cannot reach.  Adds a
-            ``reachable`` column (1/0); unreachable rows get empty joint cells, and empty
-            Cartesian cells where those are not finite.
-        frame: optional text naming the frame of x, y, z, rx, ry, rz; adds a ``frame``
-            column that says it on every row (a file read alone still says what it holds).
-        extra: optional further columns, by name, each N cells of text (e.g. whether a
-            target lies in the model's domain of validity).
-
-    Raises:
-        InputError: shapes that do not match, or non-finite values in a row that is
-            reachable (a wrong command must never be written).
-    """
-    joints = np.asarray(joints, dtype=float)
-    positions = np.asarray(positions, dtype=float)
-    orientations = np.asarray(orientations, dtype=float)
-    if joints.ndim != 2:
-        raise InputError(f"joint commands must be an (N, n) array, got shape {joints.shape}")
-    count = len(joints)
-    if positions.shape != (count, 3) or orientations.shape != (count, 3):
-        raise InputError(
-            f"commands need ({count}, 3) positions and orientations for {count} joint vectors, "
-            f"got {positions.shape} and {orientations.shape}"
-        )
-    reachable = np.ones(count, dtype=bool) if joint_ok is None else np.asarray(joint_ok, dtype=bool)
-    if reachable.shape != (count,):
-        raise InputError(f"joint_ok must have shape ({count},), got {reachable.shape}")
-    columns: dict[str, list[str]] = {}
-    _add_number_columns(columns, [f"q{i}" for i in range(1, joints.shape[1] + 1)], joints, blank=~reachable)
-    _add_number_columns(columns, POSITION_COLUMNS, positions, blank=~reachable)
-    _add_number_columns(columns, ORIENTATION_COLUMNS, orientations, blank=~reachable)
-    if joint_ok is not None:
-        columns["reachable"] = reachable.astype(int).astype(str).tolist()
-    if frame is not None:
-        columns["frame"] = [frame] * count
-    for name, cells in (extra or {}).items():
-        if name in columns or len(cells) != count:
-            raise InputError(f"extra column {name!r} clashes with a command column or does not have {count} cells")
-        columns[name] = [str(cell) for cell in cells]
-    return _write_csv(path, marked(columns, "commands"))
-
-
-def _add_number_columns(columns: dict[str, list[str]], names, values: np.ndarray, blank: np.ndarray | None = None) -> None:
-    """Format ``values`` column by column into ``columns``.
-
-    Rows flagged in ``blank`` may hold non-finite values, which become empty cells (joint
-    cells of such rows are always empty); any other non-finite value is refused.
-    """
-    values = np.asarray(values, dtype=float)
-    blank = np.zeros(len(values), dtype=bool) if blank is None else blank
-    is_joint = [bool(_JOINT_COLUMN.fullmatch(name)) for name in names]
-    bad_rows, bad_columns = np.nonzero(~np.isfinite(values) & ~blank[:, None])
-    if bad_rows.size:
-        raise InputError(
-            f"entry {bad_rows[0]} (counting from 0) of column '{names[bad_columns[0]]}' is "
-            f"{values[bad_rows[0], bad_columns[0]]}: only finite values can be written "
-            f"(mark unreachable targets with joint_ok)"
-        )
-    for column, name in enumerate(names):
-        empty = blank & (is_joint[column] | ~np.isfinite(values[:, column]))
-        columns[name] = ["" if skip else _number_text(value) for value, skip in zip(values[:, column].tolist(), empty.tolist())]
-
-
-# Below this a value is rounding noise of a zero (a joint at 0 deg read back as 2.6e-16),
-# far under any instrument's resolution in mm or degrees.
-_ZERO_NOISE = 1e-12
-
-
-def _number_text(value: float) -> str:
-    """The shortest text that reads back as ``value`` (repr), with rounding noise of a zero
-    and a negative zero written as 0.0."""
-    return "0.0" if abs(value) < _ZERO_NOISE else repr(value)
-
-
-def _write_csv(path: str | os.PathLike, columns: dict[str, list[str]]) -> Path:
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(list(columns))
-    writer.writerows(zip(*columns.values()))
-    return write_text_atomic(path, buffer.getvalue())
