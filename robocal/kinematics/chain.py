@@ -24,10 +24,10 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import InputError
-from ..spatial import invert, make_transform, matrix_to_rpy, so3_exp, translation
+from ..spatial import make_transform, matrix_to_rpy, so3_exp
 from . import program
+from .compile import compile_chain
 from .parameters import FRAME_KINDS, LINK_KINDS, ParameterSpace
-from .program import Op
 
 CONVENTIONS = ("dh", "mdh", "poe")
 # Where random configurations stop on a prismatic joint without limits.
@@ -243,113 +243,9 @@ class Chain:
 
     @cached_property
     def _compiled(self):
-        """(ops, tags): the factor program and, per parameter, where it acts.
-
-        A tag is (mark, 'rot' | 'trans', axis 0/1/2, coefficient): the parameter rotates
-        about / translates along that axis of the frame snapshot ``mark``.
-        """
-        ops, tags = [], {}
-
-        identity = np.eye(4)
-
-        def emit(kind, value=0.0, **kw):
-            # Factors that do nothing (zero angles and offsets, identity frames) are left out.
-            if kind == "const":
-                if not np.array_equal(kw["matrix"], identity):
-                    ops.append(Op(kind, value, **kw))
-            elif kind in ("mark", "joint") or value != 0.0:
-                ops.append(Op(kind, value, **kw))
-
-        def tag(name, mark, motion, axis, coef=1.0):
-            tags.setdefault(name, []).append((mark, motion, axis, coef))
-
-        # Base: translation then rotation, with a mark between them so base rotations act
-        # about world axes through the base origin.
-        emit("const", matrix=translation(*self.base[:3, 3]))
-        emit("mark", name="W")
-        emit("const", matrix=make_transform(self.base[:3, :3]))
-        for k, s in enumerate(FRAME_KINDS):
-            tag(f"base_{s}", "W", "trans" if k < 3 else "rot", k % 3)
-
-        if self.convention == "poe":
-            self._compile_poe(emit, tag)
-        else:
-            for i in range(self.n_joints):
-                (self._compile_dh_joint if self.convention == "dh" else self._compile_mdh_joint)(
-                    i, emit, tag
-                )
-        emit("const", matrix=self.flange)
-        emit("const", matrix=self.tool)
-        emit("mark", name="T")
-        for k, s in enumerate(FRAME_KINDS):
-            tag(f"tool_{s}", "T", "trans" if k < 3 else "rot", k % 3)
-        return tuple(ops), tags
-
-    def _joint_op(self, i, emit, offset_if_revolute, offset_if_prismatic):
-        revolute = self.joint_types[i] == "revolute"
-        if revolute:
-            emit("joint", offset_if_revolute, index=i, revolute=True)
-        else:
-            emit("rz", offset_if_revolute)
-            emit("joint", offset_if_prismatic, index=i, revolute=False)
-
-    def _compile_dh_joint(self, i, emit, tag):
-        k = i + 1
-        revolute = self.joint_types[i] == "revolute"
-        self._joint_op(i, emit, self.theta[i], self.d[i])
-        emit("mark", name=f"J{k}")
-        if revolute:
-            emit("tz", self.d[i])
-        emit("tx", self.a[i])
-        emit("mark", name=f"A{k}")
-        emit("rx", self.alpha[i])
-        emit("mark", name=f"B{k}")
-        emit("ry", self.beta[i])
-        tag(f"theta{k}", f"J{k}", "rot", 2)
-        tag(f"d{k}", f"J{k}", "trans", 2)
-        tag(f"a{k}", f"J{k}", "trans", 0)
-        tag(f"alpha{k}", f"A{k}", "rot", 0)
-        tag(f"beta{k}", f"B{k}", "rot", 1)
-
-    def _compile_mdh_joint(self, i, emit, tag):
-        k = i + 1
-        revolute = self.joint_types[i] == "revolute"
-        emit("mark", name=f"P{k}")
-        emit("rx", self.alpha[i])
-        emit("tx", self.a[i])
-        emit("mark", name=f"A{k}")
-        emit("ry", self.beta[i])
-        self._joint_op(i, emit, self.theta[i], self.d[i])
-        emit("mark", name=f"J{k}")
-        if revolute:
-            emit("tz", self.d[i])
-        tag(f"alpha{k}", f"P{k}", "rot", 0)
-        tag(f"a{k}", f"P{k}", "trans", 0)
-        tag(f"beta{k}", f"A{k}", "rot", 1)
-        tag(f"theta{k}", f"J{k}", "rot", 2)
-        tag(f"d{k}", f"J{k}", "trans", 2)
-
-    def _compile_poe(self, emit, tag):
-        frames = self.poe_frames()
-        previous_inv = np.eye(4)
-        for i in range(self.n_joints):
-            k = i + 1
-            emit("const", matrix=previous_inv @ frames[i])
-            emit("mark", name=f"P{k}")
-            revolute = self.joint_types[i] == "revolute"
-            emit("joint", self.theta[i], index=i, revolute=revolute)
-            emit("mark", name=f"J{k}")
-            previous_inv = invert(frames[i])
-            tag(f"theta{k}", f"J{k}", "rot" if revolute else "trans", 2)
-            # Moving the axis moves F_i on both sides of the joint: F E Rz(q) E^-1 F^-1.
-            for name, motion, axis in (("ux", "trans", 0), ("uy", "trans", 1),
-                                       ("wx", "rot", 0), ("wy", "rot", 1)):
-                tag(f"{name}{k}", f"P{k}", motion, axis, 1.0)
-                tag(f"{name}{k}", f"J{k}", motion, axis, -1.0)
-        emit("const", matrix=previous_inv @ self.home)
-        emit("mark", name="H")
-        for k, s in enumerate(FRAME_KINDS):
-            tag(f"home_{s}", "H", "trans" if k < 3 else "rot", k % 3)
+        """(ops, tags): the factor program and, per parameter, where it acts
+        (:func:`robocal.kinematics.compile.compile_chain`)."""
+        return compile_chain(self)
 
     # ---------------------------------------------------------- forward kinematics
     def fk(self, q):
