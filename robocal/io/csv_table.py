@@ -190,15 +190,14 @@ def _unit_tags(path: str, header: list[str]) -> tuple[list[str], dict]:
         name, unit = match.group(1).strip(), match.group(2).strip()
         unit_key = unit.lower() if unit != "µm" else unit
         angle, length = _ANGLE_TAGS.get(unit_key), _LENGTH_TAGS.get(unit_key)
-        is_joint = _JOINT_COLUMN.fullmatch(name) is not None
         if angle is None and length is None:
             raise FileFormatError(f"{path}: column {cell!r} has the unit {unit!r}, which robocal does not know: use "
                                   "deg or rad for angles, mm, m, cm, in or um for lengths")
         if (name in _ANGLE_NAMES and angle is None) or (name in _LENGTH_NAMES and length is None):
             raise FileFormatError(f"{path}: column {cell!r}: {name} is {'an angle' if angle is None else 'a length'}, "
                                   f"not in {unit}")
-        if name in _ANGLE_NAMES or name in _LENGTH_NAMES or is_joint:
-            scales[name] = angle if angle is not None else length
+        # Every tagged column is scaled (a joint may be named by the robot's joint names).
+        scales[name] = angle if angle is not None else length
         names.append(name)
     return names, scales
 

@@ -44,7 +44,8 @@ PLAIN_SCHEMA_VERSION = 1
 
 def robot_hash(chain):
     """A short fingerprint of a robot's nominal geometry, frames and joint map."""
-    text = robot_to_toml(chain.replace(name="robot"))
+    # Names (the robot's, its joints') are not geometry: renaming changes no model.
+    text = robot_to_toml(chain.replace(name="robot", joint_names=None))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 

@@ -214,7 +214,7 @@ def read_observations(path, chain, fixture_path=None, *, beyond_limits=False) ->
         chain = load_robot(chain)
     if not hasattr(chain, "joints_from_file"):
         raise InputError(f"the robot must be a Chain, a built-in name or a robot file, got {type(chain).__name__}")
-    data = read_measurements(path, n_joints=chain.n_joints)
+    data = read_measurements(path, n_joints=chain.n_joints, joint_names=chain.joint_names)
     fixture = None if fixture_path is None else read_fixture(fixture_path)
     return observations(chain, data, fixture, beyond_limits=beyond_limits)
 
@@ -274,7 +274,7 @@ class TargetPoses:
 
 def read_target_poses(path, chain) -> TargetPoses:
     """Read a targets CSV (x, y, z mm; rx, ry, rz deg; optional q1..qN deg) for ``chain``."""
-    targets = read_targets(path, n_joints=chain.n_joints)
+    targets = read_targets(path, n_joints=chain.n_joints, joint_names=chain.joint_names)
     if targets.hints is not None:
         check_hint_units(chain, targets.hints, targets.positions, targets.path)
     hints = None if targets.hints is None else chain.joints_from_file(targets.hints)

@@ -123,6 +123,7 @@ def chain_from_dict(doc, path="<robot>"):
         base=_frame(path, doc, "base"), tool=_frame(path, doc, "tool"),
         masses=columns["mass"] or None,
         tolerances=_tolerances(path, doc),
+        joint_names=tuple(columns["name"]) or None,
     )
     fields.update(_convention_fields(path, doc, convention, columns))
     try:
@@ -141,7 +142,7 @@ def _read_joints(path, joints, convention):
     """
     required = _LINK_KEYS[convention]
     allowed = required + _OPTIONAL_JOINT_KEYS + (() if convention == "poe" else ("beta",))
-    columns = {k: [] for k in ("theta", "d", "a", "alpha", "beta", "axis", "point", "min", "max", "mass")}
+    columns = {k: [] for k in ("theta", "d", "a", "alpha", "beta", "axis", "point", "min", "max", "mass", "name")}
     types, signs = [], []
     for j, joint in enumerate(joints, start=1):
         where = f"joint {j}"
@@ -170,7 +171,15 @@ def _read_joints(path, joints, convention):
         columns["max"].append(hi)
         if "mass" in joint:
             columns["mass"].append(_number(path, f"{where} mass", joint["mass"]))
+        if "name" in joint:
+            if not isinstance(joint["name"], str) or not joint["name"].strip():
+                _fail(path, f"{where}: name must be text (the joint's name, e.g. \"shoulder_pan_joint\")")
+            columns["name"].append(joint["name"].strip())
     n = len(joints)
+    if columns["name"] and len(columns["name"]) != n:
+        _fail(path, f"name is given for {len(columns['name'])} of {n} joints: give it for every joint or none")
+    if len(set(columns["name"])) != len(columns["name"]):
+        _fail(path, "two joints have the same name: every joint needs its own")
     if columns["mass"] and len(columns["mass"]) != n:
         _fail(path, f"mass (kg) is given for {len(columns['mass'])} of {n} joints: give it for every joint or none")
     return columns, types, signs
@@ -268,6 +277,8 @@ def robot_to_toml(chain: Chain, description=None) -> str:
         revolute = kind == "revolute"
         angle = np.degrees if revolute else (lambda v: v)
         lines.append("[[joints]]")
+        if chain.joint_names is not None:
+            lines.append(f"name = {_toml_string(chain.joint_names[i])}")
         if not revolute:
             lines.append('type = "prismatic"')
         if chain.convention == "poe":

@@ -231,13 +231,36 @@ def _optional_strings(name: str, values, count: int) -> np.ndarray | None:
 # --------------------------------------------------------------------------- reading
 
 
-def read_measurements(path: str | os.PathLike, n_joints: int | None = None) -> Measurements:
+def _named_joints(table: _Table, joint_names) -> _Table:
+    """``table`` with columns named by the robot's ``joint_names`` renamed q1..qN (the k-th
+    name is qk); a file with both kinds of joint column is refused."""
+    if not joint_names:
+        return table
+    rename = {name: f"q{k}" for k, name in enumerate(joint_names, start=1)}
+    named = [name for name in table.header if name in rename]
+    if not named:
+        return table
+    numbered = [name for name in table.header if _JOINT_COLUMN.fullmatch(name)]
+    if numbered:
+        raise FileFormatError(f"{table.path} names joint columns both by the robot's joint names ({named[0]}) and "
+                              f"as {numbered[0]}: keep one kind")
+    missing = [name for name in joint_names if name not in table.header]
+    if missing:
+        raise FileFormatError(f"{table.path} names its joint columns by the robot's joints but lacks "
+                              f"{', '.join(missing)}: the robot's joints are {', '.join(joint_names)}")
+    return dataclasses.replace(table, header=[rename.get(name, name) for name in table.header],
+                               scales={rename.get(name, name): v for name, v in table.scales.items()})
+
+
+def read_measurements(path: str | os.PathLike, n_joints: int | None = None, joint_names=None) -> Measurements:
     """Read and validate a measurement CSV file.
 
     Args:
         path: the CSV file: ``q1`` … ``qN`` and either ``x, y, z`` (optionally with
             ``rx, ry, rz`` and ``sx, sy, sz``) or ``fixture, socket``.
         n_joints: the robot's number of joints, when known; the file must match it.
+        joint_names: the robot's joint names, when it has them: the joint columns may
+            carry them instead of q1 … qN.
 
     Raises:
         FileFormatError: the file is missing, malformed or inconsistent; the message names
@@ -246,7 +269,7 @@ def read_measurements(path: str | os.PathLike, n_joints: int | None = None) -> M
     Warns:
         RobocalWarning: joint values that look like radians; identical rows.
     """
-    table = _read_table(path)
+    table = _named_joints(_read_table(path), joint_names)
     # A design's poses file becomes a measurement file when the measured x, y, z (or the
     # sockets) are added to it.
     kind = check_kind(table.path, table.header, _kind_cells(table), ("measurements", "poses"), "a measurement file",
@@ -288,7 +311,7 @@ def read_measurements(path: str | os.PathLike, n_joints: int | None = None) -> M
     return measurements
 
 
-def read_targets(path: str | os.PathLike, n_joints: int | None = None) -> Targets:
+def read_targets(path: str | os.PathLike, n_joints: int | None = None, joint_names=None) -> Targets:
     """Read and validate a targets CSV file: ``x, y, z, rx, ry, rz``, optionally ``q1`` … ``qN``.
 
     Raises:
@@ -297,7 +320,7 @@ def read_targets(path: str | os.PathLike, n_joints: int | None = None) -> Target
     Warns:
         RobocalWarning: orientations that look like radians.
     """
-    table = _read_table(path)
+    table = _named_joints(_read_table(path), joint_names)
     check_kind(table.path, table.header, _kind_cells(table), ("measurements",), "a targets file",
                "the targets themselves (x, y, z, rx, ry, rz)")
     joint_names = _check_header(table, n_joints, joints_required=False)

@@ -85,6 +85,9 @@ def read_urdf(path, *, root: str | None = None, tip: str | None = None, name: st
         upper=np.array(walk.upper),
         # Link masses only when every link a joint moves declares one.
         masses=None if any(np.isnan(walk.masses)) else np.array(walk.masses),
+        # The URDF's joint names, which ROS data name their columns by (unnamed joints: none).
+        joint_names=tuple(walk.names) if "<unnamed>" not in walk.names and len(set(walk.names)) == len(walk.names)
+        else None,
     )
 
 
@@ -101,6 +104,7 @@ class _Walk:
     lower: list[float] = field(default_factory=list)
     upper: list[float] = field(default_factory=list)
     masses: list[float] = field(default_factory=list)
+    names: list[str] = field(default_factory=list)
     pose: np.ndarray = field(default_factory=lambda: np.eye(4))
 
 
@@ -122,6 +126,7 @@ def _walk(tree: _LinkTree, joints: list[ET.Element], path: Path) -> _Walk:
         _check_not_mimic(joint, path)
         robocal_type = _MOVABLE[kind]
         walk.joint_types.append(robocal_type)
+        walk.names.append(_name(joint))
         walk.axes.append(walk.pose[:3, :3] @ _axis(joint, path))
         walk.points.append(walk.pose[:3, 3].copy())
         low, high = _limits(joint, kind, path)

@@ -78,6 +78,9 @@ class Chain:
     # The robot file's [tolerances]: {kind: one standard deviation, internal units} for the kinds
     # it gives (robocal.kinematics.tolerances); None: the defaults for all.
     tolerances: dict | None = None
+    # (n,) the joints' own names (a URDF's, or the robot file's [[joints]] name), which
+    # measurement files may use for their joint columns; None: q1..qN only.
+    joint_names: tuple | None = None
 
     def __post_init__(self):
         if self.convention not in CONVENTIONS:
@@ -115,6 +118,12 @@ class Chain:
             raise InputError(f"robot {self.name!r}: joint {j} has min > max")
         for key in ("base", "flange", "tool"):
             set_(self, key, np.array(getattr(self, key), dtype=float).reshape(4, 4))
+        if self.joint_names is not None:
+            names = tuple(str(v) for v in self.joint_names)
+            if len(names) != n or len(set(names)) != n or not all(names):
+                raise InputError(f"robot {self.name!r}: joint names must be {n} different non-empty names, got "
+                                 f"{list(names)}")
+            set_(self, "joint_names", names)
         if self.masses is not None:
             masses = np.array(self.masses, dtype=float).reshape(-1)
             if masses.shape != (n,) or not np.all(np.isfinite(masses)) or np.any(masses < 0):
