@@ -59,3 +59,14 @@ def test_joint_names_survive_a_robot_file(files, tmp_path):
     _, names = files
     write_robot(load_robot(str(URDF), tip="ball_link"), tmp_path / "panda.toml")
     assert read_robot(tmp_path / "panda.toml").joint_names == names
+
+
+def test_the_exported_urdf_keeps_the_joint_names_and_re_imports_to_the_same_robot(files, tmp_path):
+    from robocal.io.urdf import read_urdf, write_urdf
+
+    chain = load_robot(str(URDF), tip="ball_link")
+    write_urdf(chain, tmp_path / "out.urdf")
+    again = read_urdf(tmp_path / "out.urdf", tip="tcp")
+    assert again.joint_names == chain.joint_names
+    q = chain.random_configurations(50, np.random.default_rng(1))
+    np.testing.assert_allclose(again.fk_positions(q), chain.fk_positions(q), atol=1e-9)

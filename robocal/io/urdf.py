@@ -383,7 +383,8 @@ def chain_to_urdf(chain: Chain, *, robot_name: str | None = None, allow_coupled:
     """The URDF text of ``chain`` (any convention, with base, flange and tool).
 
     Links ``world`` -> ``base_link`` (fixed, ``chain.base``) -> ``link_1`` … ``link_n`` (one
-    joint per robot joint) -> ``flange`` (fixed) -> ``tcp`` (fixed, ``chain.tool``).  A URDF
+    joint per robot joint, named as the chain's joints when it has names, else ``joint_1`` …)
+    -> ``flange`` (fixed) -> ``tcp`` (fixed, ``chain.tool``).  A URDF
     joint value is the controller's joint value: the joint's zero offset is folded into its
     origin and its sign in ``chain.joint_map`` gives the axis (0, 0, ±1).  Joint limits are
     ``chain.lower`` / ``chain.upper``; a revolute joint without limits is ``continuous``.
@@ -458,7 +459,8 @@ def _add_movable_joints(robot: ET.Element, chain: Chain, links: list[str], origi
         unlimited = not (np.isfinite(lower[i]) or np.isfinite(upper[i]))
         if joint_type == "revolute" and unlimited:
             joint_type = "continuous"
-        joint = ET.SubElement(robot, "joint", name=f"joint_{i + 1}", type=joint_type)
+        name = chain.joint_names[i] if chain.joint_names is not None else f"joint_{i + 1}"
+        joint = ET.SubElement(robot, "joint", name=name, type=joint_type)
         _origin_element(joint, origin)
         ET.SubElement(joint, "parent", link=links[i + 1])
         ET.SubElement(joint, "child", link=links[i + 2])
