@@ -16,7 +16,8 @@ then misses the target by exactly the model's prediction error at q′.
 J⁺ is the damped least-squares inverse (JᵀJ + λ²I)⁻¹Jᵀ = Jᵀ(JJᵀ + λ²I)⁻¹, computed from the
 singular values σ of each pose's 3 × n Jacobian as Σ σ/(σ² + λ²) v uᵀ.  For n > 3 it is the
 minimum-norm correction, which lets the orientation move by about |Δq| (measured on a KR 150-2
-with about 1 mm of error: median 0.05°, 95th percentile 0.18°, more near singularities).  λ is zero while the smallest singular value stays above
+with about 1 mm of error: median 0.05°, 95th percentile 0.18°, more near singularities).  λ is zero
+while the smallest singular value stays above
 ``damping``·σ_max and grows smoothly to ``damping``·σ_max as it falls to zero, so that
 commands near a singularity stay bounded instead of exploding.
 """

@@ -381,7 +381,7 @@ class KinematicCalibration(FittedCalibration):
             )
         start = self._start(chain, q, target, rotations, compliant)
         weights = self._weights(len(q), sigmas, rotations is not None)
-        before = error_stats((target - start.fk_positions(q)))
+        before = error_stats(target - start.fk_positions(q))
         self._prior = tolerance_prior(start, names, q, self.prior, self.tolerance_scale, _deviation_from(start))
         found, residual, failure = self._identify(start, names, q, target, rotations, weights, self._robust_weights)
         if failure is not None:

@@ -81,7 +81,8 @@ def _reason(chain, name, partners, parallel, moves):
         if stem == "d" and joint == 1 and partner == "base_z":
             return "the base height absorbs d1"
         if stem == p_stem and joint and p_joint and tuple(sorted((joint, p_joint))) in parallel:
-            return f"{partner} and {name} cannot be separated: axes {min(joint, p_joint)} and {max(joint, p_joint)} are parallel"
+            return (f"{partner} and {name} cannot be separated: axes {min(joint, p_joint)} and "
+                    f"{max(joint, p_joint)} are parallel")
     listed = ", ".join(partners) if partners else "the other parameters"
     return f"{name} cannot be separated from {listed}: they move the TCP the same way in these poses"
 

@@ -17,7 +17,7 @@ comes from.  This module runs the rest the same way for both:
 Names of the base frame and tool position parameters are defined here, once.
 """
 from dataclasses import dataclass, field, replace
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -14,7 +14,7 @@ same QR of the columns and the same singular values as J itself.  Only the per-p
 (N, 3) or (N, 6), is held whole.
 """
 from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

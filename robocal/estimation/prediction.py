@@ -209,5 +209,6 @@ def socket_prediction(calibration, data, seed=0):
     scatter = result.residual_after.get("rms_mm", 0.0) ** 2 / 3.0
     calibrated = error_norms(deviation, cov, scatter, count, seed)
     nominal = error_norms(deviation, nominal_cov, scatter, count, seed)
-    where = WorkingRange(data.joints[shared], f"the {count} training configurations' sockets, as on placements left out")
+    where = WorkingRange(data.joints[shared],
+                         f"the {count} training configurations' sockets, as on placements left out")
     return PredictedError.of_draws(calibrated, nominal, where, result.tolerance_scale)

@@ -43,7 +43,8 @@ def robot_tables(chain):
     for c in ("frame", "x", "y", "z", "rx", "ry", "rz"):
         frames.add_column(c, justify="right")
     named = [("base", chain.base)]
-    named.append(("home" if chain.convention == "poe" else "flange", chain.home if chain.convention == "poe" else chain.flange))
+    poe = chain.convention == "poe"
+    named.append(("home" if poe else "flange", chain.home if poe else chain.flange))
     named.append(("tool", chain.tool))
     named.append(("TCP at q = 0", chain.fk(np.zeros(chain.n_joints))))
     for label, T in named:

@@ -125,7 +125,8 @@ def _read_table(path: str | os.PathLike) -> _Table:
     name = str(path)
     records = list(_records(name))
     if not records:
-        raise FileFormatError(f"{name} is empty: expected a header line such as q1,q2,…,x,y,z and one row per measurement")
+        raise FileFormatError(f"{name} is empty: expected a header line such as q1,q2,…,x,y,z "
+                              "and one row per measurement")
     header_line, header = records[0]
     header, scales = _unit_tags(name, [cell.strip() for cell in header])
     _check_header_line(name, header)
@@ -219,7 +220,8 @@ def _check_header_line(path: str, header: list[str]) -> None:
     seen: dict[str, int] = {}
     for column, name in enumerate(header, start=1):
         if name and name in seen:
-            raise FileFormatError(f"{path}: column '{name}' appears twice (columns {seen[name]} and {column}): rename or delete one")
+            raise FileFormatError(f"{path}: column '{name}' appears twice "
+                                  f"(columns {seen[name]} and {column}): rename or delete one")
         seen[name] = column
 
 
@@ -240,7 +242,8 @@ def _without_blank_unnamed_columns(table: _Table) -> _Table:
         filled = np.flatnonzero(np.char.strip(table.cells[:, column]) != "")
         if filled.size:
             raise FileFormatError(
-                f"{table.path}, row {table.lines[filled[0]]}: column {column + 1} has values but no name in the header: "
+                f"{table.path}, row {table.lines[filled[0]]}: column {column + 1} has values "
+                "but no name in the header: "
                 f"name it or delete it"
             )
     kept = [column for column in range(len(table.header)) if table.header[column]]

@@ -29,7 +29,11 @@ def write_measurements(path: str | os.PathLike, data: Measurements) -> Path:
     """
     columns: dict[str, list[str]] = {}
     _add_number_columns(columns, data.joint_names, data.joints)
-    for names, values in ((POSITION_COLUMNS, data.positions), (ORIENTATION_COLUMNS, data.orientations), (SIGMA_COLUMNS, data.sigmas)):
+    for names, values in (
+        (POSITION_COLUMNS, data.positions),
+        (ORIENTATION_COLUMNS, data.orientations),
+        (SIGMA_COLUMNS, data.sigmas),
+    ):
         if values is not None:
             _add_number_columns(columns, names, values)
     if data.fixture is not None:
@@ -98,7 +102,9 @@ def write_commands(
     return _write_csv(path, marked(columns, "commands"))
 
 
-def _add_number_columns(columns: dict[str, list[str]], names, values: np.ndarray, blank: np.ndarray | None = None) -> None:
+def _add_number_columns(
+    columns: dict[str, list[str]], names, values: np.ndarray, blank: np.ndarray | None = None
+) -> None:
     """Format ``values`` column by column into ``columns``.
 
     Rows flagged in ``blank`` may hold non-finite values, which become empty cells (joint
@@ -116,7 +122,9 @@ def _add_number_columns(columns: dict[str, list[str]], names, values: np.ndarray
         )
     for column, name in enumerate(names):
         empty = blank & (is_joint[column] | ~np.isfinite(values[:, column]))
-        columns[name] = ["" if skip else _number_text(value) for value, skip in zip(values[:, column].tolist(), empty.tolist())]
+        columns[name] = [
+            "" if skip else _number_text(value) for value, skip in zip(values[:, column].tolist(), empty.tolist())
+        ]
 
 
 # Below this a value is rounding noise of a zero (a joint at 0 deg read back as 2.6e-16),

@@ -202,7 +202,8 @@ def split_indices(data, split, seed=0):
     if data.fixture is None:
         count = int(round(split * data.n_poses))
         if not 0 < count < data.n_poses:
-            raise InputError(f"--split {split} of {data.n_poses} poses leaves {'no training' if count == 0 else 'no test'} "
+            raise InputError(f"--split {split} of {data.n_poses} poses leaves "
+                             f"{'no training' if count == 0 else 'no test'} "
                              f"pose: give a training fraction between {1 / data.n_poses:.3g} and "
                              f"{1 - 1 / data.n_poses:.4g}")
         return np.sort(rng.permutation(data.n_poses)[:count]), None

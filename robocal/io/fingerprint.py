@@ -5,7 +5,8 @@ values and measured position (or socket) rounded to :data:`RESOLUTION` (deg, mm)
 grids half a cell apart, so that a copy, a re-export with fewer digits or a re-ordering of
 the same rows is recognised (a row is seen when either grid's digest matches: rounding a
 value across a cell boundary on one grid leaves it inside a cell on the other) and a
-genuinely new measurement, which differs by a tracker's noise (0.01 mm) or more, is not.  Whatever says "held out", "validated" or "scored on new poses"
+genuinely new measurement, which differs by a tracker's noise (0.01 mm) or more, is not.
+Whatever says "held out", "validated" or "scored on new poses"
 (``evaluate``, ``report``) asks :func:`seen` which of its rows the model was trained on.
 Digests, not rows, are stored: a model file does not carry its training data.
 """

@@ -40,7 +40,9 @@ class Fixture:
     sockets: dict[str, np.ndarray]
 
     def __post_init__(self) -> None:
-        sockets = {str(socket_id): _socket_position(socket_id, position) for socket_id, position in self.sockets.items()}
+        sockets = {
+            str(socket_id): _socket_position(socket_id, position) for socket_id, position in self.sockets.items()
+        }
         if len(sockets) < 2:
             raise InputError(
                 f"fixture '{self.name}' has {len(sockets)} socket{'' if len(sockets) == 1 else 's'}: "
@@ -55,7 +57,8 @@ class Fixture:
         largest = max(np.linalg.norm(a - b) for a, b in itertools.combinations(sockets.values(), 2))
         if largest < _SMALLEST_FIXTURE_MM:
             raise InputError(
-                f"fixture '{self.name}': its sockets lie at most {largest:.3g} apart, where a fixture spans tens of mm: "
+                f"fixture '{self.name}': its sockets lie at most {largest:.3g} apart, where a "
+                "fixture spans tens of mm: "
                 f"they look like metres; give the socket positions in mm"
             )
         object.__setattr__(self, "name", str(self.name))
@@ -90,7 +93,9 @@ def _socket_position(socket_id: str, position) -> np.ndarray:
     valid = (
         values is not None
         and len(values) == 3
-        and all(isinstance(value, (int, float, np.number)) and not isinstance(value, (bool, np.bool_)) for value in values)
+        and all(
+            isinstance(value, (int, float, np.number)) and not isinstance(value, (bool, np.bool_)) for value in values
+        )
         and all(math.isfinite(value) for value in values)
     )
     if not valid:
@@ -110,7 +115,9 @@ def read_fixture(path: str | os.PathLike) -> Fixture:
     document = load_toml(path, "fixture file")
     sockets = document.get("sockets")
     if not isinstance(sockets, dict):
-        raise FileFormatError(f"{path} has no [sockets] table{_suggestion(document)}: list the sockets as id = [x, y, z] (mm)")
+        raise FileFormatError(
+            f"{path} has no [sockets] table{_suggestion(document)}: list the sockets as id = [x, y, z] (mm)"
+        )
     try:
         return Fixture(name=str(document.get("name", Path(path).stem)), sockets=sockets)
     except InputError as error:
@@ -157,4 +164,6 @@ def fixture_from_dict(document, path) -> Fixture:
     try:
         return Fixture(name=document["name"], sockets=document["sockets"])
     except (KeyError, TypeError, InputError) as exc:
-        raise FileFormatError(f"{path}: the fixture stored in the model is damaged ({exc}); regenerate the file") from None
+        raise FileFormatError(
+            f"{path}: the fixture stored in the model is damaged ({exc}); regenerate the file"
+        ) from None

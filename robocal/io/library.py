@@ -3,7 +3,7 @@
 A ROBOT is a built-in name (``robocal robots`` lists them), a robot TOML file, or a URDF file
 (with root and tip links chosen by option).
 """
-from functools import lru_cache
+from functools import cache
 from importlib import resources
 from pathlib import Path
 
@@ -29,7 +29,7 @@ def _normalise(name):
     return "".join(ch for ch in name.lower() if ch.isalnum())
 
 
-@lru_cache(maxsize=None)
+@cache
 def _load_builtin(key):
     with resources.as_file(_files()[key]) as path:
         return read_robot(path)

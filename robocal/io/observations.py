@@ -240,7 +240,8 @@ def _check_limits(chain, data: Measurements, joints):
     raise InputError(
         f"{data.path or 'the data'} {named}: q{joint + 1} = {data.joints[first, joint]:.6g} {unit}{others} lies "
         f"beyond joint {joint + 1}'s limits {low:.6g} to {high:.6g} {unit} of the robot '{chain.name}': fix {fix} "
-        "or the robot file's min and max, or accept values beyond the limits (--beyond-limits; beyond_limits=True in Python)")
+        "or the robot file's min and max, or accept values beyond the limits "
+        "(--beyond-limits; beyond_limits=True in Python)")
 
 
 def check_robot_in_mm(chain, joints=None):

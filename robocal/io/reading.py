@@ -99,7 +99,8 @@ def decode(raw: bytes, path: str | os.PathLike, what: str, form: str = "") -> st
                 raise FileFormatError(f"{path} starts as {encoding.upper()} text but is not: save the {what} again "
                                       "as UTF-8") from None
     if raw.startswith(b"PK\x03\x04") or b"\x00" in raw:
-        raise FileFormatError(f"{path} is not a text {form + ' ' if form else ''}file (a spreadsheet workbook or another "
+        raise FileFormatError(f"{path} is not a text {form + ' ' if form else ''}file "
+                              "(a spreadsheet workbook or another "
                               f"binary file?): save the {what} as text{' CSV' if form == 'CSV' else ''} (UTF-8)")
     try:
         return raw.decode("utf-8")
@@ -122,7 +123,8 @@ def check_line_lengths(raw: bytes, path: str | os.PathLike, what: str) -> None:
     lengths = np.diff(np.concatenate(newlines)) - 1
     too_long = np.flatnonzero(lengths > MAX_LINE)
     if too_long.size:
-        raise FileFormatError(f"{path}, line {too_long[0] + 1} is over {MAX_LINE // MiB} MiB long: this is not a {what}")
+        raise FileFormatError(f"{path}, line {too_long[0] + 1} is over {MAX_LINE // MiB} MiB long: this is not "
+                              f"a {what}")
 
 
 def read_text(path: str | os.PathLike, what: str, kind: str = "table", *, lines: bool = True, form: str = "") -> str:
@@ -142,8 +144,9 @@ def parse_json(text: str, path: str | os.PathLike, what: str):
     except json.JSONDecodeError as error:
         raise FileFormatError(f"{path} is not a JSON {what} ({error})") from None
     except RecursionError:
-        raise FileFormatError(f"{path} nests its lists or objects thousands of levels deep: it is not a {what} "
-                              "robocal wrote") from None
+        raise FileFormatError(
+            f"{path} nests its lists or objects thousands of levels deep: it is not a {what} robocal wrote"
+        ) from None
 
 
 def load_json(path: str | os.PathLike, what: str, kind: str = "model"):

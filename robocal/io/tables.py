@@ -97,7 +97,8 @@ class Measurements:
         if rows.shape != (count,):
             raise InputError(f"rows must have shape ({count},), got {rows.shape}")
         object.__setattr__(self, "rows", rows)
-        extra = {str(name): _optional_strings(f"extra column {name!r}", values, count) for name, values in self.extra.items()}
+        extra = {str(name): _optional_strings(f"extra column {name!r}", values, count)
+                 for name, values in self.extra.items()}
         object.__setattr__(self, "extra", extra)
         self._check_columns_fit_together()
 
@@ -304,7 +305,8 @@ def read_measurements(path: str | os.PathLike, n_joints: int | None = None, join
         fixture=table.texts("fixture") if has_constraints else None,
         socket=table.texts("socket") if has_constraints else None,
         rows=table.lines,
-        extra={name: table.column(name) for name in table.header if name not in _NAMED_COLUMNS and name not in joint_names},
+        extra={name: table.column(name) for name in table.header
+               if name not in _NAMED_COLUMNS and name not in joint_names},
     )
     _warn_if_radians(measurements)
     _warn_about_identical_rows(measurements)

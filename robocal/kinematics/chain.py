@@ -127,7 +127,8 @@ class Chain:
         if self.masses is not None:
             masses = np.array(self.masses, dtype=float).reshape(-1)
             if masses.shape != (n,) or not np.all(np.isfinite(masses)) or np.any(masses < 0):
-                raise InputError(f"robot {self.name!r}: masses must be {n} finite values >= 0 kg, got {masses.tolist()}")
+                raise InputError(f"robot {self.name!r}: masses must be {n} finite values >= 0 kg, got "
+                                 f"{masses.tolist()}")
             set_(self, "masses", masses)
 
     def to_plain(self) -> dict:

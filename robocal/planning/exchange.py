@@ -19,7 +19,8 @@ replaces each stratum's pose by the best of its own stratum, sweeping the strata
 changes (a greedy start per stratum would end next to the extreme poses the greedy step
 picks first; the representative start ends next to poses that stand for their strata).  The
 chosen poses then stand for the targets as a stratified sample does, which matters when the
-model does not explain everything: errors the calibration cannot represent (joint compliance and backlash on the simulated KR 150-2, what
+model does not explain everything: errors the calibration cannot represent (joint compliance and
+backlash on the simulated KR 150-2, what
 remains on the real UR5) bias a fit to the extreme poses an unconstrained optimum picks,
 while a sample spread like the targets averages them as the targets will.  Held out
 (bench/design.py, 15/20/30/50/100 poses) the unstratified optimum gave 0.110/0.110/0.113/

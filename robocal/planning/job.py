@@ -103,9 +103,11 @@ def read_joints(path, chain, what="configurations"):
     tolerance = np.where(chain.revolute, np.radians(LIMIT_TOLERANCE), LIMIT_TOLERANCE)
     beyond = np.flatnonzero(np.any((q < chain.lower - tolerance) | (q > chain.upper + tolerance), axis=1))
     if beyond.size:
-        joint = int(np.flatnonzero((q[beyond[0]] < chain.lower - tolerance) | (q[beyond[0]] > chain.upper + tolerance))[0])
+        outside = (q[beyond[0]] < chain.lower - tolerance) | (q[beyond[0]] > chain.upper + tolerance)
+        joint = int(np.flatnonzero(outside)[0])
         raise InputError(f"{path} row {beyond[0] + 2}: q{joint + 1} = {values[beyond[0], joint]:.6g} lies beyond joint "
-                         f"{joint + 1}'s limits of robot '{chain.name}' ({len(beyond)} row{'s' if beyond.size > 1 else ''} "
+                         f"{joint + 1}'s limits of robot '{chain.name}' "
+                         f"({len(beyond)} row{'s' if beyond.size > 1 else ''} "
                          "so): remove those rows or fix the robot file's min and max")
     return np.clip(q, chain.lower, chain.upper), header
 
@@ -231,7 +233,8 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
         q = joint_candidates(chain, pool, seed, sampling=sampling, margin_deg=margin, volume=volume)
         source = f"{len(q)} {sampling} joint configurations {margin:g} deg inside the limits"
     if n > len(q):
-        raise InputError(f"--n {n} poses asked for but there are {len(q)} candidates: ask for at most {len(q)}, or give "
+        raise InputError(f"--n {n} poses asked for but there are {len(q)} candidates: ask for "
+                         f"at most {len(q)}, or give "
                          "more candidates")
     before = None
     noise_note = "as stated (--noise)" if noise is not None else "the default tracker noise"
@@ -263,7 +266,8 @@ def _placements(path):
     columns = ["x", "y", "z", "rx", "ry", "rz"]
     missing = [c for c in columns if c not in header]
     if missing:
-        raise FileFormatError(f"{path} lacks column{'s' if len(missing) > 1 else ''} {', '.join(missing)}: a placements "
+        raise FileFormatError(f"{path} lacks column{'s' if len(missing) > 1 else ''} "
+                              f"{', '.join(missing)}: a placements "
                               "file gives the fixture frame in the robot base frame as x, y, z (mm), rx, ry, rz (deg)")
     if not rows:
         raise FileFormatError(f"{path} has a header but no placements")

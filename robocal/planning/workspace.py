@@ -58,7 +58,9 @@ class WorkingVolume:
         if self.walls_mm is not None:
             x, y = points[:, :, 0], points[:, :, 1]
             xmin, xmax, ymin, ymax = self.walls_mm
-            keep &= (x.min(axis=1) >= xmin) & (x.max(axis=1) <= xmax) & (y.min(axis=1) >= ymin) & (y.max(axis=1) <= ymax)
+            keep &= (
+                (x.min(axis=1) >= xmin) & (x.max(axis=1) <= xmax) & (y.min(axis=1) >= ymin) & (y.max(axis=1) <= ymax)
+            )
         return keep
 
     def describe(self):
@@ -75,8 +77,11 @@ class WorkingVolume:
         return ", ".join(parts)
 
     def to_dict(self):
-        return {"floor_mm": self.floor_mm, "walls_mm": None if self.walls_mm is None else list(self.walls_mm),
-                "assumed": self.describe()}
+        return {
+            "floor_mm": self.floor_mm,
+            "walls_mm": None if self.walls_mm is None else list(self.walls_mm),
+            "assumed": self.describe(),
+        }
 
 
 def parse_floor(text):

@@ -70,7 +70,8 @@ def uniform_joints(chain, n, rng):
     unlimited = ~(np.isfinite(lower) & np.isfinite(upper))
     if np.any(unlimited & ~chain.revolute):
         j = int(np.argmax(unlimited & ~chain.revolute)) + 1
-        raise InputError(f"prismatic joint {j} of robot {chain.name!r} has no limits to sample between; give it min and max")
+        raise InputError(f"prismatic joint {j} of robot {chain.name!r} has no limits to sample "
+                         "between; give it min and max")
     lower[unlimited], upper[unlimited] = -np.pi, np.pi
     return lower + np.random.default_rng(rng).random((n, chain.n_joints)) * (upper - lower)
 

@@ -86,7 +86,8 @@ class TrueRobot:
             backlash = np.array(self.backlash, dtype=float).reshape(-1)
             if backlash.shape != (chain.n_joints,) or not np.all(np.isfinite(backlash)) or np.any(backlash < 0):
                 raise InputError(
-                    f"backlash needs {chain.n_joints} finite half-widths >= 0 (deg), got {np.ravel(self.backlash).tolist()}"
+                    f"backlash needs {chain.n_joints} finite half-widths >= 0 (deg), got "
+                    f"{np.ravel(self.backlash).tolist()}"
                 )
             set_(self, "backlash", backlash)
         for name in ("noise", "noise_orientation"):
@@ -111,7 +112,8 @@ class TrueRobot:
         if self.backlash is not None:
             start = np.zeros(chain.n_joints) if previous is None else np.asarray(previous, dtype=float)
             if start.shape != (chain.n_joints,):
-                raise InputError(f"previous must be one configuration of {chain.n_joints} joints, got shape {start.shape}")
+                raise InputError(f"previous must be one configuration of {chain.n_joints} "
+                                 f"joints, got shape {start.shape}")
             half_width = chain.joints_from_file(self.backlash)
             offset += backlash_offsets(chain.model_joints(q2), half_width, chain.model_joints(start)[0])
         real = q2 + to_controller(chain, offset)

@@ -245,7 +245,8 @@ class ConstraintCalibration(FittedCalibration):
 
         payload = self._validate()
         if not hasattr(fixture, "ids"):
-            raise InputError(f"fixture must be a Fixture (robocal.io.fixtures.read_fixture), got {type(fixture).__name__}")
+            raise InputError("fixture must be a Fixture (robocal.io.fixtures.read_fixture), "
+                             f"got {type(fixture).__name__}")
         data = socket_data(chain, joints, fixture_ids, socket_ids, fixture)
         check_groups(data)
         start = to_poe(chain)

@@ -150,7 +150,8 @@ def read_config(path):
         _, items = _aggregate(text, match.end() - 1)
         frames[(match.group(1).upper()[:4], int(match.group(2)))] = frame_of(items)
     if not frames:
-        raise FileFormatError(f"{path} declares no TOOL_DATA[n] or BASE_DATA[n]={{X ..}}: is it the robot's $config.dat?")
+        raise FileFormatError(f"{path} declares no TOOL_DATA[n] or BASE_DATA[n]={{X ..}}: is "
+                              "it the robot's $config.dat?")
     return frames
 
 

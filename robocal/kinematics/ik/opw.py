@@ -95,8 +95,16 @@ class SphericalWrist(ClosedForm):
 
     def _floats(self):
         super()._floats()
-        self._f.update(sign3=float(self.sign3), centre=_triple(self.centre), w4=_triple(self.w4), w5=_triple(self.w5), w6=_triple(self.w6),
-                       x6=_triple(self.x6), y6=_triple(self.y6), flip=tuple(float(v) for v in self.flip))
+        self._f.update(
+            sign3=float(self.sign3),
+            centre=_triple(self.centre),
+            w4=_triple(self.w4),
+            w5=_triple(self.w5),
+            w6=_triple(self.w6),
+            x6=_triple(self.x6),
+            y6=_triple(self.y6),
+            flip=tuple(float(v) for v in self.flip),
+        )
 
     def _angles_one(self, rows, t, stretch):
         f = self._f
@@ -111,7 +119,7 @@ class SphericalWrist(ClosedForm):
             rest = one.rotate(w5, c5, -s5, one.rotate(w4, c4, -s4, r_x6))
             return t4, one.angle_of(one.dot(x6, rest), one.dot(y6, rest))
 
-        for i, (t1, c1, s1) in enumerate(shoulders):
+        for t1, c1, s1 in shoulders:
             s1 = -s1  # undo joint 1
             centre = one.rotate_z(c1, s1, c)
             elbows, elbow_excess = one.planar_two_link(f["link"], one.dot(ex, centre), one.dot(ey, centre), stretch)
@@ -130,4 +138,8 @@ class SphericalWrist(ClosedForm):
                 for j, (t4, t6) in enumerate(wrists):
                     angles.append((t1, first, f["sign3"] * second, t4, flips[j][0], t6))
                     cosine.append(max(elbow_excess, flip_excess))
-        return np.array(angles).T.reshape(6, 2, 2, 2), np.full((2, 2, 2), shoulder_excess), np.reshape(cosine, (2, 2, 2))
+        return (
+            np.array(angles).T.reshape(6, 2, 2, 2),
+            np.full((2, 2, 2), shoulder_excess),
+            np.reshape(cosine, (2, 2, 2)),
+        )

@@ -84,8 +84,15 @@ class OffsetWrist(ClosedForm):
 
     def _floats(self):
         super()._floats()
-        self._f.update(sign3=float(self.sign3), sign4=float(self.sign4), meet=_triple(self.meet), w5=_triple(self.w5), w6=_triple(self.w6), arm4=_triple(self.arm4),
-                       flip=tuple(float(v) for v in self.flip))
+        self._f.update(
+            sign3=float(self.sign3),
+            sign4=float(self.sign4),
+            meet=_triple(self.meet),
+            w5=_triple(self.w5),
+            w6=_triple(self.w6),
+            arm4=_triple(self.arm4),
+            flip=tuple(float(v) for v in self.flip),
+        )
 
     def _angles_one(self, rows, t, stretch):
         f = self._f
@@ -94,11 +101,11 @@ class OffsetWrist(ClosedForm):
         p, shoulders, shoulder_excess = self._shoulder_one(rows, t, f["meet"])
         rows_w6 = one.matvec(rows, w6)
         angles, cosine = [], []  # branch by branch, in the order of the batch's axes
-        for i, (t1, c1, s1) in enumerate(shoulders):
+        for t1, c1, s1 in shoulders:
             n1 = one.rotate_z(c1, s1, n)
             flips, flip_excess = one.sinusoid_roots(a, b, one.dot(n1, rows_w6) - offset, free=False)
             back_n = one.transposed_matvec(rows, n1)
-            for j, (t5, c5, s5) in enumerate(flips):
+            for t5, c5, s5 in flips:
                 s5 = -s5
                 t6, c6, s6 = one.angle_about(w6, back_n, one.rotate(w5, c5, s5, n))
                 s6 = -s6
@@ -110,4 +117,8 @@ class OffsetWrist(ClosedForm):
                 for first, _, _, second, _, _ in elbows:
                     angles.append((t1, first, f["sign3"] * second, f["sign4"] * (phi - first - second), t5, t6))
                     cosine.append(max(flip_excess, elbow_excess))
-        return np.array(angles).T.reshape(6, 2, 2, 2), np.full((2, 2, 2), shoulder_excess), np.reshape(cosine, (2, 2, 2))
+        return (
+            np.array(angles).T.reshape(6, 2, 2, 2),
+            np.full((2, 2, 2), shoulder_excess),
+            np.reshape(cosine, (2, 2, 2)),
+        )
