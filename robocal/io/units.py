@@ -148,7 +148,7 @@ def check_measurement_units(chain, joint_values, positions, path):
             raise InputError(
                 f"{path or 'the data'}: the joint values look like radians{lengths}: read so, the nominal "
                 f"'{chain.name}' misses them by {misfits[better]:.1%} of their spread; read as degrees and mm by "
-                f"{misfits['degrees', 'mm']:.0%}; robocal reads degrees and mm: convert the file (numpy.degrees()"
+                f"{misfits['degrees', 'mm']:.0%}; robocal reads mm and degrees: convert the file (numpy.degrees()"
                 + (", x 1000 for metres" if better[1] == "metres" else "") + ")")
     model = _spread(chain.rigid.fk_positions(chain.joints_from_file(joint_values)))
     if model < SPREAD_JUDGED_MM:
