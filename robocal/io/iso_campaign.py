@@ -66,3 +66,23 @@ def read_iso_campaign(path) -> IsoCampaign:
         attained_angles=table.numbers(ATTAINED_ANGLES) if angles else None,
         pose=table.texts("pose") if "pose" in table.header else None,
         cycle=cycle, rows=table.lines)
+
+
+def write_plan(path, plan, chain):
+    """Write ``plan`` (:class:`~robocal.acceptance.iso9283.CampaignPlan`) as a campaign file
+    without measured columns: pose, cycle, x_cmd..rz_cmd (mm, deg) and q1..qN (deg), every
+    cycle visiting P1..P5; atomically."""
+    import csv
+    import io
+
+    from .atomic import write_text_atomic
+
+    degrees = chain.joints_to_file(plan.joints)
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["pose", "cycle", *COMMANDED, *COMMANDED_ANGLES] + [f"q{k}" for k in range(1, chain.n_joints + 1)])
+    for cycle in range(1, plan.cycles + 1):
+        for name, position, joints in zip(plan.names, plan.positions, degrees):
+            writer.writerow([name, cycle, *(repr(float(v)) for v in position), *(repr(float(v)) for v in plan.rpy_deg),
+                             *(repr(float(v)) for v in joints)])
+    return write_text_atomic(path, buffer.getvalue())
