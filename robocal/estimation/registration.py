@@ -12,25 +12,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..spatial import make_transform
+from ..spatial.transforms import kabsch  # noqa: F401  (imported from here by callers)
 from .identification import BASE, TOOL_POSITION
 from .least_squares import levenberg_marquardt
-
-
-def kabsch(source, target, weights=None):
-    """Rotation R and translation t minimising sum w |R source_i + t - target_i|^2."""
-    source = np.asarray(source, dtype=float)
-    target = np.asarray(target, dtype=float)
-    w = np.ones(len(source)) if weights is None else np.asarray(weights, dtype=float)
-    w = w / w.sum()
-    mu_s, mu_t = w @ source, w @ target
-    cov = (target - mu_t).T @ ((source - mu_s) * w[:, None])
-    u, s, vt = np.linalg.svd(cov)
-    if s[1] < 1e-9 * max(s[0], 1e-300):
-        raise InputError("the measured points are (nearly) collinear: a rigid frame cannot be fitted; "
-                         "measure poses spread over the workspace")
-    fix = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
-    rot = u @ fix @ vt
-    return rot, mu_t - rot @ mu_s
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..spatial.transforms import kabsch
 
 # File value x factor = degrees / mm.
 ANGLE_UNITS = {"degrees": 1.0, "radians": 180.0 / np.pi}
@@ -60,8 +61,6 @@ def registered_misfit(chain, joints_rad, positions_mm):
     """RMS distance (mm) left between ``positions_mm`` (N, 3) and the nominal robot's TCP at
     ``joints_rad`` (N, n) after registering the base (rigid fit) and the tool position
     (least squares), alternated; inf where the positions cannot be registered (collinear)."""
-    from ..estimation.registration import kabsch
-
     rotations, origins = _flange_frames(chain, joints_rad)
     tool = np.asarray(chain.tool, dtype=float)[:3, 3]
     for _ in range(REGISTRATION_ROUNDS):

@@ -1,6 +1,8 @@
 """Homogeneous 4x4 transforms, batched over leading axes."""
 import numpy as np
 
+from ..errors import InputError
+
 from .rotations import matrix_to_rpy, rpy_to_matrix
 
 
@@ -51,3 +53,20 @@ def pose_to_xyz_rpy(transform):
     """(..., 4, 4) -> ((..., 3) position, (..., 3) rpy in rad)."""
     transform = np.asarray(transform, dtype=float)
     return transform[..., :3, 3].copy(), matrix_to_rpy(transform[..., :3, :3])
+
+
+def kabsch(source, target, weights=None):
+    """Rotation R and translation t minimising sum w |R source_i + t - target_i|^2."""
+    source = np.asarray(source, dtype=float)
+    target = np.asarray(target, dtype=float)
+    w = np.ones(len(source)) if weights is None else np.asarray(weights, dtype=float)
+    w = w / w.sum()
+    mu_s, mu_t = w @ source, w @ target
+    cov = (target - mu_t).T @ ((source - mu_s) * w[:, None])
+    u, s, vt = np.linalg.svd(cov)
+    if s[1] < 1e-9 * max(s[0], 1e-300):
+        raise InputError("the measured points are (nearly) collinear: a rigid frame cannot be fitted; "
+                         "measure poses spread over the workspace")
+    fix = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
+    rot = u @ fix @ vt
+    return rot, mu_t - rot @ mu_s
