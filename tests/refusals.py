@@ -145,7 +145,8 @@ def _write_hostile_variants(root):
         "sock_one.csv": csv(sockets[0], [r for r in sockets[1:] if r.endswith(",A")]),
         # absurd magnitudes
         "huge.csv": csv(head, [",".join(first[:6] + ["1e300"] + first[7:])] + rows[1:]),
-        "t_huge.csv": csv(targets[0], [",".join(targets[1].split(",")[:4] + ["-5e9"] + targets[1].split(",")[5:])] + targets[2:]),
+        "t_huge.csv": csv(targets[0], [",".join(targets[1].split(",")[:4] + ["-5e9"] + targets[1].split(",")[5:])]
+                          + targets[2:]),
         # targets
         "t_nan.csv": csv(targets[0], ["nan" + targets[1][targets[1].index(","):]] + targets[2:]),
         "t_text.csv": csv(targets[0], ["abc" + targets[1][targets[1].index(","):]] + targets[2:]),

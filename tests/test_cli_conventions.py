@@ -81,7 +81,8 @@ def test_json_flag_after_the_arguments(ur5_files, tmp_path):
 
 
 def test_a_flag_takes_no_value(ur5_files, tmp_path):
-    result = runner.invoke(app, ["evaluate", str(ur5_files / "model.json"), str(ur5_files / "meas.csv"), "--json", "true"])
+    result = runner.invoke(app, ["evaluate", str(ur5_files / "model.json"), str(ur5_files / "meas.csv"), "--json",
+                                 "true"])
     assert result.exit_code == 2 and "Traceback" not in result.output
     assert len(result.output.strip().splitlines()) <= 2
 
@@ -136,8 +137,10 @@ def test_a_wrong_choice_is_one_line_naming_the_option_and_the_choices(ur5_files,
 
 def test_a_truth_file_is_still_accepted_by_errors(tmp_path):
     truth, meas = tmp_path / "truth.json", tmp_path / "meas.csv"
-    assert runner.invoke(app, ["simulate", "ur5", "--n", "10", "--out", str(meas), "--truth", str(truth)]).exit_code == 0
-    result = runner.invoke(app, ["simulate", "ur5", "--n", "10", "--errors", str(truth), "--out", str(tmp_path / "again.csv")])
+    assert runner.invoke(app, ["simulate", "ur5", "--n", "10", "--out", str(meas), "--truth",
+                               str(truth)]).exit_code == 0
+    result = runner.invoke(app, ["simulate", "ur5", "--n", "10", "--errors", str(truth), "--out",
+                                 str(tmp_path / "again.csv")])
     assert result.exit_code == 0, result.output
 
 

@@ -32,7 +32,8 @@ def test_another_robots_socket_data_are_warned_about(socket_files):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert socket_scores(fitted, own)["mean_mm"] < 1.0
-    other = with_fixture(fitted, read_observations(socket_files / "ur5.csv", model.kinematics, beyond_limits=True), path)
+    other = with_fixture(fitted, read_observations(socket_files / "ur5.csv", model.kinematics, beyond_limits=True),
+                         path)
     with pytest.warns(RobocalWarning, match="from robot 'KUKA KR 150-2'"):
         socket_scores(fitted, other)
 
@@ -46,7 +47,8 @@ def test_a_validation_of_other_data_is_warned_about_in_the_report(tmp_path, monk
 
     monkeypatch.chdir(tmp_path)
     runner = CliRunner()
-    for args in (["simulate", "ur5", "--n", "40", "--out", "meas.csv"], ["calibrate", "ur5", "meas.csv", "--out", "m.json"]):
+    for args in (["simulate", "ur5", "--n", "40", "--out", "meas.csv"],
+                 ["calibrate", "ur5", "meas.csv", "--out", "m.json"]):
         assert runner.invoke(app, args).exit_code == 0
 
     def validation(name, file, poses):

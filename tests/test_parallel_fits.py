@@ -156,7 +156,8 @@ def test_kriging_searches_its_components_on_a_cluster_as_it_does_here(approximat
 
     rng = np.random.default_rng(7)
     X = rng.uniform(-1.0, 1.0, (150, 3))
-    Y = np.column_stack([np.sin(3 * X[:, 0]), X[:, 1] * X[:, 2], np.cos(2 * X[:, 2])]) + 0.01 * rng.normal(size=(150, 3))
+    Y = (np.column_stack([np.sin(3 * X[:, 0]), X[:, 1] * X[:, 2], np.cos(2 * X[:, 2])])
+         + 0.01 * rng.normal(size=(150, 3)))
     settings = dict(random_state=3, nugget="estimate", n_starts=3, approximation=approximation, neighbours=20)
     # One BLAS thread on both sides, as the command line runs (the final factorisation is here).
     with threadpool_limits(1, user_api="blas"):

@@ -97,8 +97,8 @@ def test_every_builtin_robots_socket_data_are_refused_as_any_other_builtin_robot
         for data in group:
             plan = socket_plan(make_true_robot(builtin(data), "typical", seed=1), plate, 3, 8, rng=1)
             for other in group:
-                fit = lambda: ConstraintCalibration().fit(builtin(other), plan.joints, plan.fixture_ids,  # noqa: E731
-                                                          plan.socket_ids, plate)
+                fit = lambda other=other, plan=plan: ConstraintCalibration().fit(  # noqa: E731
+                    builtin(other), plan.joints, plan.fixture_ids, plan.socket_ids, plate)
                 if other == data:
                     fit()
                     continue

@@ -1,4 +1,5 @@
-"""What the verbs that only print (`robocal show`, `robots`, `methods`, `demo`) refuses: every row of the table exits non-zero with one error line (plus at
+"""What the verbs that only print (`robocal show`, `robots`, `methods`, `demo`) refuse: every row
+of the table exits non-zero with one error line (plus at
 most the usage hint), no traceback, no file left behind and no input rewritten
 (:func:`refusals.assert_refused`), each in a fresh copy of the prepared inputs
 (``conftest.refusal_inputs``).  Add a row with every refusal added to robocal."""

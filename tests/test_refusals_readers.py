@@ -150,8 +150,8 @@ def test_target_orientations_in_radians_are_warned_about(tmp_path, orientation):
         read_targets(_targets(tmp_path, orientation))
 
 
-@pytest.mark.parametrize("orientation", ["180,0,0", "-180,0,0", "0,0,0", "0.5,-0.8,0.2", "0,0,3", "2,-1,0", "179.9,0.1,-90",
-                                         "0,90,0", "0,0,0.5"])
+@pytest.mark.parametrize("orientation", ["180,0,0", "-180,0,0", "0,0,0", "0.5,-0.8,0.2", "0,0,3", "2,-1,0",
+                                         "179.9,0.1,-90", "0,90,0", "0,0,0.5"])
 def test_degree_targets_raise_no_false_alarm(tmp_path, orientation):
     from robocal.io.tables import read_targets
 

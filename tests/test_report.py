@@ -54,7 +54,8 @@ def test_report_renders_and_agrees_with_evaluate(files, method):
 def test_report_with_cross_validation_and_pdf(files):
     model = files / "kin.json"
     assert runner.invoke(app, ["calibrate", "kr150-2", str(files / "train.csv"), "--out", str(model)]).exit_code == 0
-    cv = runner.invoke(app, ["validate", "kr150-2", str(files / "train.csv"), "--folds", "3", "--sizes", "40,80", "--json"])
+    cv = runner.invoke(app, ["validate", "kr150-2", str(files / "train.csv"), "--folds", "3", "--sizes", "40,80",
+                             "--json"])
     assert cv.exit_code == 0, cv.output
     (files / "cv.json").write_text(cv.stdout)
     result = runner.invoke(app, ["report", str(model), str(files / "train.csv"), "--out", str(files / "r.html"),
