@@ -32,7 +32,6 @@ g_i = A_i⁻¹(y_N − F_N β̂), b̂_i = (b_i, −1) and ∂K the derivative of
 and since u_i and g_i are linear in (1, −β̂) the sums are accumulated in one pass, before β̂
 is known.
 
-Prediction is local too.  Every training point j gets, once per fit, a predictor on the set
 Prediction is local too (:mod:`.vecchia_prediction`): every training point gets a predictor on
 its nearest training points, and a target takes that of its nearest training point.
 

@@ -1,5 +1,6 @@
 """The state of a Vecchia fit and its local predictors (:mod:`.vecchia` has the likelihood).
 
+Prediction is local too.  Every training point j gets, once per fit, a predictor on the set
 S_j of its k = ⌈4m/3⌉ nearest training points (itself included, in the metric of θ):
 
     ŷ(x) = f(x)ᵀβ̂ + r(x, S_j)ᵀ c_j,   c_j = A_j⁻¹ w_S,
