@@ -15,6 +15,8 @@ from robocal.io.tables import read_targets
 from robocal.simulation import read_truth
 from robocal.spatial import compose_pose
 
+pytestmark = pytest.mark.slow  # the module's fixture fits a GA-trained network on 700 simulated poses
+
 runner = CliRunner()
 
 

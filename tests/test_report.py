@@ -24,6 +24,7 @@ def files(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["kinematic", "kriging", "hybrid"])
 def test_report_renders_and_agrees_with_evaluate(files, method):
     model = files / f"{method}.json"
@@ -51,6 +52,7 @@ def test_report_renders_and_agrees_with_evaluate(files, method):
         assert "Identified parameters" in page and "axes 2 and 3 are parallel" in page
 
 
+@pytest.mark.slow
 def test_report_with_cross_validation_and_pdf(files):
     model = files / "kin.json"
     assert runner.invoke(app, ["calibrate", "kr150-2", str(files / "train.csv"), "--out", str(model)]).exit_code == 0

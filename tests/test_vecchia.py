@@ -234,6 +234,7 @@ def test_above_the_noise_free_limit_the_latent_field_gives_about_the_exact_produ
     assert errors[1] < 0.8 * errors[2], errors
 
 
+@pytest.mark.slow
 def test_a_vecchia_fit_on_twice_the_noisy_points_is_better_held_out(rng, monkeypatch):
     # As at 2,000 points (exact likelihood, exact products) against 4,000 to 100,000 (the
     # Vecchia likelihood searched on a subset and refined, the latent field's products), here
@@ -256,6 +257,7 @@ def test_a_vecchia_fit_on_twice_the_noisy_points_is_better_held_out(rng, monkeyp
 
 # --------------------------------------------------------------------------- accuracy
 
+@pytest.mark.slow
 def test_vecchia_is_within_five_percent_of_exact_kriging_held_out_on_real_robot_residuals():
     # What the hybrid models: the UR10's error left by its kinematic calibration, over the TCP
     # position; 400 random poses of series B train, the other 1,095 are held out.
@@ -276,6 +278,7 @@ def test_vecchia_is_within_five_percent_of_exact_kriging_held_out_on_real_robot_
     assert errors["vecchia"] < 0.9 * np.linalg.norm(residual[test], axis=1).mean()  # it does learn
 
 
+@pytest.mark.slow
 def test_vecchia_is_within_five_percent_of_exact_kriging_on_a_noisy_smooth_field(rng):
     # Exact Kriging averages the noise over hundreds of points; the Vecchia predictors
     # interpolate the noise-free field's posterior mean instead of m noisy readings.
