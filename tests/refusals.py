@@ -1,4 +1,4 @@
-"""The one check every table of hostile command lines applies: the command is refused with a
+"""The one check every refusal table of command lines applies: the command is refused with a
 non-zero exit and one error line (plus at most the usage hint), no traceback, no file left
 behind (no ``.tmp`` either) and no input rewritten; and its counterpart, :func:`run_ok`, for
 the command lines that must succeed; and the prepared inputs every refusal table breaks
@@ -92,11 +92,11 @@ def write_refusal_inputs(root):
     run_ok("dataset", "ur5-tsinghua", "--out", root / "tsinghua")
     run_ok("simulate", "kr150-2", "--sampling", "sockets", "--fixture", PLATE, "--placements", "1", "--per-socket",
            "6", "--out", root / "one_placement.csv")
-    _write_hostile_variants(root)
+    _write_variants_of_every_format(root)
     _write_broken_files(root)
 
 
-def _write_hostile_variants(root):
+def _write_variants_of_every_format(root):
 
     lines = (root / "meas.csv").read_text().splitlines()
     head, rows = lines[0], lines[1:]

@@ -178,7 +178,7 @@ def test_a_plain_fit_that_goes_through_warns_about_a_pose_far_off(ur5_split):
         KinematicMethod(loss="huber").fit(chain, data)  # the robust fit lists the pose instead
 
 
-def test_estimator_settings_and_shapes_found_by_the_hostile_pass():
+def test_estimator_settings_and_shapes_are_refused():
     """Settings that returned the start unfitted or were taken as truthy, arrays of the wrong
     shape that raised numpy errors, and a missing fixture: each an InputError naming it."""
     from robocal.estimation import ConstraintCalibration

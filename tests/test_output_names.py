@@ -66,8 +66,8 @@ def test_export_takes_its_format_from_the_name(files, tmp_path, monkeypatch):
     assert "[[joints]]" in (tmp_path / "calibrated").read_text()
 
 
-def test_the_last_garbled_inputs_of_the_hostile_pass_are_one_line(files, tmp_path, monkeypatch):
-    """Found by the last hostile pass: a split that leaves no training pose, noise of 1e300 mm,
+def test_garbled_inputs_are_refused_in_one_line(files, tmp_path, monkeypatch):
+    """A split that leaves no training pose, noise of 1e300 mm,
     export to a .json name, a model file holding NaN, text joints in Python."""
     import json
 
