@@ -34,7 +34,7 @@ comparison: Kriging and the hybrid on 2,000 random series-A poses, held out on t
     python bench/kriging.py --search --search-splits   # and on 8 more training sets, 15 min
 
 ``--search`` compares, in one process, the two ways the hyperparameters of a Vecchia fit of
-1,000 to 2,000 points can be searched for (robocal.estimation.vecchia): the exact likelihood
+1,000 to 2,000 points can be searched for (robocal.estimation.kriging.vecchia): the exact likelihood
 on all points (as robocal did before, ``BLOCK_SEARCH_ABOVE`` raised to 2,000) and the block
 stand-in refined on it (the default): the hybrid on all 1,495 UR10 series-B poses (CPU s),
 the held-out errors of kriging and the hybrid on series B's random half (747 poses, exact
@@ -412,7 +412,8 @@ def ur10_benchmark():
 
 def _exact_log_likelihood(model):
     """The exact log-likelihood of a fitted Kriging at its θ and nugget, summed over outputs."""
-    from robocal.estimation.kriging import _Problem, trend_basis
+    from robocal.estimation.kriging import trend_basis
+    from robocal.estimation.kriging.exact import _Problem
 
     X = (model._X_train - model._x_mean) / model._x_scale
     Y = (model._Y_train - model._y_mean) / model._y_scale
@@ -424,7 +425,7 @@ def _exact_log_likelihood(model):
 
 def search_benchmark(splits=False):
     """The exact search on all points against the block stand-in (module docstring)."""
-    from robocal.estimation import vecchia
+    from robocal.estimation.kriging import vecchia
     from robocal.io.datasets import ipa_ur10
     from robocal.io.observations import Observations, observations
     from robocal.methods import make_method

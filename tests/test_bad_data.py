@@ -178,7 +178,7 @@ def test_a_plain_fit_that_goes_through_warns_about_a_pose_far_off(ur5_split):
         KinematicMethod(loss="huber").fit(chain, data)  # the robust fit lists the pose instead
 
 
-def test_estimator_settings_and_shapes_found_by_the_hostile_pass():
+def test_estimator_settings_and_shapes_are_refused():
     """Settings that returned the start unfitted or were taken as truthy, arrays of the wrong
     shape that raised numpy errors, and a missing fixture: each an InputError naming it."""
     from robocal.estimation import ConstraintCalibration
@@ -202,7 +202,8 @@ def test_estimator_settings_and_shapes_found_by_the_hostile_pass():
 def test_read_observations_takes_a_robot_name_and_refuses_what_is_no_robot(tmp_path):
     chain = builtin("ur5")
     q = chain.random_configurations(30, rng=1)
-    path = write_measurements(tmp_path / "m.csv", Measurements("", chain.joints_to_file(q), positions=chain.fk_positions(q)))
+    path = write_measurements(tmp_path / "m.csv",
+                              Measurements("", chain.joints_to_file(q), positions=chain.fk_positions(q)))
     assert read_observations(path, "ur5").n_poses == 30
     with pytest.raises(InputError, match="must be a Chain"):
         read_observations(path, None)

@@ -28,16 +28,7 @@ runner = CliRunner()
 WIDE = {"COLUMNS": "250", "TERMINAL_WIDTH": "250"}
 COMMANDS = sorted(typer.main.get_command(app).commands)
 ROOT = Path(__file__).resolve().parents[1]
-
-
-@pytest.fixture(scope="module")
-def files(tmp_path_factory):
-    """40 simulated UR5 poses and a kinematic model file fitted to them."""
-    folder = tmp_path_factory.mktemp("conventions")
-    meas, model = folder / "meas.csv", folder / "m.json"
-    assert runner.invoke(app, ["simulate", "ur5", "--n", "40", "--out", str(meas)]).exit_code == 0
-    assert runner.invoke(app, ["calibrate", "ur5", str(meas), "--out", str(model)]).exit_code == 0
-    return folder
+EXAMPLES = ROOT / "examples"
 
 
 def _one_line_error(result, *fragments):
@@ -80,17 +71,18 @@ def test_help_lists_the_choices(name, choices):
 
 
 # --------------------------------------------------------------------------- flags and --debug anywhere
-def test_json_flag_after_the_arguments(files, tmp_path):
+def test_json_flag_after_the_arguments(ur5_files, tmp_path):
     out = tmp_path / "m.json"
-    result = runner.invoke(app, ["calibrate", "ur5", str(files / "meas.csv"), "--out", str(out), "--json"])
+    result = runner.invoke(app, ["calibrate", "ur5", str(ur5_files / "meas.csv"), "--out", str(out), "--json"])
     assert result.exit_code == 0, result.output
     assert json.loads(result.output)["method"] == "kinematic"
-    result = runner.invoke(app, ["evaluate", str(out), str(files / "meas.csv"), "--json"])
+    result = runner.invoke(app, ["evaluate", str(out), str(ur5_files / "meas.csv"), "--json"])
     assert result.exit_code == 0 and "nominal" in json.loads(result.output)
 
 
-def test_a_flag_takes_no_value(files, tmp_path):
-    result = runner.invoke(app, ["evaluate", str(files / "m.json"), str(files / "meas.csv"), "--json", "true"])
+def test_a_flag_takes_no_value(ur5_files, tmp_path):
+    result = runner.invoke(app, ["evaluate", str(ur5_files / "model.json"), str(ur5_files / "meas.csv"), "--json",
+                                 "true"])
     assert result.exit_code == 2 and "Traceback" not in result.output
     assert len(result.output.strip().splitlines()) <= 2
 
@@ -130,14 +122,14 @@ CHOICE_CASES = [
 ]
 
 
-def _fill(args, files, out):
-    return [a.format(meas=files / "meas.csv", model=files / "m.json", out=out) for a in args]
+def _fill(args, folder, out):
+    return [a.format(meas=folder / "meas.csv", model=folder / "model.json", out=out) for a in args]
 
 
 @pytest.mark.parametrize("args, option, allowed", CHOICE_CASES, ids=[c[1] + "-" + c[0][0] for c in CHOICE_CASES])
-def test_a_wrong_choice_is_one_line_naming_the_option_and_the_choices(files, tmp_path, args, option, allowed):
+def test_a_wrong_choice_is_one_line_naming_the_option_and_the_choices(ur5_files, tmp_path, args, option, allowed):
     out = tmp_path / "out"
-    line = _one_line_error(runner.invoke(app, _fill(args, files, out)), f"{option} must be one of",
+    line = _one_line_error(runner.invoke(app, _fill(args, ur5_files, out)), f"{option} must be one of",
                            ", ".join(allowed), "is not available")
     assert not line.startswith("error: Invalid")
     assert os.listdir(tmp_path) == []
@@ -145,8 +137,10 @@ def test_a_wrong_choice_is_one_line_naming_the_option_and_the_choices(files, tmp
 
 def test_a_truth_file_is_still_accepted_by_errors(tmp_path):
     truth, meas = tmp_path / "truth.json", tmp_path / "meas.csv"
-    assert runner.invoke(app, ["simulate", "ur5", "--n", "10", "--out", str(meas), "--truth", str(truth)]).exit_code == 0
-    result = runner.invoke(app, ["simulate", "ur5", "--n", "10", "--errors", str(truth), "--out", str(tmp_path / "again.csv")])
+    assert runner.invoke(app, ["simulate", "ur5", "--n", "10", "--out", str(meas), "--truth",
+                               str(truth)]).exit_code == 0
+    result = runner.invoke(app, ["simulate", "ur5", "--n", "10", "--errors", str(truth), "--out",
+                                 str(tmp_path / "again.csv")])
     assert result.exit_code == 0, result.output
 
 
@@ -180,8 +174,8 @@ NUMBER_CASES = [
 
 
 @pytest.mark.parametrize("args, message", NUMBER_CASES, ids=[m.split()[0] + "-" + a[-1] for a, m in NUMBER_CASES])
-def test_a_bad_number_is_one_line_naming_the_option(files, tmp_path, args, message):
-    _one_line_error(runner.invoke(app, _fill(args, files, tmp_path / "out")), message)
+def test_a_bad_number_is_one_line_naming_the_option(ur5_files, tmp_path, args, message):
+    _one_line_error(runner.invoke(app, _fill(args, ur5_files, tmp_path / "out")), message)
     assert os.listdir(tmp_path) == []
 
 
@@ -314,3 +308,14 @@ def test_ctrl_c_before_any_write_says_interrupted(tmp_path):
     assert process.returncode == 130, stderr
     assert stderr.strip().splitlines() in (["interrupted"], [f"interrupted: nothing was written to {target}"])
     assert list(tmp_path.iterdir()) == []
+
+
+def test_terminal_tables_show_no_python_reprs(tmp_path):
+    meas = tmp_path / "m.csv"
+    result = runner.invoke(app, ["simulate", "ur5", "--n", "30", "--out", str(meas)])
+    assert result.exit_code == 0 and "None" not in result.output and "true error" in result.output
+    model = tmp_path / "m.json"
+    assert runner.invoke(app, ["calibrate", "ur5", str(meas), "--out", str(model)]).exit_code == 0
+    result = runner.invoke(app, ["compensate", str(model), str(EXAMPLES / "ur5-targets.csv"), "--out",
+                                 str(tmp_path / "c.csv")])
+    assert result.exit_code == 0 and "[]" not in result.output and "unreachable rows" in result.output

@@ -183,7 +183,8 @@ def test_calibrate_refuses_constraint_data_and_unknown_method(tmp_path):
         f"{i},{-90 + i},90,0,{i},0,A,{i % 2}" for i in range(10)) + "\n")
     result = runner.invoke(app, ["calibrate", "kr150-2", str(csv), "--out", str(tmp_path / "m.json")])
     assert result.exit_code == 2 and "needs measured positions" in result.output
-    result = runner.invoke(app, ["calibrate", "kr150-2", str(csv), "--method", "magic", "--out", str(tmp_path / "m.json")])
+    result = runner.invoke(app, ["calibrate", "kr150-2", str(csv), "--method", "magic", "--out",
+                                 str(tmp_path / "m.json")])
     assert result.exit_code == 2 and "not available" in result.output
 
 

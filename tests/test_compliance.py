@@ -46,7 +46,7 @@ def test_compliant_identification_jacobian_matches_finite_differences(name):
         np.testing.assert_allclose(jac[:, :3, j], expected, atol=rtol * np.abs(expected).max() + 1e-20, err_msg=name)
     # At zero compliance the geometric columns are the rigid chain's, exactly.
     stiff = CompliantChain(rigid, default_mass_model(rigid), np.zeros(rigid.n_joints))
-    for j, name in enumerate(geometric):
+    for name in geometric:
         expected = numeric(stiff, name)
         np.testing.assert_allclose(stiff.identification_jacobian(q, [name])[:, :3, 0], expected,
                                    atol=1e-6 * np.abs(expected).max(), err_msg=name)
@@ -153,7 +153,8 @@ def test_compliant_chain_declares_its_api_and_its_model_file_entry():
     chain = CompliantChain(rigid, default_mass_model(rigid, 40.0), np.linspace(1e-8, 3e-8, rigid.n_joints))
     assert chain.rigid is rigid and rigid.rigid is rigid
     for name in ("name", "n_joints", "joint_map", "lower", "upper", "base", "tool", "convention"):
-        assert getattr(chain, name) is getattr(rigid, name) or np.array_equal(getattr(chain, name), getattr(rigid, name))
+        assert (getattr(chain, name) is getattr(rigid, name)
+                or np.array_equal(getattr(chain, name), getattr(rigid, name)))
     q = rigid.random_configurations(20, rng=3)
     assert np.array_equal(chain.within_limits(q), rigid.within_limits(q))
     np.testing.assert_array_equal(chain.joints_to_file(q), rigid.joints_to_file(q))

@@ -310,7 +310,7 @@ def test_socket_plan_seats_the_true_ball_through_compliance_and_backlash():
     # The balls sit in the sockets: the fixture's distances between the seats.
     for placement in ("P1", "P2"):
         seats = {s: plan.ball[(plan.fixture_ids == placement) & (plan.socket_ids == s)] for s in PLATE.ids}
-        for s, points in seats.items():
+        for points in seats.values():
             assert np.ptp(points, axis=0).max() < 1e-9
         assert abs(np.linalg.norm(seats["A"][0] - seats["B"][0]) - 150.0) < 1e-9
     # Varied orientations: the flange axis turns between the configurations of one socket.

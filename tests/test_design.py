@@ -18,7 +18,7 @@ from robocal.io.robot_file import write_robot
 from robocal.planning import box_candidates, design_poses, information_model, joint_candidates, tour, usable
 from robocal.planning.criteria import InformationState, SandwichState, SpacingState, information_start, woodbury
 from robocal.planning.design import spacing_points, target_weight
-from robocal.planning.exchange import exchange, greedy, select, select_stratified, strata
+from robocal.planning.exchange import exchange, greedy, select_stratified, strata
 from robocal.planning.information import joint_covariance, noise_of, sag_columns
 from robocal.planning.tour import path_length
 from robocal.estimation.constraint import ConstraintCalibration, socket_errors

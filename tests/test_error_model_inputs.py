@@ -60,6 +60,7 @@ def test_each_input_kind_fits_predicts_and_round_trips_through_a_model_file(tmp_
     assert error_stats(p[test] - fitted.predict(q[test]))["mean_mm"] < nominal
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("inputs", INPUTS)
 def test_uncertainty_is_one_figure_per_pose_small_at_training_poses_and_the_report_figure_draws(ur5_data, inputs):
     chain, _, q, p = ur5_data
@@ -75,6 +76,7 @@ def test_uncertainty_is_one_figure_per_pose_small_at_training_poses_and_the_repo
     assert mean.shape == mse.shape == (40, 3) and np.isfinite(mse).all()
 
 
+@pytest.mark.slow
 def test_joint_inputs_compensate_a_noise_free_robot_closer_than_the_nominal_on_held_out_targets(ur5):
     chain, truth = ur5
     rng = np.random.default_rng(7)
@@ -101,6 +103,7 @@ def _other_elbow(chain, q):
     return result.q
 
 
+@pytest.mark.slow
 def test_joint_inputs_beat_position_inputs_on_the_arm_branch_that_position_was_not_trained_on(ur5):
     """Training: elbow up at positions P1 and elbow down at positions P2.  Held out: elbow
     down at P1 and elbow up at P2, so every held-out position was seen in training, but only

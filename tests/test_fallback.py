@@ -150,7 +150,8 @@ def _table(region):
 def test_outside_the_domain_compliance_answers_unless_the_regions_show_it_worse():
     candidates = [RIGID, GAINS, COMPLIANT, HYBRID]
     # As good as the rigid calibration within the spread: compliance answers outside.
-    tied = {RIGID.label: RIGID_REGION, COMPLIANT.label: [m + d for m, d in zip(RIGID_REGION, [.02, -.03, .01, 0, -.01])],
+    tied = {RIGID.label: RIGID_REGION,
+            COMPLIANT.label: [m + d for m, d in zip(RIGID_REGION, [.02, -.03, .01, 0, -.01])],
             GAINS.label: RIGID_REGION, HYBRID.label: RIGID_REGION}
     chosen, why = outside_choice(_table(tied), candidates, [RANDOM, REGION], HYBRID)
     assert chosen is COMPLIANT and "gravity" in why
@@ -205,7 +206,8 @@ def test_calibrate_auto_writes_the_fallback_and_evaluate_says_what_answered(tmp_
 
     monkeypatch.setattr(selection, "candidates", two)
     # Whatever the folds say of these two, the gains model is what is tested here.
-    monkeypatch.setattr(selection, "recommend", lambda scores, models, splits_: (models[0], ["gains, for the test"], []))
+    monkeypatch.setattr(selection, "recommend",
+                        lambda scores, models, splits_: (models[0], ["gains, for the test"], []))
     out = tmp_path / "auto.json"
     result = runner.invoke(app, ["calibrate", "ur5", str(measured), "--method", "auto", "--out", str(out),
                                  "--beyond-limits", "--json"])

@@ -141,7 +141,8 @@ def test_targets_outside_the_domain_are_refused_unless_accepted(tmp_path):
     assert not list((tmp_path / "out").iterdir())
     result = filter_job(model, [SRC], tmp_path / "out", allow_unfiltered=True, accept_extrapolation=True)
     assert result["outside_domain"] >= 3
-    rows = {r.split(",")[2]: r.split(",")[6] for r in (tmp_path / "out" / "filter-summary.csv").read_text().splitlines()[1:]}
+    summary = (tmp_path / "out" / "filter-summary.csv").read_text().splitlines()[1:]
+    rows = {r.split(",")[2]: r.split(",")[6] for r in summary}
     assert rows["XP8"] == "0" and rows["XP3"] == "1"
 
 

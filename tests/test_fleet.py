@@ -199,6 +199,7 @@ def test_a_failed_robot_keeps_the_files_of_an_earlier_run(tmp_path, data):
     assert (tmp_path / "out" / "r1" / "model.json").read_text() == before
 
 
+@pytest.mark.slow
 @needs_dask
 def test_the_command_line_on_a_local_cluster_exits_1_when_a_robot_fails(tmp_path, data):
     fleet = small_fleet(data, tmp_path)
@@ -211,6 +212,7 @@ def test_the_command_line_on_a_local_cluster_exits_1_when_a_robot_fails(tmp_path
     assert len(list((tmp_path / "out").glob("*/model.json"))) == 2
 
 
+@pytest.mark.slow
 @needs_dask
 def test_a_real_scheduler_and_worker_run_the_fleet_and_validate_as_they_run_here(tmp_path, data, serial_run):
     """``dask scheduler`` and ``dask worker`` started as processes of their own on localhost."""
@@ -267,6 +269,7 @@ def _wait_for_address(scheduler_file, process, seconds=60):
     pytest.fail("dask scheduler did not write its address")
 
 
+@pytest.mark.slow
 @needs_dask
 def test_ctrl_c_closes_the_local_cluster(tmp_path, data):
     import psutil
@@ -308,6 +311,7 @@ main()
 """
 
 
+@pytest.mark.slow
 def test_without_dask_fleet_says_how_to_install_it_and_the_rest_works(tmp_path, data):
     fleet = small_fleet(data, tmp_path)
     done = subprocess.run([sys.executable, "-c", BLOCK_DASK, "fleet", str(fleet), "--out", str(tmp_path / "out")],
@@ -366,6 +370,7 @@ def test_only_module_level_functions_and_plain_data_cross_to_workers():
         parallel.map_jobs(refuse_three, [1], jobs=0)
 
 
+@pytest.mark.slow
 @needs_dask
 def test_an_active_executor_runs_map_jobs_on_its_cluster():
     with parallel.executor(jobs=1) as chosen:

@@ -7,7 +7,8 @@ import pytest
 
 from robocal.errors import FileFormatError, InputError, RobocalWarning
 from robocal.estimation import Kriging
-from robocal.estimation.kriging import _Problem, trend_basis
+from robocal.estimation.kriging import trend_basis
+from robocal.estimation.kriging.exact import _Problem
 
 
 def latin_hypercube(n, d, rng):

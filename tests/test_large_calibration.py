@@ -46,7 +46,8 @@ def test_a_step_from_normal_equations_is_the_step_from_the_jacobian(data):
 
     whole = damped_least_squares(chain, names, lambda c: (residual(c), jacobian(c)), residual, max_iterations=1)
     normal = damped_least_squares(
-        chain, names, lambda c: (residual(c), NormalEquations(jacobian(c).T @ jacobian(c), jacobian(c).T @ residual(c))),
+        chain, names,
+        lambda c: (residual(c), NormalEquations(jacobian(c).T @ jacobian(c), jacobian(c).T @ residual(c))),
         residual, max_iterations=1)
     a, b = whole.chain.parameter_values(names), normal.chain.parameter_values(names)
     assert np.allclose(a, b, rtol=1e-9, atol=1e-9 * np.abs(a).max())

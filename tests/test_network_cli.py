@@ -15,13 +15,16 @@ from robocal.io.tables import read_targets
 from robocal.simulation import read_truth
 from robocal.spatial import compose_pose
 
+pytestmark = pytest.mark.slow  # the module's fixture fits a GA-trained network on 700 simulated poses
+
 runner = CliRunner()
 
 
 @pytest.fixture(scope="module")
 def trained(tmp_path_factory):
     folder = tmp_path_factory.mktemp("ann")
-    run_ok("simulate", "kr150-2", "--n", 700, "--seed", 5, "--out", folder / "all.csv", "--truth", folder / "truth.json")
+    run_ok("simulate", "kr150-2", "--n", 700, "--seed", 5, "--out", folder / "all.csv", "--truth",
+           folder / "truth.json")
     lines = (folder / "all.csv").read_text().splitlines(keepends=True)
     (folder / "train.csv").write_text("".join(lines[:501]))
     (folder / "test.csv").write_text("".join(lines[:1] + lines[501:]))

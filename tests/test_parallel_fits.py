@@ -61,6 +61,7 @@ def test_chain_and_observations_cross_as_plain_data_exactly(ur5):
     assert Observations.from_plain(parallel.check_plain(sockets.to_plain())).fixture.distance("a", "b") == 100.0
 
 
+@pytest.mark.slow
 def test_compare_on_a_cluster_scores_exactly_what_it_scores_here(ur5, cluster):
     chain, obs = ur5
     only = ["kinematic full", "kinematic full+compliance", "hybrid full+compliance", "kriging (sincos)"]
@@ -93,6 +94,7 @@ def test_network_folds_are_spread_one_split_a_task():
     assert [[s.name for s in splits_] for _, splits_ in pieces][:2] == [["a"], ["b"]]
 
 
+@pytest.mark.slow
 def test_cross_validation_on_a_cluster_equals_the_one_here(ur5, cluster):
     chain, obs = ur5
     method = make_method("kinematic", parameters="full+compliance")
@@ -110,6 +112,7 @@ def files(robot, tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow
 def test_validate_and_compare_with_jobs_print_what_they_print_without(files):
     meas = str(files / "meas.csv")
     for command in (["validate", "ur5", meas, "--method", "kinematic", "--folds", "3"],
@@ -126,6 +129,7 @@ def test_validate_and_compare_with_jobs_print_what_they_print_without(files):
         assert here == there, command[0]
 
 
+@pytest.mark.slow
 def test_jobs_and_scheduler_together_or_no_scheduler_are_refused(files, tmp_path, monkeypatch):
     before = copy_inputs(files, tmp_path, monkeypatch)
     for command in ("compare", "validate"):
@@ -150,13 +154,15 @@ def test_the_command_line_runs_one_blas_thread_unless_told(monkeypatch):
     assert cli._one_blas_thread() is None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("approximation", ["exact", "vecchia"])
 def test_kriging_searches_its_components_on_a_cluster_as_it_does_here(approximation, cluster):
     from robocal.estimation.kriging import Kriging
 
     rng = np.random.default_rng(7)
     X = rng.uniform(-1.0, 1.0, (150, 3))
-    Y = np.column_stack([np.sin(3 * X[:, 0]), X[:, 1] * X[:, 2], np.cos(2 * X[:, 2])]) + 0.01 * rng.normal(size=(150, 3))
+    Y = (np.column_stack([np.sin(3 * X[:, 0]), X[:, 1] * X[:, 2], np.cos(2 * X[:, 2])])
+         + 0.01 * rng.normal(size=(150, 3)))
     settings = dict(random_state=3, nugget="estimate", n_starts=3, approximation=approximation, neighbours=20)
     # One BLAS thread on both sides, as the command line runs (the final factorisation is here).
     with threadpool_limits(1, user_api="blas"):
@@ -169,6 +175,7 @@ def test_kriging_searches_its_components_on_a_cluster_as_it_does_here(approximat
         np.testing.assert_array_equal(there.predict(X[:20]), here.predict(X[:20]))
 
 
+@pytest.mark.slow
 def test_calibrate_takes_jobs_only_where_there_is_something_to_spread(files, tmp_path, monkeypatch):
     before = copy_inputs(files, tmp_path, monkeypatch)
     for method in ("kinematic", "ann"):

@@ -72,6 +72,7 @@ def test_predicted_error_of_poses_clustered_within_5_deg_matches_or_is_refused(k
     assert predicted.mean_mm > 1.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["kinematic", "hybrid"])
 def test_predicted_error_of_a_re_registration_on_a_cluster(kr150, method):
     chain, truth, work, true_positions = kr150

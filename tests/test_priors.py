@@ -86,6 +86,7 @@ def test_every_builtin_robots_data_are_refused_as_any_other_builtin_robot(data):
                 KinematicCalibration("full").fit(chain, q, measured)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("group", [SIX_AXIS, SEVEN_AXIS], ids=["six axes", "seven axes"])
 def test_every_builtin_robots_socket_data_are_refused_as_any_other_builtin_robot(group):
     from robocal.io.fixtures import read_fixture
@@ -97,8 +98,8 @@ def test_every_builtin_robots_socket_data_are_refused_as_any_other_builtin_robot
         for data in group:
             plan = socket_plan(make_true_robot(builtin(data), "typical", seed=1), plate, 3, 8, rng=1)
             for other in group:
-                fit = lambda: ConstraintCalibration().fit(builtin(other), plan.joints, plan.fixture_ids,  # noqa: E731
-                                                          plan.socket_ids, plate)
+                fit = lambda other=other, plan=plan: ConstraintCalibration().fit(  # noqa: E731
+                    builtin(other), plan.joints, plan.fixture_ids, plan.socket_ids, plate)
                 if other == data:
                     fit()
                     continue
@@ -106,6 +107,7 @@ def test_every_builtin_robots_socket_data_are_refused_as_any_other_builtin_robot
                     fit()
 
 
+@pytest.mark.slow
 def test_the_shipped_real_data_pass_the_check_and_map_keeps_their_held_out_error():
     # Random halves; the MAP fit's held-out mean within 1 % of plain least squares.
     for chain, data in (ur5_tsinghua(), ipa_ur10("A"), ipa_ur10("B")):
@@ -172,6 +174,7 @@ def test_kriging_refuses_rows_in_metres_naming_them(inputs, tmp_path, monkeypatc
                     str(tmp_path / "model.json")], "not this robot's positions in mm", tmp_path, before)
 
 
+@pytest.mark.slow
 def test_a_model_predicted_worse_than_the_nominal_robot_is_refused_unless_accepted(inputs, tmp_path, monkeypatch):
     # Kriging over the TCP position from 60 poses spread over a UR5's whole joint space.
     from typer.testing import CliRunner

@@ -30,6 +30,7 @@ def test_readme_walkthrough_runs(tmp_path):
     assert "UR5" in done.stdout
 
 
+@pytest.mark.slow
 def test_readme_python_examples_run():
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     blocks = re.findall(r"```python\n(.*?)```", text, re.S)

@@ -1,5 +1,6 @@
 """Methods on the real measured datasets (packaged in robocal/io/data), scored on held-out poses only."""
 import numpy as np
+import pytest
 
 from robocal.io.datasets import ipa_ur10, ur5_tsinghua
 from robocal.io.observations import Observations
@@ -19,6 +20,7 @@ def _held_out(method, chain, obs, test):
     return position_scores(method, obs.subset(test), chain.name)[2]
 
 
+@pytest.mark.slow
 def test_kriging_on_ur5_predicts_the_other_half():
     chain, data = ur5_tsinghua()
     obs = _observations(chain, data)
@@ -40,6 +42,7 @@ def _split(n, fraction, seed=0):
     return order[:cut], order[cut:]
 
 
+@pytest.mark.slow
 def test_kinematic_and_hybrid_on_ur5_beat_the_published_result():
     chain, data = ur5_tsinghua()
     obs = _observations(chain, data)

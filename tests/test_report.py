@@ -24,6 +24,7 @@ def files(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["kinematic", "kriging", "hybrid"])
 def test_report_renders_and_agrees_with_evaluate(files, method):
     model = files / f"{method}.json"
@@ -51,10 +52,12 @@ def test_report_renders_and_agrees_with_evaluate(files, method):
         assert "Identified parameters" in page and "axes 2 and 3 are parallel" in page
 
 
+@pytest.mark.slow
 def test_report_with_cross_validation_and_pdf(files):
     model = files / "kin.json"
     assert runner.invoke(app, ["calibrate", "kr150-2", str(files / "train.csv"), "--out", str(model)]).exit_code == 0
-    cv = runner.invoke(app, ["validate", "kr150-2", str(files / "train.csv"), "--folds", "3", "--sizes", "40,80", "--json"])
+    cv = runner.invoke(app, ["validate", "kr150-2", str(files / "train.csv"), "--folds", "3", "--sizes", "40,80",
+                             "--json"])
     assert cv.exit_code == 0, cv.output
     (files / "cv.json").write_text(cv.stdout)
     result = runner.invoke(app, ["report", str(model), str(files / "train.csv"), "--out", str(files / "r.html"),

@@ -97,6 +97,7 @@ def test_frames_from_15_poses_give_what_the_true_frames_give(setup):
     assert back.to_dict() == record.to_dict()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("inputs", ["position", "joints"])
 def test_an_error_model_moves_with_the_frame(setup, inputs):
     """A tracker move alone, with the readings of the same poses: the re-registered hybrid
@@ -167,6 +168,7 @@ def test_the_wrapper_predicts_the_same_physical_error():
         reframed_from_document({**document, "error_input": "position"}, load)
 
 
+@pytest.mark.slow
 def test_a_reregistered_model_writes_its_moved_error_model(setup):
     chain, _, _, train, poses, test = setup
     again = reregister(make_method("hybrid").fit(chain, train), poses)

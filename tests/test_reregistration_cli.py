@@ -38,6 +38,7 @@ def setups(tmp_path_factory):
     return root, files
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["kinematic", "hybrid"])
 def test_a_reregistered_model_file_works_on_the_new_set_up(setups, method):
     root, files = setups

@@ -17,6 +17,8 @@ from typer.testing import CliRunner
 from robocal.interfaces.cli import app
 from robocal.io.library import load_robot
 
+pytestmark = pytest.mark.slow  # the module's fixture fits a model of every method the server answers with
+
 runner = CliRunner()
 WAIT = 20.0  # s, the longest any step may take
 SERVE = [sys.executable, "-c", "from robocal.interfaces.cli import app; app()", "serve"]

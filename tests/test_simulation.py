@@ -101,7 +101,8 @@ def tcp_sag(chain, q, stiffness, payload):
 
 
 def test_deflection_grows_with_payload_and_reach_and_vanishes_when_rigid():
-    assert tcp_sag(KR150, STRETCHED, 1e8, 150.0) > tcp_sag(KR150, STRETCHED, 1e8, 50.0) > tcp_sag(KR150, STRETCHED, 1e8, 0.0) > 0
+    assert (tcp_sag(KR150, STRETCHED, 1e8, 150.0) > tcp_sag(KR150, STRETCHED, 1e8, 50.0)
+            > tcp_sag(KR150, STRETCHED, 1e8, 0.0) > 0)
     # The stretched arm swung down from vertical (A2 = -90) to horizontal (A2 = 0): the reach
     # and with it the sag grow all the way.
     swing = np.zeros((10, 6))

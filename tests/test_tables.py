@@ -156,7 +156,8 @@ def test_commands_refuse_non_finite_joints_of_a_reachable_row(tmp_path):
 
 
 def test_fixture_round_trip(tmp_path):
-    fixture = Fixture("plate \"B\"", {"A": [0, 0, 0], "B": [150.0, 0, 0], "C": [0, 120.0, 1e-7], "left side": [1, 2, 3]})
+    fixture = Fixture("plate \"B\"",
+                      {"A": [0, 0, 0], "B": [150.0, 0, 0], "C": [0, 120.0, 1e-7], "left side": [1, 2, 3]})
     loaded = read_fixture(write_fixture(tmp_path / "fixture.toml", fixture))
     assert loaded.name == 'plate "B"'
     assert loaded.ids == ("A", "B", "C", "left side")
@@ -169,7 +170,8 @@ def test_fixture_round_trip(tmp_path):
 
 
 def test_fixture_from_design_example(tmp_path):
-    path = write(tmp_path, 'name = "plate"\n[sockets]\nA = [0.0, 0.0, 0.0]\nB = [150, 0, 0]\nC = [0.0, 120.0, 0.0]\n', "f.toml")
+    path = write(tmp_path, 'name = "plate"\n[sockets]\nA = [0.0, 0.0, 0.0]\nB = [150, 0, 0]\nC = [0.0, 120.0, 0.0]\n',
+                 "f.toml")
     fixture = read_fixture(path)
     assert fixture.name == "plate" and fixture.distance("B", "A") == 150.0
     with pytest.raises(InputError, match="no socket 'D'"):

@@ -8,12 +8,14 @@ import pytest
 
 from robocal.errors import FileFormatError, InputError, RobocalWarning
 from robocal.estimation import Kriging
-from robocal.estimation import kriging as kriging_module
 from robocal.estimation.joint_kriging import JointKriging
-from robocal.estimation.kriging import _Problem, trend_basis
-from robocal.estimation import vecchia as vecchia_module
-from robocal.estimation.vecchia import (VecchiaProblem, _BlockProblem, _ExactInOrder, coarse_to_fine_order,
-                                        previous_neighbours, spatial_blocks)
+from robocal.estimation.kriging import model as kriging_module
+from robocal.estimation.kriging import trend_basis
+from robocal.estimation.kriging import vecchia as vecchia_module
+from robocal.estimation.kriging import vecchia_prediction
+from robocal.estimation.kriging.exact import _Problem
+from robocal.estimation.kriging.stand_ins import _BlockProblem, _ExactInOrder, spatial_blocks
+from robocal.estimation.kriging.vecchia import VecchiaProblem, coarse_to_fine_order, previous_neighbours
 
 
 def latin_hypercube(n, d, rng):
@@ -172,8 +174,8 @@ def test_all_training_points_as_neighbours_give_the_exact_predictions(rng, nugge
 
 
 def test_conjugate_gradients_solve_the_noisy_correlation_system(rng):
-    from robocal.estimation import vecchia
     from robocal.estimation.kriging import correlation_from_squared
+    from robocal.estimation.kriging import vecchia_prediction as vecchia
 
     X, Y = standardised(*(lambda X: (X, wavy(X)))(rng.random((300, 3))))
     problem = VecchiaProblem.of(X, trend_basis(X, "constant"), "gaussian", 10)
@@ -190,8 +192,8 @@ def test_conjugate_gradients_solve_the_noisy_correlation_system(rng):
 
 
 def test_with_all_earlier_neighbours_the_latent_gradients_solve_the_noisy_correlation_system(rng):
-    from robocal.estimation import vecchia
     from robocal.estimation.kriging import correlation_from_squared
+    from robocal.estimation.kriging import vecchia_prediction as vecchia
 
     X = rng.random((120, 3))
     X, Y = standardised(X, wavy(X))
@@ -215,7 +217,7 @@ def noisy_smooth_field(n, rng, noise=0.05):
 
 
 def test_above_the_noise_free_limit_the_latent_field_gives_about_the_exact_products_predictions(rng, monkeypatch):
-    from robocal.estimation import vecchia
+    from robocal.estimation.kriging import vecchia_prediction as vecchia
 
     # The smooth noisy field of the accuracy test below, with about its fitted θ and nugget.
     X, Y = noisy_smooth_field(300, rng)
@@ -232,16 +234,16 @@ def test_above_the_noise_free_limit_the_latent_field_gives_about_the_exact_produ
     assert errors[1] < 0.8 * errors[2], errors
 
 
+@pytest.mark.slow
 def test_a_vecchia_fit_on_twice_the_noisy_points_is_better_held_out(rng, monkeypatch):
     # As at 2,000 points (exact likelihood, exact products) against 4,000 to 100,000 (the
     # Vecchia likelihood searched on a subset and refined, the latent field's products), here
     # at 300 against 600 random points.  Measured on this field (seeds 2024, 1, 2): 600 points
     # 0.63, 0.61, 0.67 times the error of 300; with the k noisy readings averaged above the
     # limit (as before) 0.93, 1.00, 1.12 times.
-    from robocal.estimation import vecchia
-
-    for name in ("NOISE_FREE_UP_TO", "EXACT_SEARCH_UP_TO", "BLOCK_SEARCH_ABOVE", "SEARCH_POINTS"):
-        monkeypatch.setattr(vecchia, name, 300)
+    monkeypatch.setattr(vecchia_prediction, "NOISE_FREE_UP_TO", 300)
+    for name in ("EXACT_SEARCH_UP_TO", "BLOCK_SEARCH_ABOVE", "SEARCH_POINTS"):
+        monkeypatch.setattr(vecchia_module, name, 300)
     X = rng.random((600, 3))
     Y = smooth(X) + rng.normal(scale=0.05, size=(len(X), 2))
     targets = rng.random((1000, 3))
@@ -255,6 +257,7 @@ def test_a_vecchia_fit_on_twice_the_noisy_points_is_better_held_out(rng, monkeyp
 
 # --------------------------------------------------------------------------- accuracy
 
+@pytest.mark.slow
 def test_vecchia_is_within_five_percent_of_exact_kriging_held_out_on_real_robot_residuals():
     # What the hybrid models: the UR10's error left by its kinematic calibration, over the TCP
     # position; 400 random poses of series B train, the other 1,095 are held out.
@@ -275,6 +278,7 @@ def test_vecchia_is_within_five_percent_of_exact_kriging_held_out_on_real_robot_
     assert errors["vecchia"] < 0.9 * np.linalg.norm(residual[test], axis=1).mean()  # it does learn
 
 
+@pytest.mark.slow
 def test_vecchia_is_within_five_percent_of_exact_kriging_on_a_noisy_smooth_field(rng):
     # Exact Kriging averages the noise over hundreds of points; the Vecchia predictors
     # interpolate the noise-free field's posterior mean instead of m noisy readings.
