@@ -50,8 +50,8 @@ PARAMETERS = Setting("parameters", "full", "--parameters",
                      "(ann: for --base-model kinematic)", Choice(PARAMETER_SETS))
 LOSS = Setting("loss", "linear", "--loss", "the loss: linear, or huber or soft_l1 (robust to outliers)", Choice(LOSSES))
 PAYLOAD = Setting("payload", None, "--payload",
-                  "with a compliance parameter set, the mass at the TCP in kg (default: 0 if the robot file gives link masses, else the "
-                  "rated payload of a robot of that size)", Number(at_least=0))
+                  "with a compliance parameter set, the mass at the TCP in kg (default: 0 if the robot file gives "
+                  "link masses, else the rated payload of a robot of that size)", Number(at_least=0))
 RANDOM_STATE = Setting("random_state", 0, "--seed", "seed of the random search (Kriging's multi-start search, the "
                        "network's training)", Number(whole=True, at_least=0), optional=True)
 PRIOR = Setting("prior", "tolerances", "--prior",

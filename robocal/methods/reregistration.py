@@ -47,7 +47,8 @@ from .plausibility import check_robot_data
 PARAMETER_CHOICES = ("frames", "frames+offsets")
 # Re-registration's one setting (calibrate --method frames --parameters ...).
 FRAME_PARAMETERS = Setting("parameters", "frames", "--parameters",
-                           "frames (base and tool) or frames+offsets (and the joint offsets)", Choice(PARAMETER_CHOICES))
+                           "frames (base and tool) or frames+offsets (and the joint offsets)",
+                           Choice(PARAMETER_CHOICES))
 DOCUMENT_TYPE = "reframed"
 TOOL_ORIENTATION = ("tool_rx", "tool_ry", "tool_rz")
 # Row weights when the data carry no standard deviations: the kinematic calibration's

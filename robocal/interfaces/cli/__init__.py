@@ -11,6 +11,7 @@ A new command goes in the module of its group, decorated with :func:`.app.verb`,
 name in :data:`.app.COMMAND_ORDER` (the order --help lists it in).
 """
 from . import fit, fleet, info, plan, use  # noqa: F401  (each module registers its commands)
-from .app import THREAD_VARIABLES, Interrupted, _one_blas_thread, app, interruptible, main, user_errors
+from .app import THREAD_VARIABLES, Interrupted, app, interruptible, main, user_errors
+from .app import _one_blas_thread  # noqa: F401  (where it was before the package)
 
 __all__ = ["THREAD_VARIABLES", "Interrupted", "app", "interruptible", "main", "user_errors"]

@@ -65,7 +65,8 @@ def calibrate(
         label = fitter.progress_label if fitter.progress_total() else f"fitting the {method} model"
         total = fitter.progress_total()
     with parallel.executor(jobs=jobs, scheduler=scheduler), progress(label, total, enabled=not as_json) as advance:
-        result = calibrate_job(robot, measurements, out_file, method=fitter, settings=settings if method == AUTO else None,
+        result = calibrate_job(robot, measurements, out_file, method=fitter,
+                               settings=settings if method == AUTO else None,
                                fixture=fixture, progress=advance, beyond_limits=beyond_limits, root=root, tip=tip,
                                accept_extrapolation=accept_extrapolation)
     print_calibrated(result, out_file, as_json, comparison=method == AUTO)

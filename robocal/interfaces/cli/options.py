@@ -25,7 +25,7 @@ import typer
 
 from ...errors import InputError
 from ...methods import settings_by_option
-from ...settings import Constraint, Flag, Number, Refusal, merged_constraint
+from ...settings import Constraint, Flag, Number, Refusal, Setting, merged_constraint
 
 # simulate --n: beyond this a file is no measurement series anyone makes, and the run would
 # take minutes and gigabytes.
@@ -93,12 +93,14 @@ def out_option(help, suffix=None, **extra):
 
 # --------------------------------------------------------------------------- shared options
 ROBOT = typer.Argument(..., help="Built-in name, robot .toml or .urdf file.")
-MEASUREMENTS = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...), or ball-in-socket data with --fixture.")
+MEASUREMENTS = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...), or ball-in-socket data with "
+                              "--fixture.")
 MODEL = typer.Argument(..., help="Model file written by 'robocal calibrate'.")
 JSON = typer.Option(False, "--json", help="Print one JSON object.")
 TIP = typer.Option(None, help="URDF only: the tip link.")
 ROOT = typer.Option(None, help="URDF only: the root link.")
-FIXTURE = typer.Option(None, help="Ball-in-socket data (the constraint method): the fixture TOML (socket centres, mm).")
+FIXTURE = typer.Option(None, help="Ball-in-socket data (the constraint method): the fixture TOML (socket centres, mm; "
+                       "evaluate: default the one the model stores).")
 BEYOND_LIMITS = typer.Option(False, "--beyond-limits", help="Accept joint values beyond the robot's limits (by more "
                              "than 0.5 deg) instead of refusing those rows.")
 ACCEPT_EXTRAPOLATION = typer.Option(False, "--accept-extrapolation", help="Keep a model predicted to miss by more "
@@ -115,6 +117,33 @@ SCHEDULER = typer.Option(None, metavar="<tcp://HOST:PORT>", help="Run them on th
 SEED = typer.Option(0, help="Random seed (of the poses drawn, the folds, the split).",
                     **parsed(Number(whole=True, at_least=0)))
 METHOD_HELP = "The method; 'robocal methods' describes them and lists their options."
+
+
+# --------------------------------------------------------------------------- options from settings
+def typer_option(setting, help=None):
+    """The typer option of a :class:`~robocal.settings.Setting`: its option name(s), default
+    (``...``: required), help (or ``help``) and the parser and metavar of its constraint."""
+    help = setting.help if help is None else help
+    if setting.constraint is None or isinstance(setting.constraint, Flag):
+        return typer.Option(setting.default, setting.option, help=help)
+    return typer.Option(setting.default, setting.option, help=help, **parsed(setting.constraint))
+
+
+def declared(settings):
+    """Decorator: each keyword-only parameter of a command without a default takes its option
+    from the setting of its name among ``settings`` (:func:`typer_option`)."""
+    by_name = {setting.name: setting for setting in settings}
+
+    def decorate(func):
+        signature = inspect.signature(func)
+        undeclared = inspect.Parameter.empty
+        parameters = [parameter.replace(default=typer_option(by_name[parameter.name]))
+                      if parameter.kind is inspect.Parameter.KEYWORD_ONLY and parameter.default is undeclared
+                      else parameter for parameter in signature.parameters.values()]
+        func.__signature__ = signature.replace(parameters=parameters)
+        return func
+
+    return decorate
 
 
 # --------------------------------------------------------------------------- method settings
@@ -146,8 +175,9 @@ def method_options(*, frames=False, skip=()):
         for option, entries in options.items():
             name = entries[0][1].name
             flag = isinstance(entries[0][1].constraint, Flag)
-            info = (typer.Option(False, option, help=_help(entries)) if flag
-                    else typer.Option(None, option, help=_help(entries), **parsed(merged_constraint([s for _, s in entries]))))
+            # Not given: None (False for a flag), so that the method's own default applies.
+            merged = Setting(name, False if flag else None, option, "", merged_constraint([s for _, s in entries]))
+            info = typer_option(merged, help=_help(entries))
             generated.append(inspect.Parameter(name, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=info,
                                                annotation=bool if flag else str))
             names.append(name)

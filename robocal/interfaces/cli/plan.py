@@ -1,51 +1,122 @@
-"""Commands that plan and simulate measurements: simulate, design."""
-import typer
+"""Commands that plan and simulate measurements: simulate, design.
 
+Their many options are declared as :class:`~robocal.settings.Setting` tables below (option,
+default, help, constraint), and each keyword-only parameter of the command takes its
+option from the setting of its name (:func:`.options.declared`).
+"""
 from ...errors import InputError
-from ...estimation.calibration import PARAMETER_SETS
-from ...settings import Choice, Number, Numbers
+from ...methods.base import PARAMETERS, PAYLOAD
+from ...planning.candidates import SAMPLINGS as CANDIDATE_SAMPLINGS
+from ...planning.criteria import CRITERIA
+from ...planning.design import ORDERS
+from ...planning.sockets import SOCKET_CRITERIA
+from ...settings import Choice, Flag, Number, Numbers, Setting
 from ...simulation.presets import PRESETS
 from ..jobs import SAMPLINGS, simulate_job
 from .app import verb
-from .options import FIXTURE, JSON, LARGEST_NOISE_MM, MOST_SIMULATED_POSES, ROBOT, ROOT, SEED, TIP, Output, out_option, parsed
+from .options import (FIXTURE, JSON, LARGEST_NOISE_MM, MOST_SIMULATED_POSES, ROBOT, ROOT, SEED, TIP, Output, declared,
+                      out_option)
 from .rendering import print_design, print_json, print_result, print_socket_design
 
 # Where the poses are drawn (simulate --sampling lhs) or the candidates lie (design --box).
-BOX = typer.Option(None, help="A Cartesian box of the robot base frame, xmin,xmax,ymin,ymax,zmin,zmax in mm: where "
-                   "simulate --sampling lhs draws the poses, where design's candidates lie.", **parsed(Numbers(count=6)))
-RPY = typer.Option(None, help="With --box: the TCP orientation rx,ry,rz in deg (default 180,0,0).",
-                   **parsed(Numbers(count=3)))
-HINT = typer.Option(None, help="With --box: a posture q1,...,qn in deg whose IK branch every pose takes.",
-                    **parsed(Numbers()))
+BOX = Setting("box", None, "--box", "A Cartesian box of the robot base frame, xmin,xmax,ymin,ymax,zmin,zmax in mm: "
+              "where simulate --sampling lhs draws the poses, where design's candidates lie.", Numbers(count=6))
+RPY = Setting("rpy", None, "--rpy", "With --box: the TCP orientation rx,ry,rz in deg (default 180,0,0).",
+              Numbers(count=3))
+HINT = Setting("hint", None, "--hint", "With --box: a posture q1,...,qn in deg whose IK branch every pose takes.",
+               Numbers())
+
+SIMULATE = (
+    BOX, RPY, HINT,
+    Setting("n", None, "--n", "Number of poses (default 200; liu2022: 150).",
+            Number(whole=True, at_least=1, at_most=MOST_SIMULATED_POSES)),
+    Setting("sampling", "joint", "--sampling", "joint (uniform in the limits), lhs (Latin hypercube in --box), grid "
+            "(n^(1/3) per axis in --box) or sockets (ball in the sockets of --fixture, joint angles only).",
+            Choice(SAMPLINGS)),
+    Setting("errors", "typical", "--errors", "none, typical, liu2022 (KR150-2 only), or a truth file (JSON, as --truth "
+            "writes it) whose deviations you edit, e.g. joint gains in ppm.", Choice(PRESETS, or_file=".json")),
+    Setting("noise", None, "--noise", "Measurement noise sigma in mm (overrides the preset); sockets: the ball's "
+            "seating error.", Number(at_least=0, at_most=LARGEST_NOISE_MM)),
+    Setting("truth", None, "--truth", "Also write the hidden truth (JSON) here.", Output(".json")),
+    Setting("orientation", False, "--orientation", "Also write measured rx, ry, rz.", Flag()),
+    Setting("placements", None, "--placements", "sockets: number of fixture placements (default 4).",
+            Number(whole=True, at_least=1)),
+    Setting("per_socket", None, "--per-socket", "sockets: configurations per socket and placement (default 10).",
+            Number(whole=True, at_least=2)),
+    Setting("joint_noise", None, "--joint-noise", "sockets: noise of the joint readings (deg, default 0).",
+            Number(at_least=0)),
+)
+
+DESIGN = (
+    BOX, RPY, HINT,
+    Setting("n", ..., "--n", "Number of poses to measure.", Number(whole=True, at_least=1, at_most=100_000)),
+    Setting("criterion", "prediction", "--criterion", "prediction (default: the mean squared error of the calibrated "
+            "TCP over the targets; what a calibration is for), d-optimal (log det of the parameters' information), "
+            "space-filling (spread over configuration space) or variance (one pose at a time where a "
+            "Gaussian-process prior over the joints' sines and cosines is least certain; hyperparameters from "
+            "--existing measurements when given); the last two for the kriging, hybrid and ann residual models. "
+            "With --fixture: prediction or d-optimal.", Choice(CRITERIA)),
+    Setting("parameters", PARAMETERS.default, "--parameters", "The parameter set the calibration will identify (as "
+            "calibrate --parameters).", PARAMETERS.constraint),
+    Setting("candidates", None, "--candidates", "CSV of your own candidate configurations (q1..qN, deg): reachable "
+            "poses of an offline program, or an earlier campaign's."),
+    Setting("pool", 10_000, "--pool", "Candidate configurations to draw (without --candidates).",
+            Number(whole=True, at_least=10, at_most=1_000_000)),
+    Setting("sampling", "uniform", "--sampling", "How candidates are drawn in joint space: uniform or lhs (Latin "
+            "hypercube).", Choice(CANDIDATE_SAMPLINGS)),
+    Setting("tool", None, "--tool", "The TCP x,y,z in mm in the flange frame, in place of the robot file's tool.",
+            Numbers(count=3)),
+    Setting("margin", 5.0, "--margin", "Degrees the candidates keep from joint limits and singularities.",
+            Number(at_least=0, at_most=45)),
+    Setting("existing", None, "--existing", "Measurement (or poses) CSV of poses measured before: design the --n "
+            "poses that best complement them; with x, y, z their calibration's residual sets the noise unless --noise "
+            "is given."),
+    Setting("targets", None, "--targets", "Where the robot will work: a CSV of configurations (q1..qN, deg) or of "
+            "targets (x, y, z, rx, ry, rz; mm, deg, robot base frame). Default: the candidates."),
+    Setting("noise", None, "--noise", "Standard deviation of a reading per coordinate in mm (default 0.02): the "
+            "tracker's noise, plus what the calibration will not explain if you know it (an earlier calibration's "
+            "residual RMS / 1.73).", Number(at_least=0, at_most=LARGEST_NOISE_MM)),
+    Setting("tracker", None, "--tracker", "The laser tracker's position x,y,z in mm (robot base frame): its noise then "
+            "grows with distance.", Numbers(count=3)),
+    Setting("joint_noise", 0.0, "--joint-noise", "Standard deviation in deg of an error at every joint that the "
+            "calibration does not model (gear backlash or play, e.g. the half-width of the gears' backlash): a pose "
+            "then reads noisier the further the arm reaches, and the design and its predicted held-out error count "
+            "it. Default 0: none.", Number(at_least=0, at_most=1)),
+    Setting("sag", 0.0, "--sag", "How far gravity bends the most loaded joint, in deg, when --parameters has no "
+            "compliance (e.g. 0.01 for a counterbalanced 150 kg arm, 0.08 for a UR5): the design then also chooses "
+            "poses whose sag the geometry absorbs as the targets' would be, and the predicted error counts what it "
+            "leaves. Default 0: none.", Number(at_least=0, at_most=1)),
+    Setting("order", "tour", "--order", "The order to measure in: tour (short motions) or random (averages out gear "
+            "backlash, which a tour approaches from one side).", Choice(ORDERS)),
+    Setting("payload", None, "--payload", "With a compliance parameter set: the mass at the TCP in kg (as calibrate "
+            "--payload).", PAYLOAD.constraint),
+    Setting("fixture", None, "--fixture", "Ball in sockets: the fixture TOML file; the design then chooses placements "
+            "and, per socket, configurations for the constraint calibration (the robot's tool is the ball centre), and "
+            "--n counts configurations in all."),
+    Setting("placements", None, "--placements", "With --fixture: CSV of candidate fixture placements, x,y,z (mm), "
+            "rx,ry,rz (deg) of the fixture frame in the robot base frame, and optionally a fixture column naming "
+            "them."),
+    Setting("region", None, "--region", "With --fixture, instead of --placements: where the fixture may stand level, "
+            "xmin,xmax,ymin,ymax,zmin,zmax in mm (robot base frame).", Numbers(count=6)),
+    Setting("per_socket", None, "--per-socket", "With --fixture: configurations per socket (default: --n spread over "
+            "every reachable placement); fewer placements are then chosen.", Number(whole=True, at_least=2)),
+    Setting("max_tilt", None, "--max-tilt", "With --fixture: the largest angle between the tool axis and the fixture "
+            "normal, deg (default 30).", Number(at_least=0, at_most=89)),
+)
 
 
 @verb()
-def simulate(
-    robot: str = ROBOT,
-    out_file: str = out_option("Measurement CSV to write.", ".csv"),
-    n: int = typer.Option(None, "--n", help="Number of poses (default 200; liu2022: 150).", **parsed(Number(whole=True, at_least=1, at_most=MOST_SIMULATED_POSES))),
-    sampling: str = typer.Option("joint", help="joint (uniform in the limits), lhs (Latin hypercube in --box), grid (n^(1/3) per axis in --box) or sockets (ball in the sockets of --fixture, joint angles only).", **parsed(Choice(SAMPLINGS))),
-    errors: str = typer.Option("typical", **parsed(Choice(PRESETS, or_file=".json")), help="none, typical, liu2022 (KR150-2 only), or a truth file (JSON, as --truth writes it) whose deviations you edit, e.g. joint gains in ppm."),
-    noise: float = typer.Option(None, help="Measurement noise sigma in mm (overrides the preset); sockets: the ball's seating error.", **parsed(Number(at_least=0, at_most=LARGEST_NOISE_MM))),
-    seed: int = SEED,
-    truth: str = typer.Option(None, help="Also write the hidden truth (JSON) here.", **parsed(Output(".json"))),
-    orientation: bool = typer.Option(False, "--orientation", help="Also write measured rx, ry, rz."),
-    box: str = BOX,
-    rpy: str = RPY,
-    hint: str = HINT,
-    fixture: str = FIXTURE,
-    placements: int = typer.Option(None, help="sockets: number of fixture placements (default 4).", **parsed(Number(whole=True, at_least=1))),
-    per_socket: int = typer.Option(None, "--per-socket", help="sockets: configurations per socket and placement (default 10).", **parsed(Number(whole=True, at_least=2))),
-    joint_noise: float = typer.Option(None, "--joint-noise", help="sockets: noise of the joint readings (deg, default 0).", **parsed(Number(at_least=0))),
-    tip: str = TIP,
-    root: str = ROOT,
-    as_json: bool = JSON,
-):
+@declared(SIMULATE)
+def simulate(robot: str = ROBOT, out_file: str = out_option("Measurement CSV to write.", ".csv"), *,
+             n: int, sampling: str, errors: str, noise: float, seed: int = SEED, truth: str, orientation: bool,
+             box: str, rpy: str, hint: str, fixture: str = FIXTURE, placements: int, per_socket: int,
+             joint_noise: float, tip: str = TIP, root: str = ROOT, as_json: bool = JSON):
     """Measure a simulated robot with known errors and write a measurement CSV.
 
     Example: robocal simulate kr150-2 --errors liu2022 --sampling lhs --out meas.csv
 
-    Ball in sockets: robocal simulate kr150-2 --sampling sockets --fixture fix.toml --placements 6 --per-socket 20 --out sockets.csv
+    Ball in sockets: robocal simulate kr150-2 --sampling sockets --fixture fix.toml --placements 6
+    --per-socket 20 --out sockets.csv
     """
     result = simulate_job(robot, out_file, n=n, sampling=sampling, errors=errors, noise=noise, seed=seed,
                           truth=truth, orientation=orientation, box=box, rpy=rpy, hint=hint, root=root, tip=tip,
@@ -54,39 +125,14 @@ def simulate(
 
 
 @verb()
-def design(
-    robot: str = ROBOT,
-    n: int = typer.Option(..., "--n", help="Number of poses to measure.", **parsed(Number(whole=True, at_least=1, at_most=100_000))),
-    out_file: str = out_option("Poses CSV to write: pose, q1..qN (deg, the joint columns of a measurement file), "
-                               "x_nominal, y_nominal, z_nominal.", ".csv"),
-    seed: int = SEED,
-    criterion: str = typer.Option("prediction", help="prediction (default: the mean squared error of the calibrated TCP over the targets; what a calibration is for), d-optimal (log det of the parameters' information), space-filling (spread over configuration space) or variance (one pose at a time where a Gaussian-process prior over the joints' sines and cosines is least certain; hyperparameters from --existing measurements when given); the last two for the kriging, hybrid and ann residual models. With --fixture: prediction or d-optimal.", **parsed(Choice(("prediction", "d-optimal", "space-filling", "variance")))),
-    parameters: str = typer.Option("full", help="The parameter set the calibration will identify (as calibrate --parameters).", **parsed(Choice(PARAMETER_SETS))),
-    candidates: str = typer.Option(None, help="CSV of your own candidate configurations (q1..qN, deg): reachable poses of an offline program, or an earlier campaign's."),
-    pool: int = typer.Option(10_000, help="Candidate configurations to draw (without --candidates).", **parsed(Number(whole=True, at_least=10, at_most=1_000_000))),
-    sampling: str = typer.Option("uniform", help="How candidates are drawn in joint space: uniform or lhs (Latin hypercube).", **parsed(Choice(("uniform", "lhs")))),
-    box: str = BOX,
-    rpy: str = RPY,
-    hint: str = HINT,
-    tool: str = typer.Option(None, help="The TCP x,y,z in mm in the flange frame, in place of the robot file's tool.", **parsed(Numbers(count=3))),
-    margin: float = typer.Option(5.0, help="Degrees the candidates keep from joint limits and singularities.", **parsed(Number(at_least=0, at_most=45))),
-    existing: str = typer.Option(None, help="Measurement (or poses) CSV of poses measured before: design the --n poses that best complement them; with x, y, z their calibration's residual sets the noise unless --noise is given."),
-    targets: str = typer.Option(None, help="Where the robot will work: a CSV of configurations (q1..qN, deg) or of targets (x, y, z, rx, ry, rz; mm, deg, robot base frame). Default: the candidates."),
-    noise: float = typer.Option(None, help="Standard deviation of a reading per coordinate in mm (default 0.02): the tracker's noise, plus what the calibration will not explain if you know it (an earlier calibration's residual RMS / 1.73).", **parsed(Number(at_least=0, at_most=LARGEST_NOISE_MM))),
-    tracker: str = typer.Option(None, help="The laser tracker's position x,y,z in mm (robot base frame): its noise then grows with distance.", **parsed(Numbers(count=3))),
-    joint_noise: float = typer.Option(0.0, "--joint-noise", help="Standard deviation in deg of an error at every joint that the calibration does not model (gear backlash or play, e.g. the half-width of the gears' backlash): a pose then reads noisier the further the arm reaches, and the design and its predicted held-out error count it. Default 0: none.", **parsed(Number(at_least=0, at_most=1))),
-    sag: float = typer.Option(0.0, "--sag", help="How far gravity bends the most loaded joint, in deg, when --parameters has no compliance (e.g. 0.01 for a counterbalanced 150 kg arm, 0.08 for a UR5): the design then also chooses poses whose sag the geometry absorbs as the targets' would be, and the predicted error counts what it leaves. Default 0: none.", **parsed(Number(at_least=0, at_most=1))),
-    order: str = typer.Option("tour", help="The order to measure in: tour (short motions) or random (averages out gear backlash, which a tour approaches from one side).", **parsed(Choice(("tour", "random")))),
-    payload: float = typer.Option(None, help="full+compliance: mass at the TCP in kg (as calibrate --payload).", **parsed(Number(at_least=0))),
-    tip: str = TIP,
-    root: str = ROOT,
-    fixture: str = typer.Option(None, help="Ball in sockets: the fixture TOML file; the design then chooses placements and, per socket, configurations for the constraint calibration (the robot's tool is the ball centre), and --n counts configurations in all."),
-    placements: str = typer.Option(None, help="With --fixture: CSV of candidate fixture placements, x,y,z (mm), rx,ry,rz (deg) of the fixture frame in the robot base frame, and optionally a fixture column naming them."),
-    region: str = typer.Option(None, help="With --fixture, instead of --placements: where the fixture may stand level, xmin,xmax,ymin,ymax,zmin,zmax in mm (robot base frame).", **parsed(Numbers(count=6))),
-    per_socket: int = typer.Option(None, "--per-socket", help="With --fixture: configurations per socket (default: --n spread over every reachable placement); fewer placements are then chosen.", **parsed(Number(whole=True, at_least=2))),
-    max_tilt: float = typer.Option(None, "--max-tilt", help="With --fixture: the largest angle between the tool axis and the fixture normal, deg (default 30).", **parsed(Number(at_least=0, at_most=89))),
-    as_json: bool = JSON,
-):
+@declared(DESIGN)
+def design(robot: str = ROBOT, *, n: int,
+           out_file: str = out_option("Poses CSV to write: pose, q1..qN (deg, the joint columns of a measurement "
+                                      "file), x_nominal, y_nominal, z_nominal.", ".csv"),
+           seed: int = SEED, criterion: str, parameters: str, candidates: str, pool: int, sampling: str, box: str,
+           rpy: str, hint: str, tool: str, margin: float, existing: str, targets: str, noise: float, tracker: str,
+           joint_noise: float, sag: float, order: str, payload: float, tip: str = TIP, root: str = ROOT,
+           fixture: str, placements: str, region: str, per_socket: int, max_tilt: float, as_json: bool = JSON):
     """Choose which poses to measure for a calibration, and predict what they will give.
 
     From 10,000 candidate configurations (or --candidates), greedy selection and exchange
@@ -98,13 +144,15 @@ def design(
 
     Augment a campaign: robocal design ur5 --n 10 --existing measured.csv --out next.csv
 
-    Ball in sockets: robocal design panda --fixture plate.toml --placements where.csv --n 72 --per-socket 8 --out plan.csv
+    Ball in sockets: robocal design panda --fixture plate.toml --placements where.csv --n 72
+    --per-socket 8 --out plan.csv
     """
     from ...planning.job import design_job, socket_job
 
     if noise is not None and noise <= 0:
         raise InputError(f"--noise is a standard deviation and must be > 0 mm, got {noise}")
-    socket_options = {"--placements": placements, "--region": region, "--per-socket": per_socket, "--max-tilt": max_tilt}
+    socket_options = {"--placements": placements, "--region": region, "--per-socket": per_socket,
+                      "--max-tilt": max_tilt}
     if fixture is None and any(v is not None for v in socket_options.values()):
         given = [k for k, v in socket_options.items() if v is not None]
         raise InputError(f"{', '.join(given)} plan a ball-in-socket campaign: give --fixture too, or leave "
@@ -119,7 +167,7 @@ def design(
         if given:
             raise InputError(f"{', '.join(given)} do not apply to a ball-in-socket design (--fixture): leave "
                              f"{'it' if len(given) == 1 else 'them'} out")
-        if criterion not in ("prediction", "d-optimal"):
+        if criterion not in SOCKET_CRITERIA:
             raise InputError(f"--criterion {criterion} is for residual models over poses; a ball-in-socket design "
                              "takes prediction or d-optimal")
         result = socket_job(robot, out_file, fixture=fixture, n=n, placements=placements, region=region,

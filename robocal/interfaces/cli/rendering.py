@@ -133,8 +133,9 @@ def print_reregistration(result, measurements, out_file, as_json):
                        ("nominal, registered", "residual_reference")):
         _stats_row(table, label, record[key])
     out.print(table)
-    out.print(f"tracker moved by {record['tracker_shift_mm']:.1f} mm and turned by {record['tracker_turn_deg']:.3f} deg; "
-              f"tool changed by {np.linalg.norm(record['tool_change_mm']):.3f} mm")
+    tool_change = np.linalg.norm(record["tool_change_mm"])
+    out.print(f"tracker moved by {record['tracker_shift_mm']:.1f} mm and turned by "
+              f"{record['tracker_turn_deg']:.3f} deg; tool changed by {tool_change:.3f} mm")
     for name, change in record["offset_changes"].items():
         out.print(f"joint offset {name} changed by {change:+.4f}")
     out.print(f"identified {len(ident['identified'])} parameters (rank {ident['rank']}), condition number "
@@ -216,8 +217,8 @@ def print_design(result, out_file):
     and the predicted standard error of every identifiable parameter."""
     predicted = result["predicted"]
     versus = predicted["random_model_rms_mm"]
-    table = Table(title=f"{result['poses']} poses of {result['candidates']} candidates ({result['criterion']}) -> {out_file}",
-                  show_header=False)
+    table = Table(title=f"{result['poses']} poses of {result['candidates']} candidates ({result['criterion']}) "
+                        f"-> {out_file}", show_header=False)
     for key, value in (("robot", result["robot"]), ("candidates", result["candidates_from"]),
                        ("targets", result["targets"]), ("measured before", result["existing"]),
                        ("noise", f"{result['noise_mm']:.4f} mm ({result['noise_from']})"
@@ -225,8 +226,9 @@ def print_design(result, out_file):
                         + (f", sag {result['sag_deg']:g} deg left out" if result["sag_deg"] else "")),
                        ("calibrated TCP error at the targets", f"{predicted['model_rms_mm']:.4f} mm RMS predicted"
                         + ("" if versus is None else f" (random poses of the same number: {versus:.4f} mm)")),
-                       ("held-out error with a reading's noise", f"mean {predicted['held_out_mean_mm']:.4f} mm, "
-                                                                  f"RMS {predicted['held_out_rms_mm']:.4f} mm predicted"),
+                       ("held-out error with a reading's noise",
+                        f"mean {predicted['held_out_mean_mm']:.4f} mm, RMS {predicted['held_out_rms_mm']:.4f} mm "
+                        "predicted"),
                        ("O1, noise amplification", f"{result['o1']:.4g}, {result['noise_amplification']:.4g}"),
                        ("condition number", f"{result['condition_number']:.4g}"),
                        ("motion", f"{result['tour_deg']:.0f} deg of the largest joint's motion "

@@ -124,9 +124,11 @@ def report(
     model: str = MODEL,
     measurements: str = typer.Argument(..., help="Measurement CSV to score (held-out poses, ideally)."),
     out_file: str = out_option("HTML report to write (one self-contained file).", ".html"),
-    pdf: str = typer.Option(None, "--pdf", help="Also write the tables and figures as a PDF.", **parsed(Output(".pdf"))),
+    pdf: str = typer.Option(None, "--pdf", help="Also write the tables and figures as a PDF.",
+                            **parsed(Output(".pdf"))),
     validation: str = typer.Option(None, "--validation",
-                                   help="JSON of 'robocal validate --json': adds cross-validation and the learning curve."),
+                                   help="JSON of 'robocal validate --json': adds cross-validation and the "
+                                        "learning curve."),
     beyond_limits: bool = BEYOND_LIMITS,
     as_json: bool = JSON,
 ):
@@ -147,9 +149,11 @@ def report(
 @verb()
 def export(
     model: str = MODEL,
-    fmt: str = typer.Option(None, "--format", help="toml (robot file) or urdf (default: as --out ends, else toml).", **parsed(Choice(EXPORT_FORMATS))),
+    fmt: str = typer.Option(None, "--format", help="toml (robot file) or urdf (default: as --out ends, else toml).",
+                            **parsed(Choice(EXPORT_FORMATS))),
     out_file: str = out_option("Robot file to write (.toml or .urdf)."),
-    convention: str = typer.Option(None, help="Convert first, exactly (default: as calibrated).", **parsed(Choice(CONVENTIONS))),
+    convention: str = typer.Option(None, help="Convert first, exactly (default: as calibrated).",
+                                   **parsed(Choice(CONVENTIONS))),
     as_json: bool = JSON,
 ):
     """Calibrated kinematics as a robot TOML or URDF (direct compensation, or ROS).
