@@ -6,17 +6,22 @@ option from the setting of its name (:func:`.options.declared`).
 """
 from ...errors import InputError
 from ...methods.base import PARAMETERS, PAYLOAD
-from ...planning.candidates import SAMPLINGS as CANDIDATE_SAMPLINGS
-from ...planning.criteria import CRITERIA
-from ...planning.design import ORDERS
-from ...planning.sockets import SOCKET_CRITERIA
 from ...settings import Choice, Flag, Number, Numbers, Setting
-from ...simulation.presets import PRESETS
 from ..jobs import SAMPLINGS, simulate_job
 from .app import verb
 from .options import (FIXTURE, JSON, LARGEST_NOISE_MM, MOST_SIMULATED_POSES, ROBOT, ROOT, SEED, TIP, Output, declared,
                       out_option)
 from .rendering import print_design, print_json, print_result, print_socket_design
+
+# design's choices, as robocal.planning names them (CRITERIA, SOCKET_CRITERIA, ORDERS and the
+# candidates' SAMPLINGS), spelled here because importing robocal.planning loads scipy.stats:
+# seconds at the start of every command on a busy machine.  design_job refuses any other.
+CRITERIA = ("prediction", "d-optimal", "space-filling", "variance")
+SOCKET_CRITERIA = ("prediction", "d-optimal")
+ORDERS = ("tour", "random")
+CANDIDATE_SAMPLINGS = ("uniform", "lhs")
+# simulate --errors: robocal.simulation.presets.PRESETS (that package loads scipy.stats too).
+PRESETS = ("none", "typical", "liu2022")
 
 # Where the poses are drawn (simulate --sampling lhs) or the candidates lie (design --box).
 BOX = Setting("box", None, "--box", "A Cartesian box of the robot base frame, xmin,xmax,ymin,ymax,zmin,zmax in mm: "

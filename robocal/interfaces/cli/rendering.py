@@ -75,6 +75,31 @@ def print_scored(result, as_json, title):
         say_domain(result)
 
 
+def print_compensated(result, out_file, as_json):
+    """compensate: a warning naming the targets it cannot reach, then the summary."""
+    if result["unreachable_rows"]:
+        rows = ", ".join(str(r) for r in result["unreachable_rows"][:10])
+        more = " ..." if len(result["unreachable_rows"]) > 10 else ""
+        say("warning", "yellow", f"{len(result['unreachable_rows'])} target(s) cannot be reached "
+                                 f"(rows {rows}{more}): their joint cells are empty and reachable = 0")
+    print_scored(result, as_json, f"commands -> {out_file}")
+
+
+def print_filtered(result, out_dir, as_json):
+    """filter: a warning per motion left as it was, then the summary."""
+    for item in result["unfiltered"]:
+        say("warning", "yellow", f"not filtered (computed at run time): {item}")
+    print_scored(result if as_json else {k: v for k, v in result.items() if k != "unfiltered"}, as_json,
+                 f"filtered programs -> {out_dir}")
+
+
+def print_exported(result, out_file, as_json):
+    """export: a note per thing the robot file cannot hold, then the summary."""
+    for what in result["left_out"]:
+        say("note", "yellow", f"left out of the {result['format'].upper()} file: {what}")
+    print_result(result, as_json, f"{result['convention']} robot -> {out_file}")
+
+
 def _stats_row(table, label, stats):
     table.add_row(label, f"{stats['mean_mm']:.4f}", f"{stats['rms_mm']:.4f}", f"{stats['max_mm']:.4f}")
 

@@ -11,11 +11,8 @@ from ..jobs import EXPORT_FORMATS, compensate_job, evaluate_job, export_job
 from .app import verb
 from .options import (ACCEPT_EXTRAPOLATION, BEYOND_LIMITS, FIXTURE, ITERATE, JSON, MODEL, OUTPUT_KINDS, Output,
                       out_option, parsed)
-from .rendering import print_result, print_scored, say
-
-# serve --format: the request and answer lines (robocal.interfaces.serve.FORMATS, which is
-# imported with the server only).
-LINE_FORMATS = ("json", "csv")
+from ..serve import FORMATS as LINE_FORMATS
+from .rendering import print_compensated, print_exported, print_filtered, print_result, print_scored
 
 
 @verb()
@@ -55,13 +52,7 @@ def compensate(
 
     Example: robocal compensate model.json targets.csv --out commands.csv
     """
-    result = compensate_job(model, targets, out_file, iterate=iterate)
-    if result["unreachable_rows"]:
-        rows = ", ".join(str(r) for r in result["unreachable_rows"][:10])
-        more = " ..." if len(result["unreachable_rows"]) > 10 else ""
-        say("warning", "yellow", f"{len(result['unreachable_rows'])} target(s) cannot be reached "
-                  f"(rows {rows}{more}): their joint cells are empty and reachable = 0")
-    print_scored(result, as_json, f"commands -> {out_file}")
+    print_compensated(compensate_job(model, targets, out_file, iterate=iterate), out_file, as_json)
 
 
 @verb(name="filter")
@@ -90,10 +81,7 @@ def filter_programs(
     """
     result = filter_job(model, programs, out_dir, language=language, config=config,
                         allow_unfiltered=allow_unfiltered, accept_extrapolation=accept_extrapolation, iterate=iterate)
-    for item in result["unfiltered"]:
-        say("warning", "yellow", f"not filtered (computed at run time): {item}")
-    print_scored(result if as_json else {k: v for k, v in result.items() if k != "unfiltered"}, as_json,
-                 f"filtered programs -> {out_dir}")
+    print_filtered(result, out_dir, as_json)
 
 
 @verb()
@@ -174,7 +162,4 @@ def export(
         raise InputError(f"--format {fmt} writes a {OUTPUT_KINDS['.' + fmt]} file, but --out {out_file} names a "
                          f"{OUTPUT_KINDS['.' + suffix]} file: name it {Path(out_file).with_suffix('.' + fmt)} "
                          f"or drop --format")
-    result = export_job(model, out_file, fmt=fmt, convention=convention)
-    for what in result["left_out"]:
-        say("note", "yellow", f"left out of the {result['format'].upper()} file: {what}")
-    print_result(result, as_json, f"{result['convention']} robot -> {out_file}")
+    print_exported(export_job(model, out_file, fmt=fmt, convention=convention), out_file, as_json)
