@@ -16,7 +16,8 @@ from ..jobs import AUTO, calibrate_job, compare_job, reregister_job, validate_jo
 from .app import verb
 from .options import (ACCEPT_EXTRAPOLATION, BEYOND_LIMITS, FIXTURE, JOBS, JSON, MEASUREMENTS, METHOD_HELP, ROBOT,
                       ROOT, SCHEDULER, SEED, TIP, method_options, options_named, out_option, parsed)
-from .rendering import print_calibrated, print_comparison, print_json, print_reregistration, print_validation
+from .rendering import (print_calibrated, print_comparison, print_json, print_reregistration, print_validation,
+                        progress)
 
 
 @verb()
@@ -46,8 +47,6 @@ def calibrate(
 
     Example: robocal calibrate ur5 meas.csv --method kinematic --out model.json
     """
-    from ..progress import progress
-
     if method == FRAMES:
         return _reregister(robot, measurements, out_file, settings, beyond_limits, as_json, root=root, tip=tip,
                            fixture=fixture, accept_extrapolation=accept_extrapolation)
@@ -115,8 +114,6 @@ def compare(
 
     Example: robocal compare ur5 meas.csv
     """
-    from ..progress import progress
-
     with parallel.executor(jobs=jobs, scheduler=scheduler), \
             progress("comparing the methods, fit", None, enabled=not as_json) as advance:
         comparison = compare_job(robot, measurements, folds=folds, seed=seed, fixture=fixture, network=network,
@@ -154,8 +151,6 @@ def validate(
 
     Example: robocal validate ur5 meas.csv --method kinematic --folds 5 --sizes 20,50,100,200
     """
-    from ..progress import progress
-
     if any(s.name == "random_state" for s in get_method(method).settings):
         settings = {**settings, "random_state": seed}
     by_placement = get_method(method).data_kind == "sockets"

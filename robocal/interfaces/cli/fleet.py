@@ -4,7 +4,7 @@ import typer
 
 from .app import verb
 from .options import JOBS, JSON, SCHEDULER
-from .rendering import print_fleet, print_json, say
+from .rendering import print_fleet, print_json, progress, say
 
 
 @verb()
@@ -28,7 +28,6 @@ def fleet(
     Example: robocal fleet fleet.toml --out results --jobs 2
     """
     from ..fleet import OK, SUMMARY_COLUMNS, default_workers, fleet_job
-    from ..progress import progress
 
     if jobs is None and scheduler is None:
         jobs = default_workers()

@@ -1,7 +1,9 @@
 """Every result the command line prints, rendered here: one JSON object with ``--json``,
 tables and one-line notes otherwise.  The commands compute (``robocal.interfaces.jobs`` and
 the other jobs) and hand their results to these functions; nothing here computes."""
+import contextlib
 import json
+import sys
 
 import numpy as np
 from rich.console import Console
@@ -16,6 +18,28 @@ err = Console(stderr=True, highlight=False, soft_wrap=True, markup=False)
 def say(label, style, message):
     """One line on stderr: a coloured ``label:`` and the message, verbatim."""
     err.print(Text(f"{label}:", style=style) + Text(f" {message}"))
+
+
+@contextlib.contextmanager
+def progress(description, total=None, *, enabled=True):
+    """Progress on a long run: yield ``advance(steps=1, **fields)``; a bar on stderr when it
+    is a terminal and ``enabled`` (False for --json), else a function that does nothing.
+    ``fields`` are shown after the bar (e.g. best=...)."""
+    if not (enabled and sys.stderr.isatty()):
+        yield lambda steps=1, **fields: None
+        return
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    columns = [TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+               TextColumn("{task.fields[info]}")]
+    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(description, total=total, info="")
+
+        def advance(steps=1, **fields):
+            info = "  ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in fields.items())
+            bar.update(task, advance=steps, info=info)
+
+        yield advance
 
 
 def print_json(result):
