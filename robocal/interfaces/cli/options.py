@@ -13,7 +13,9 @@ Where a new option goes:
   nothing to add here;
 * an option several commands share: below, once, used as a parameter's default;
 * an option of one command: in its function's signature (``robocal/interfaces/cli/<group>.py``),
-  its values parsed by :func:`parsed` (a :class:`~robocal.settings.Constraint`).
+  its values parsed by :func:`parsed` (a :class:`~robocal.settings.Constraint`); or, for a
+  command of many options (simulate, design), a :class:`~robocal.settings.Setting` in the
+  module's table and a keyword-only parameter of that name (:func:`declared`).
 """
 import contextlib
 import functools
@@ -26,12 +28,6 @@ import typer
 from ...errors import InputError
 from ...methods import settings_by_option
 from ...settings import Constraint, Flag, Number, Refusal, Setting, merged_constraint
-
-# simulate --n: beyond this a file is no measurement series anyone makes, and the run would
-# take minutes and gigabytes.
-MOST_SIMULATED_POSES = 1_000_000
-# simulate --noise: an instrument this noisy (a metre) measures nothing about a robot.
-LARGEST_NOISE_MM = 1000
 
 
 class Refused(typer.BadParameter):
@@ -73,6 +69,8 @@ class Output(Constraint):
                           f"name it {Path(str(text)).with_suffix(self.suffix)}")
         return text
 
+    check = parse
+
 
 class Prefix(Constraint):
     """dataset --out: a prefix, to which robocal adds .toml, .csv, _train.csv ..."""
@@ -84,6 +82,8 @@ class Prefix(Constraint):
             raise Refused(f"is a prefix (PREFIX.toml and PREFIX.csv are written): give "
                           f"{str(Path(str(text)).with_suffix(''))!r}, not {text!r}")
         return text
+
+    check = parse
 
 
 def out_option(help, suffix=None, **extra):

@@ -9,10 +9,14 @@ from ...methods.base import PARAMETERS, PAYLOAD
 from ...settings import Choice, Flag, Number, Numbers, Setting
 from ..jobs import SAMPLINGS, simulate_job
 from .app import verb
-from .options import (FIXTURE, JSON, LARGEST_NOISE_MM, MOST_SIMULATED_POSES, ROBOT, ROOT, SEED, TIP, Output, declared,
-                      out_option)
+from .options import FIXTURE, JSON, ROBOT, ROOT, SEED, TIP, Output, declared, out_option
 from .rendering import print_design, print_json, print_result, print_socket_design
 
+# simulate --n: beyond this a file is no measurement series anyone makes, and the run would
+# take minutes and gigabytes.
+MOST_SIMULATED_POSES = 1_000_000
+# --noise: an instrument this noisy (a metre) measures nothing about a robot.
+LARGEST_NOISE_MM = 1000
 # design's choices, as robocal.planning names them (CRITERIA, SOCKET_CRITERIA, ORDERS and the
 # candidates' SAMPLINGS), spelled here because importing robocal.planning loads scipy.stats:
 # seconds at the start of every command on a busy machine.  design_job refuses any other.
