@@ -1,4 +1,4 @@
-"""``python -m robocal``: the command line, where the ``robocal`` script is not on PATH."""
-from robocal.interfaces.cli import main
+"""``python -m robocal``: the command line, as the ``robocal`` script runs it."""
+from .interfaces.cli import main
 
 main()

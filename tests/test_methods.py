@@ -61,10 +61,10 @@ def test_settings_a_method_does_not_take_are_refused_at_once():
     ("kinematic", {"loss": "cauchy"}, "--loss must be one of linear"),
     ("kinematic", {"register": "maybe"}, "--register must be one of auto"),
     ("kinematic", {"payload": 2.0}, "--payload applies to the compliance parameter sets"),
-    ("kinematic", {"parameters": "everything"}, "parameter set must be one of"),
+    ("kinematic", {"parameters": "everything"}, "--parameters must be one of offsets"),
     ("ann", {"parameters": "full+gains"}, "--parameters set the network's kinematic base model"),
     ("ann", {"refine": "adam"}, "--refine must be one of lbfgs, none"),
-    ("kriging", {"trend": "cubic"}, "regression must be one of"),
+    ("kriging", {"trend": "cubic"}, "--trend must be one of constant, linear"),
 ])
 def test_setting_values_are_validated_in_fit(ur5_data, name, settings, message):
     chain, _, q, p = ur5_data

@@ -36,7 +36,7 @@ def test_load_robot_refuses_an_unknown_urdf_tip(refusal_inputs):
     ("meas.csv", "iiwa14", None, FileFormatError, "7 joints"),
     ("meas.csv", "ur5", PLATE, InputError, "ball-in-socket data only"),
     ("dup_header.csv", "ur5", None, FileFormatError, "appears twice"),
-    ("radians.csv", "ur5", None, None, None),  # read with a warning; the fit refuses it
+    ("radians.csv", "ur5", None, InputError, "the joint values look like radians"),
 ])
 def test_read_observations_refuses_what_it_cannot_use(refusal_inputs, name, robot, fixture, error, says):
     from robocal.io.library import builtin

@@ -13,7 +13,8 @@ A fleet file (TOML) lists the robots, paths relative to it::
 
 The whole file is checked before any work is submitted: a mistake in it (an unknown key, a
 missing name, robot or train, two robots of one name, a name that is not a plain file name,
-an option calibrate does not have or a value it refuses) is one line and nothing runs.  What
+an option calibrate does not have or a value it refuses: each parsed by its setting's
+constraint, as the option is) is one line and nothing runs.  What
 can only be found by reading a robot's data (a missing or damaged file, too few poses) fails
 that robot alone: its line in the summary says why, and the others finish.
 
@@ -44,10 +45,11 @@ from pathlib import Path
 from .. import parallel
 from ..errors import FileFormatError, InputError, RobocalError, RobocalWarning
 from ..io.atomic import write_text_atomic
-from ..methods import DEFAULT_METHOD, make_method
+from ..methods import DEFAULT_METHOD, FRAMES, make_method, method_names, settings_by_option
 from ..methods.base import option_of
 from ..methods.reregistration import PARAMETER_CHOICES as FRAME_PARAMETERS
-from .jobs import AUTO, FRAMES, calibrate_job, evaluate_job
+from ..settings import Choice, Flag, Refusal, merged_constraint
+from .jobs import AUTO, calibrate_job, evaluate_job
 
 MODEL_FILE = "model.json"
 REPORT_FILE = "report.html"
@@ -59,12 +61,11 @@ OK, FAILED = "ok", "failed"
 # The keys of a [[robot]] table; the first three are required.
 REQUIRED_KEYS = ("name", "robot", "train")
 OPTIONAL_KEYS = ("test", "method", "fixture", "options")
-# calibrate's parameters that a robot's options do not take: its files and its method have
-# keys of their own, and the fleet decides what is written and printed.
-# (--jobs and --scheduler too: the fleet itself is spread; a robot's fits run on its worker.)
-NOT_OPTIONS = ("robot", "measurements", "out_file", "method", "fixture", "as_json", "debug", "jobs", "scheduler")
-# calibrate's options that go to calibrate_job itself; the others are the method's settings.
-JOB_OPTIONS = ("root", "tip", "beyond_limits", "accept_extrapolation")
+# calibrate's options that go to calibrate_job itself (flags but root and tip); the others a
+# robot's options take are the methods' settings.  Its files, its method and its fixture have
+# keys of their own, the fleet decides what is written and printed, and --jobs and
+# --scheduler are the fleet's own (a robot's fits run on its worker).
+JOB_OPTIONS = {"root": None, "tip": None, "beyond_limits": Flag(), "accept_extrapolation": Flag()}
 # A robot's name names its folder: a plain file name, nothing a file system reads as a path.
 NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}\Z")
 ROBOT_FILE_SUFFIXES = (".toml", ".urdf")
@@ -170,56 +171,44 @@ def _resolved(folder, given):
     return os.path.abspath(folder / Path(given).expanduser())
 
 
-def _calibrate_command():
-    """The ``calibrate`` command as the command line defines it (its options and parsers)."""
-    import typer.main
-
-    from .cli import app
-
-    return typer.main.get_command(app).commands["calibrate"]
-
-
 def _calibrate_options(method, options, where):
-    """(method, settings, job options) from a robot's method and options, parsed by calibrate's
-    own command-line parsers, so that they mean and refuse exactly what calibrate's do."""
-    from .cli import UsageError, _method_settings
-
-    command = _calibrate_command()
-    params = {opt[2:]: param for param in command.params if param.name not in NOT_OPTIONS
-              for opt in param.opts if opt.startswith("--")}
-    argv = ["ROBOT", "TRAIN.csv", "--out", MODEL_FILE, f"--method={method}"]
-    keys = {"method": "method"}  # a parameter's name -> the key the fleet file gives it under
+    """(method, settings, job options) from a robot's method and options.  The keys are
+    calibrate's options (keyed as ``seed`` or ``shared_theta``): the methods' settings, read
+    from the registry, and :data:`JOB_OPTIONS`; a value is parsed by its setting's constraint
+    (:mod:`robocal.settings`), so it means and refuses exactly what the option does."""
+    by_key = {option[2:].replace("-", "_"): entries for option, entries in settings_by_option(frames=True).items()}
+    methods = Choice(method_names() + (AUTO, FRAMES))
+    try:
+        method = methods.parse(method)
+    except Refusal as refusal:
+        raise InputError(f"{where}: method {refusal.phrase}") from None
+    settings, job_options = {}, {}
     for key, value in options.items():
-        option = key.replace("_", "-")
-        param = params.get(option)
-        if param is None:
-            raise InputError(f"{where}: calibrate has no option --{option}; options takes {', '.join(sorted(params))} "
-                             "('robocal calibrate --help' says what each does)")
-        keys[param.name] = f"options.{key}"
-        if getattr(param, "is_flag", False):
+        name = key.replace("-", "_")
+        entries = by_key.get(name)
+        if entries is None and name not in JOB_OPTIONS:
+            keys = sorted({k.replace("_", "-") for k in by_key} | {k.replace("_", "-") for k in JOB_OPTIONS})
+            raise InputError(f"{where}: calibrate has no option --{key.replace('_', '-')}; options takes "
+                             f"{', '.join(keys)} ('robocal calibrate --help' says what each does)")
+        constraint = JOB_OPTIONS[name] if entries is None else merged_constraint([setting for _, setting in entries])
+        if isinstance(constraint, Flag):
             if not isinstance(value, bool):
                 raise InputError(f"{where}: options.{key} is on or off: write {key} = true or {key} = false")
-            argv += [f"--{option}"] if value else []
         elif isinstance(value, (str, int, float)) and not isinstance(value, bool):
-            argv.append(f"--{option}={value}")
-        elif isinstance(value, list) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
-            argv.append(f"--{option}={','.join(map(str, value))}")
+            value = str(value) if constraint is None else _parsed(constraint, str(value), where, key)
+        elif (isinstance(value, list) and constraint is not None
+              and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)):
+            value = _parsed(constraint, ",".join(map(str, value)), where, key)
         else:
             raise InputError(f"{where}: options.{key} must be a text, a number or a list of numbers, got {value!r}")
-    try:
-        parsed = command.make_context("calibrate", argv).params
-    except UsageError as exc:
-        label = keys.get(getattr(getattr(exc, "param", None), "name", None), "options")
-        message = getattr(exc, "message", None) or exc.format_message()
-        raise InputError(f"{where}: {label} {message.rstrip('.')}") from None
-    method = parsed["method"]
-    if method == FRAMES or parsed.get("parameters") in FRAME_PARAMETERS:
+        if entries is None:
+            job_options[name] = value
+        elif value is not False:  # a flag off is a setting left at its default
+            settings[entries[0][1].name] = tuple(value) if isinstance(value, list) else value
+    if method == FRAMES or settings.get("parameters") in FRAME_PARAMETERS:
         raise InputError(f"{where}: a fleet calibrates from robot files; re-registering a model file (method "
                          f"{FRAMES}, parameters {' / '.join(FRAME_PARAMETERS)}) is 'robocal calibrate MODEL.json "
                          f"NEW.csv --method {FRAMES}'")
-    job_options = {key: parsed[key] for key in JOB_OPTIONS if key in parsed}
-    settings = _method_settings(method, **{key: value for key, value in parsed.items()
-                                           if key not in NOT_OPTIONS and key not in JOB_OPTIONS})
     if method == AUTO and settings:
         raise InputError(f"{where}: method auto chooses the method and its settings by comparing them: leave "
                          f"{', '.join(sorted(option_of(name)[2:] for name in settings))} out of options, or name a "
@@ -230,6 +219,13 @@ def _calibrate_options(method, options, where):
         except InputError as exc:
             raise InputError(f"{where}: {exc}") from None
     return method, settings, job_options
+
+
+def _parsed(constraint, text, where, key):
+    try:
+        return constraint.parse(text)
+    except Refusal as refusal:
+        raise InputError(f"{where}: options.{key} {refusal.phrase}") from None
 
 
 # --------------------------------------------------------------------------- one robot (worker side)

@@ -13,6 +13,7 @@ from .hybrid import HybridMethod
 from .kinematic import KinematicMethod
 from .kriging import KrigingMethod
 from .records import CalibrationRecord, FitRecord, ReportFigure
+from .reregistration import FRAME_PARAMETERS
 
 REGISTRY = {method.name: method for method in (
     KinematicMethod,
@@ -44,6 +45,25 @@ def make_method(name, **settings):
     return get_method(name)(**settings)
 
 
+# calibrate's pseudo-method that re-registers a model file on a new set-up, and its settings.
+FRAMES = "frames"
+REREGISTRATION_SETTINGS = (FRAME_PARAMETERS,)
+
+
+def settings_by_option(*, frames=False, skip=()):
+    """{option: [(method name, Setting), ...]}: every registered method's settings by
+    command-line option, in the order they first appear (with ``frames``, also
+    re-registration's); ``skip``: options left out.  What calibrate, validate and fleet files
+    take is generated from this."""
+    methods = [(name, cls.settings) for name, cls in REGISTRY.items()]
+    by_option = {}
+    for name, settings in methods + ([(FRAMES, REREGISTRATION_SETTINGS)] if frames else []):
+        for setting in settings:
+            if setting.option not in skip:
+                by_option.setdefault(setting.option, []).append((name, setting))
+    return by_option
+
+
 def fitted_from_model_file(model, path):
     """The fitted method a :class:`~robocal.io.model_file.ModelFile` read from ``path`` holds."""
     if model.method not in REGISTRY:
@@ -54,4 +74,4 @@ def fitted_from_model_file(model, path):
 
 __all__ = ["DEFAULT_METHOD", "REGISTRY", "CalibrationRecord", "ConstraintMethod", "FitRecord", "HybridMethod", "KinematicMethod", "KrigingMethod",
            "Method", "NetworkMethod", "ReportFigure", "Setting", "fitted_from_model_file", "get_method",
-           "make_method", "method_names"]
+           "make_method", "method_names", "settings_by_option"]

@@ -4,7 +4,8 @@ from ..compensation import Compensator
 from ..estimation.metrics import error_stats
 from ..estimation.network import NetworkErrorModel
 from ..errors import InputError
-from .base import LOSS, PARAMETERS, PAYLOAD, RANDOM_STATE, Method, Setting, one_of, require_distinct, require_positions
+from ..settings import Choice, Number, Numbers, Setting
+from .base import LOSS, PARAMETERS, PAYLOAD, RANDOM_STATE, Method, require_distinct, require_positions
 from .records import FitRecord, ReportFigure
 from .frames import measurement_frame
 from .kinematic import KinematicMethod
@@ -14,12 +15,16 @@ TRAINERS = ("ga", "lbfgs")
 REFINERS = ("lbfgs", "none")
 DOCUMENT_TYPE = "network"
 
-HIDDEN = Setting("hidden", (16, 16), "--hidden", "hidden layer widths, at least two")
-GENERATIONS = Setting("generations", 300, "--generations", "generation limit of the genetic algorithm")
-TRAINER = Setting("trainer", "ga", "--trainer", "ga (genetic algorithm) or lbfgs (gradient from random starts)")
-REFINE = Setting("refine", "lbfgs", "--refine", "refine the GA's best network by lbfgs, or none")
+HIDDEN = Setting("hidden", (16, 16), "--hidden", "hidden layer widths, at least two",
+                 Numbers(whole=True, at_least=1, at_least_count=2, example="16,16"))
+GENERATIONS = Setting("generations", 300, "--generations", "generation limit of the genetic algorithm",
+                      Number(whole=True, at_least=0))
+TRAINER = Setting("trainer", "ga", "--trainer", "ga (genetic algorithm) or lbfgs (gradient from random starts)",
+                  Choice(TRAINERS))
+REFINE = Setting("refine", "lbfgs", "--refine", "refine the GA's best network by lbfgs, or none", Choice(REFINERS))
 BASE_MODEL = Setting("base_model", "nominal", "--base-model",
-                     "the network learns the error of the nominal robot or of the kinematic calibration")
+                     "the network learns the error of the nominal robot or of the kinematic calibration",
+                     Choice(BASE_MODELS))
 
 
 class NetworkMethod(Method):
@@ -44,15 +49,12 @@ class NetworkMethod(Method):
 
     def network(self):
         """The unfitted :class:`NetworkErrorModel` these settings ask for."""
-        one_of(self.refine, REFINERS, "refine")
-        one_of(self.trainer, TRAINERS, "trainer")
         return NetworkErrorModel(hidden=tuple(int(w) for w in self.hidden), trainer=self.trainer,
                                  refine=None if self.refine == "none" else self.refine,
                                  generations=self.generations, random_state=self.random_state)
 
     def _fit(self, chain, observations, progress):
         obs = require_distinct(require_positions(observations, self.name), self.name)
-        one_of(self.base_model, BASE_MODELS, "base_model")
         unused = [s.option for s in (PARAMETERS, LOSS, PAYLOAD) if getattr(self, s.name) != s.default]
         if self.base_model == "nominal" and unused:
             raise InputError(f"{', '.join(unused)} set the network's kinematic base model: add --base-model kinematic")

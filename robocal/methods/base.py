@@ -4,7 +4,9 @@ A method is an estimator over a robot and its observations, in scikit-learn's ma
 
 * its settings are the constructor's keyword arguments, stored unchanged; a keyword the
   method does not take is refused at once (``--payload`` means nothing to Kriging), and the
-  values are validated in :meth:`Method.fit`;
+  values are validated at the start of :meth:`Method.fit`, each against the constraint its
+  :class:`~robocal.settings.Setting` declares (the same constraint parses the command line's
+  options and a fleet file's);
 * ``fit(chain, observations)`` returns the method fitted, with the attributes
   ``compensator_`` (the :class:`~robocal.compensation.Compensator` that turns targets into
   commands), ``reference_`` (the nominal geometry in the measurement frame: the honest
@@ -18,15 +20,15 @@ asks which method it holds.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 
 from ..compensation import Compensator
 from ..errors import FileFormatError, InputError
-from ..estimation.calibration import PARAMETER_SETS, check_payload, parameter_terms
+from ..estimation.calibration import LOSSES, PARAMETER_SETS, check_payload, parameter_terms
 from ..io.model_file import ModelFile
+from ..settings import Choice, Number, Setting, check_settings
 from .domain import Domain
 from .fallback import DomainFallback, from_fallback_document
 from .records import FitRecord
@@ -37,30 +39,27 @@ REGISTER_CHOICES = ("auto", "yes", "no")
 # Liu et al. 2022), the joint vector, or the sines and cosines of the joints.
 ERROR_MODEL_INPUTS = ("position", "joints", "sincos")
 
-
-@dataclass(frozen=True)
-class Setting:
-    """One setting of a method: its keyword, default, command-line option and help."""
-
-    name: str
-    default: object
-    option: str
-    help: str
-
-
-# Settings several methods share, each defined once.
+# Settings several methods share, each declared once with its constraint.  A help is a phrase
+# the command line prefixes with the methods that take it and follows with the default.
 REGISTER = Setting("register", "auto", "--register",
-                   "register base and tool first: auto (when the data are not in the robot base frame), yes or no")
+                   "register base and tool first: auto (when the data are not in the robot base frame), yes or no",
+                   Choice(REGISTER_CHOICES))
 PARAMETERS = Setting("parameters", "full", "--parameters",
-                     f"parameter set: {', '.join(PARAMETER_SETS)}")
-LOSS = Setting("loss", "linear", "--loss", "linear, huber or soft_l1 (robust)")
-PAYLOAD = Setting("payload", None, "--payload", "full+compliance: mass at the TCP in kg")
-RANDOM_STATE = Setting("random_state", 0, "--seed", "seed of the random search")
+                     "the parameter set: offsets, full, full+gains (plus a scale error of each joint reading), "
+                     "full+compliance (plus the stiffness of every joint gravity loads) or full+compliance+gains "
+                     "(ann: for --base-model kinematic)", Choice(PARAMETER_SETS))
+LOSS = Setting("loss", "linear", "--loss", "the loss: linear, or huber or soft_l1 (robust to outliers)", Choice(LOSSES))
+PAYLOAD = Setting("payload", None, "--payload",
+                  "with a compliance parameter set, the mass at the TCP in kg (default: 0 if the robot file gives "
+                  "link masses, else the rated payload of a robot of that size)", Number(at_least=0))
+RANDOM_STATE = Setting("random_state", 0, "--seed", "seed of the random search (Kriging's multi-start search, the "
+                       "network's training)", Number(whole=True, at_least=0), optional=True)
 PRIOR = Setting("prior", "tolerances", "--prior",
-                "tolerances (each parameter weighed against its manufacturing tolerance: maximum a posteriori) "
-                "or none (plain least squares)")
+                "tolerances (each parameter weighed against its manufacturing tolerance: maximum a posteriori; one the "
+                "poses cannot pin stays near nominal) or none (plain least squares)", Choice(("tolerances", "none")))
 TOLERANCE_SCALE = Setting("tolerance_scale", 1.0, "--tolerance-scale",
-                          "multiplies every tolerance (the robot file's [tolerances] or the defaults)")
+                          "multiply every tolerance (the robot file's [tolerances] or the defaults) by this, for a "
+                          "robot known to lie further from its drawing", Number(between=(0, 1e6)))
 
 
 class Method:
@@ -108,7 +107,9 @@ class Method:
         returns self with ``compensator_``, ``reference_``, ``record_`` and ``domain_`` (the
         training data's :class:`~robocal.methods.domain.Domain`).  ``progress(**info)`` is
         called as the fit reports its steps (see :meth:`progress_total`).  Data that cannot be
-        this robot's are refused first (:mod:`robocal.methods.plausibility`)."""
+        this robot's are refused first (:mod:`robocal.methods.plausibility`), and before them
+        a setting its constraint refuses (:meth:`robocal.settings.Setting.check`)."""
+        check_settings(self.settings, {s.name: getattr(self, s.name) for s in self.settings})
         if not self.checks_its_data:
             from .plausibility import check_robot_data
 
@@ -204,13 +205,6 @@ class Method:
 def option_of(name):
     """The command-line option of a setting keyword."""
     return RANDOM_STATE.option if name == RANDOM_STATE.name else "--" + name.replace("_", "-")
-
-
-def one_of(value, choices, setting):
-    """``value`` if it is one of ``choices``; otherwise an InputError naming the setting."""
-    if value not in choices:
-        raise InputError(f"{option_of(setting)} must be one of {', '.join(map(str, choices))}, got {value!r}")
-    return value
 
 
 def check_parameters(parameters, payload):

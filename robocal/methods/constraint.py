@@ -5,10 +5,12 @@ from ..compensation import Compensator
 from ..errors import InputError
 from ..estimation.constraint import PAIRINGS, ConstraintCalibration
 from ..io.fixtures import fixture_to_dict
-from .base import PARAMETERS, PAYLOAD, PRIOR, TOLERANCE_SCALE, Method, Setting, check_parameters, one_of
+from ..settings import Choice, Setting
+from .base import PARAMETERS, PAYLOAD, PRIOR, TOLERANCE_SCALE, Method, check_parameters
 from .records import CalibrationRecord, FitRecord
 
-PAIRS = Setting("pairs", "all", "--pairs", "all pairs of configurations, or spanning (fewer, faster)")
+PAIRS = Setting("pairs", "all", "--pairs", "all pairs of configurations, or spanning (fewer, faster)",
+                Choice(PAIRINGS))
 
 
 def require_sockets(observations):
@@ -41,7 +43,6 @@ class ConstraintMethod(Method):
 
     def calibration(self):
         """The unfitted :class:`ConstraintCalibration` these settings ask for."""
-        one_of(self.pairs, PAIRINGS, "pairs")
         terms = check_parameters(self.parameters, self.payload)
         if not self.parameters.startswith("full"):
             raise InputError("the constraint method identifies the full POE model: --parameters full, full+gains, "

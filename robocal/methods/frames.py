@@ -3,7 +3,7 @@ models a residual error starts from, and which is the baseline ("registered nomi
 every method is scored against."""
 from ..estimation.metrics import error_stats
 from ..estimation.registration import register_base_and_tool
-from .base import REGISTER_CHOICES, one_of
+from .base import REGISTER
 
 # With the right robot and unit, nominal FK lands within a few mm of a tracker reading in the
 # robot base frame; tens of mm mean the readings are in another frame (tracker, world).
@@ -18,7 +18,7 @@ def measurement_frame(chain, joints, positions, register="auto"):
     Returns (chain, dict with ``registered``, ``nominal_in_given_frame`` and, when registered,
     the registration's ``iterations``).
     """
-    one_of(register, REGISTER_CHOICES, "register")
+    REGISTER.check(register)
     before = error_stats(positions - chain.fk_positions(joints))
     do_it = register == "yes" or (register == "auto" and before["rms_mm"] > REGISTER_ABOVE_RMS_MM)
     record = {"registered": bool(do_it), "nominal_in_given_frame": before}

@@ -4,10 +4,10 @@ calibrated model's IK, or directly by exporting the calibrated parameters."""
 import warnings
 
 from ..compensation import Compensator
-from ..estimation.calibration import LOSSES, KinematicCalibration, OutlierError, OutlierWarning
+from ..estimation.calibration import KinematicCalibration, OutlierError, OutlierWarning
 from ..estimation.metrics import error_stats
-from .base import LOSS, PARAMETERS, PAYLOAD, PRIOR, REGISTER, REGISTER_CHOICES, TOLERANCE_SCALE, Method, \
-    check_parameters, one_of, require_positions
+from .base import LOSS, PARAMETERS, PAYLOAD, PRIOR, REGISTER, TOLERANCE_SCALE, Method, check_parameters, \
+    require_positions
 from .records import CalibrationRecord, FitRecord
 from .frames import registered_nominal
 
@@ -26,9 +26,8 @@ class KinematicMethod(Method):
     settings = (REGISTER, PARAMETERS, LOSS, PAYLOAD, PRIOR, TOLERANCE_SCALE)
 
     def calibration(self):
-        """The unfitted :class:`KinematicCalibration` these settings ask for."""
-        one_of(self.register, REGISTER_CHOICES, "register")
-        one_of(self.loss, LOSSES, "loss")
+        """The unfitted :class:`KinematicCalibration` these settings ask for (the settings
+        checked: :meth:`Method.fit` does it first)."""
         check_parameters(self.parameters, self.payload)
         return KinematicCalibration(parameters=self.parameters, loss=self.loss, register=self.register != "no",
                                     payload=self.payload, prior=self.prior, tolerance_scale=self.tolerance_scale)

@@ -10,21 +10,26 @@ from ..estimation.joint_kriging import JointKriging
 from ..estimation.kriging import APPROXIMATIONS, AUTO_VECCHIA_ABOVE, Kriging
 from ..estimation.metrics import error_stats
 from ..kinematics.ik import solve_ik
-from .base import (ERROR_MODEL_INPUTS, PRIOR, RANDOM_STATE, REGISTER, TOLERANCE_SCALE, Method, Setting, one_of, require_distinct,
+from ..estimation.kriging import CORRELATIONS, REGRESSIONS
+from ..settings import Choice, Either, Flag, Number, Setting
+from .base import (ERROR_MODEL_INPUTS, PRIOR, RANDOM_STATE, REGISTER, TOLERANCE_SCALE, Method, require_distinct,
                    require_positions)
 from .records import FitRecord, ReportFigure
 from .frames import measurement_frame
 
-TREND = Setting("trend", "constant", "--trend", "Kriging trend: constant, linear or quadratic")
-CORRELATION = Setting("correlation", "gaussian", "--correlation", "Kriging correlation: gaussian or matern52")
-NUGGET = Setting("nugget", "estimate", "--nugget", "Kriging nugget: 'estimate' or a number")
-SHARED_THETA = Setting("shared_theta", False, "--shared-theta", "one theta for the three outputs")
+TREND = Setting("trend", "constant", "--trend", "the Kriging's trend: constant, linear or quadratic",
+                Choice(REGRESSIONS))
+CORRELATION = Setting("correlation", "gaussian", "--correlation", "the Kriging's correlation function: gaussian or "
+                      "matern52", Choice(CORRELATIONS))
+NUGGET = Setting("nugget", "estimate", "--nugget", "the Kriging's nugget: 'estimate' or a number >= 0",
+                 Either(Choice(("estimate",)), Number(at_least=0)))
+SHARED_THETA = Setting("shared_theta", False, "--shared-theta", "one theta for the three outputs", Flag())
 INPUTS = Setting("inputs", "position", "--inputs",
                  "what the error is modelled over: position (the TCP position), joints, or sincos "
-                 "(sines and cosines of the revolute joints)")
+                 "(sines and cosines of the revolute joints)", Choice(ERROR_MODEL_INPUTS))
 KRIGING = Setting("kriging", "auto", "--kriging",
                   f"exact Kriging, or its vecchia approximation (nearest-neighbour conditioning, for large data); "
-                  f"auto: exact up to {AUTO_VECCHIA_ABOVE:,} training poses")
+                  f"auto: exact up to {AUTO_VECCHIA_ABOVE:,} training poses", Choice(APPROXIMATIONS))
 KRIGING_SETTINGS = (INPUTS, TREND, CORRELATION, NUGGET, SHARED_THETA, KRIGING, RANDOM_STATE)
 DOCUMENT_TYPE = "kriging"
 
@@ -124,8 +129,9 @@ class KrigingResidual:
     spreads_work = True  # each error component's likelihood search (Kriging._search)
 
     def _check_inputs(self):
-        one_of(self.inputs, ERROR_MODEL_INPUTS, "inputs")
-        one_of(self.kriging, APPROXIMATIONS, "kriging")
+        # fit checks every setting; a refit (robocal.methods.selection) starts here.
+        INPUTS.check(self.inputs)
+        KRIGING.check(self.kriging)
 
     def error_model_document(self):
         return kriging_document(self.compensator_.error_model, self.inputs)

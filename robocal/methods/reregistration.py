@@ -40,10 +40,15 @@ from ..estimation.least_squares import damped_least_squares
 from ..estimation.metrics import error_stats
 from ..estimation.registration import kabsch, register_base_and_tool
 from ..io.model_file import robot_hash
+from ..settings import Choice, Setting
 from ..spatial import invert, make_transform, pose_to_xyz_rpy, so3_log
 from .plausibility import check_robot_data
 
 PARAMETER_CHOICES = ("frames", "frames+offsets")
+# Re-registration's one setting (calibrate --method frames --parameters ...).
+FRAME_PARAMETERS = Setting("parameters", "frames", "--parameters",
+                           "frames (base and tool) or frames+offsets (and the joint offsets)",
+                           Choice(PARAMETER_CHOICES))
 DOCUMENT_TYPE = "reframed"
 TOOL_ORIENTATION = ("tool_rx", "tool_ry", "tool_rz")
 # Row weights when the data carry no standard deviations: the kinematic calibration's
@@ -406,9 +411,7 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
     joint offsets moved by more than 10 deg, and a residual far above the model's training one.
     """
     compensator = _check_model(fitted, robot)
-    if parameters not in PARAMETER_CHOICES:
-        raise InputError(f"--parameters for re-registration must be one of {', '.join(PARAMETER_CHOICES)}, "
-                         f"got {parameters!r}")
+    FRAME_PARAMETERS.check(parameters)
     q, positions = _check_data(observations, compensator.chain)
     training = fitted.record_.calibration
     use_rotations = (observations.rotations is not None and training is not None

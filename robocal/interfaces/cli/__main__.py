@@ -1,0 +1,4 @@
+"""``python -m robocal.interfaces.cli``: the command line."""
+from . import main
+
+main()

@@ -1,0 +1,329 @@
+"""Every result the command line prints, rendered here: one JSON object with ``--json``,
+tables and one-line notes otherwise.  The commands compute (``robocal.interfaces.jobs`` and
+the other jobs) and hand their results to these functions; nothing here computes."""
+import contextlib
+import json
+import sys
+
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+from rich.text import Text
+
+# No markup: messages and tables carry users' text (file names, "[sockets]") that must print as is.
+out = Console(highlight=False, soft_wrap=True, markup=False)
+err = Console(stderr=True, highlight=False, soft_wrap=True, markup=False)
+
+
+def say(label, style, message):
+    """One line on stderr: a coloured ``label:`` and the message, verbatim."""
+    err.print(Text(f"{label}:", style=style) + Text(f" {message}"))
+
+
+@contextlib.contextmanager
+def progress(description, total=None, *, enabled=True):
+    """Progress on a long run: yield ``advance(steps=1, **fields)``; a bar on stderr when it
+    is a terminal and ``enabled`` (False for --json), else a function that does nothing.
+    ``fields`` are shown after the bar (e.g. best=...)."""
+    if not (enabled and sys.stderr.isatty()):
+        yield lambda steps=1, **fields: None
+        return
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    columns = [TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+               TextColumn("{task.fields[info]}")]
+    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(description, total=total, info="")
+
+        def advance(steps=1, **fields):
+            info = "  ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in fields.items())
+            bar.update(task, advance=steps, info=info)
+
+        yield advance
+
+
+def print_json(result):
+    """A result as one JSON object on stdout (plain print: no console wrapping)."""
+    print(json.dumps(result, indent=2))
+
+
+def print_result(result, as_json, title):
+    """A flat result: JSON, or a two-column table of its entries (nested records are left to
+    --json and to the model file, statistics are one sentence)."""
+    if as_json:
+        print_json(result)
+        return
+    table = Table(title=title, show_header=False)
+    for key, value in result.items():
+        if isinstance(value, dict) and "mean_mm" not in value:
+            continue  # nested records are in --json and in the model file
+        table.add_row(key.replace("_", " "), cell(value))
+    out.print(table)
+
+
+def cell(value):
+    """A value as a person reads it: statistics in a sentence, lists joined, no Python reprs."""
+    if isinstance(value, dict) and "nominal_mean_mm" in value:
+        return (f"mean {value['mean_mm']:.4f} mm, 95 % {value['p95_mm']:.4f} mm over {value['where']} "
+                f"(registered nominal robot: mean {value['nominal_mean_mm']:.4f} mm, 95 % "
+                f"{value['nominal_p95_mm']:.4f} mm)")
+    if isinstance(value, dict):
+        if not value.get("n"):
+            return "none"
+        return (f"mean {value['mean_mm']:.4f} mm, RMS {value['rms_mm']:.4f} mm, "
+                f"max {value['max_mm']:.4f} mm (n = {value['n']})")
+    if isinstance(value, float):
+        return f"{value:.4f}"
+    if isinstance(value, (list, tuple)):
+        return ", ".join(map(str, value)) or "none"
+    return "-" if value is None else str(value)
+
+
+def without_domain(result):
+    """The result without the domain's line, which :func:`say_domain` prints below the table."""
+    return {key: value for key, value in result.items() if key != "domain_summary"}
+
+
+def say_domain(result):
+    """The domain of validity's one line: a warning when targets lie outside it."""
+    summary = result.get("domain_summary")
+    if summary:
+        say("warning" if result.get("outside_domain") else "note", "yellow", summary)
+
+
+def print_scored(result, as_json, title):
+    """A result scored over targets (evaluate, compensate, filter): its table, then the
+    domain of validity's line."""
+    print_result(result if as_json else without_domain(result), as_json, title)
+    if not as_json:
+        say_domain(result)
+
+
+def print_compensated(result, out_file, as_json):
+    """compensate: a warning naming the targets it cannot reach, then the summary."""
+    if result["unreachable_rows"]:
+        rows = ", ".join(str(r) for r in result["unreachable_rows"][:10])
+        more = " ..." if len(result["unreachable_rows"]) > 10 else ""
+        say("warning", "yellow", f"{len(result['unreachable_rows'])} target(s) cannot be reached "
+                                 f"(rows {rows}{more}): their joint cells are empty and reachable = 0")
+    print_scored(result, as_json, f"commands -> {out_file}")
+
+
+def print_filtered(result, out_dir, as_json):
+    """filter: a warning per motion left as it was, then the summary."""
+    for item in result["unfiltered"]:
+        say("warning", "yellow", f"not filtered (computed at run time): {item}")
+    print_scored(result if as_json else {k: v for k, v in result.items() if k != "unfiltered"}, as_json,
+                 f"filtered programs -> {out_dir}")
+
+
+def print_exported(result, out_file, as_json):
+    """export: a note per thing the robot file cannot hold, then the summary."""
+    for what in result["left_out"]:
+        say("note", "yellow", f"left out of the {result['format'].upper()} file: {what}")
+    print_result(result, as_json, f"{result['convention']} robot -> {out_file}")
+
+
+def _stats_row(table, label, stats):
+    table.add_row(label, f"{stats['mean_mm']:.4f}", f"{stats['rms_mm']:.4f}", f"{stats['max_mm']:.4f}")
+
+
+# --------------------------------------------------------------------------- calibrate, compare, validate
+def print_calibration(calibration, chain):
+    """Identified parameters with standard errors and units, and what could not be identified
+    (a :class:`~robocal.methods.CalibrationRecord`; ``chain``, the calibrated model, names the
+    units)."""
+    from ..tables import parameter_notes, parameter_rows
+
+    ident = calibration.identifiability
+    table = Table(title=f"identified parameters ({ident.rank})")
+    rows = parameter_rows(calibration, chain)
+    columns = ("parameter", "deviation", "std. error", "unit", "prior", "from data")
+    for col in columns[:max((len(row) for row in rows), default=4)]:
+        table.add_column(col, justify="right")
+    for row in rows:
+        table.add_row(*row)
+    out.print(table)
+    for note in parameter_notes(calibration, chain):
+        out.print(f"{note}.")
+    out.print(f"condition number {ident.condition_number:.3g}, O1 {ident.o1:.3g}, O3 {ident.o3:.3g}, "
+              f"noise amplification {ident.noise_amplification:.3g}")
+    for name, reason in ident.fixed.items():
+        out.print(f"fixed {name}: {reason}")
+    for a, b, r in calibration.correlated_pairs:
+        out.print(f"strongly correlated: {a} and {b} ({r:+.3f})")
+    if calibration.outlier_rows:
+        out.print(f"down-weighted as outliers: rows {', '.join(map(str, calibration.outlier_rows))}")
+
+
+def print_calibrated(result, out_file, as_json, comparison=False):
+    """calibrate's result (a job result with ``to_dict``, ``record`` and ``kinematics``):
+    the comparison when auto chose, the identified parameters, then the summary."""
+    if comparison and not as_json:
+        print_comparison(result.data["comparison"])
+    if not as_json and result.record.calibration is not None:
+        print_calibration(result.record.calibration, result.kinematics)
+    shown = {k: v for k, v in result.to_dict().items() if k != "comparison"}
+    print_result(result.to_dict() if as_json else shown, as_json, f"{result.method} model -> {out_file}")
+
+
+def print_reregistration(result, measurements, out_file, as_json):
+    """calibrate --method frames: the model before and after, what moved, what was kept."""
+    if as_json:
+        print_json(result.to_dict())
+        return
+    record = result.record.reregistration
+    ident = record["identifiability"]
+    table = Table(title=f"{result.method} model re-registered on {record['poses']} poses of {measurements} (mm)",
+                  show_header=True)
+    for col in ("model on these poses", "mean", "RMS", "max"):
+        table.add_column(col, justify="left" if col.startswith("model") else "right")
+    for label, key in (("as it stood", "residual_before"), ("re-registered", "residual_after"),
+                       ("nominal, registered", "residual_reference")):
+        _stats_row(table, label, record[key])
+    out.print(table)
+    tool_change = np.linalg.norm(record["tool_change_mm"])
+    out.print(f"tracker moved by {record['tracker_shift_mm']:.1f} mm and turned by "
+              f"{record['tracker_turn_deg']:.3f} deg; tool changed by {tool_change:.3f} mm")
+    for name, change in record["offset_changes"].items():
+        out.print(f"joint offset {name} changed by {change:+.4f}")
+    out.print(f"identified {len(ident['identified'])} parameters (rank {ident['rank']}), condition number "
+              f"{ident['condition_number']:.3g}")
+    if result.record.predicted_error is not None:
+        out.print(f"predicted error: {cell(result.record.predicted_error)}")
+    for name, reason in ident["fixed"].items():
+        out.print(f"kept {name}: {reason}")
+    out.print(f"-> {out_file}")
+
+
+def print_comparison(comparison):
+    """The tables of a comparison (its JSON form): held-out error of every model on each
+    split, then the recommendation and why."""
+    for split in comparison["splits"]:
+        kind = "a region left out at a time" if split["kind"] == "region" else "poses left out at random"
+        table = Table(title=f"held-out error on {split['name']} ({kind}), mm")
+        for col in ("model", "mean", "RMS", "max", "95 %", "fit s"):
+            table.add_column(col, justify="left" if col == "model" else "right")
+        best = min(m["scores"][split["name"]]["pooled"]["mean_mm"] for m in comparison["models"])
+        for model in comparison["models"]:
+            score = model["scores"][split["name"]]
+            stats = score["pooled"]
+            mark = " *" if model["label"] == comparison["recommended"]["label"] else ""
+            table.add_row(model["label"] + mark, f"{stats['mean_mm']:.4f}" + ("<" if stats["mean_mm"] == best else " "),
+                          f"{stats['rms_mm']:.4f}", f"{stats['max_mm']:.4f}", f"{stats['p95_mm']:.4f}",
+                          f"{score['fit_seconds']:.2f}")
+        out.print(table)
+    out.print(f"recommended (*): {comparison['recommended']['label']}  (< marks the lowest mean of each split)")
+    for line in comparison["reasons"] + comparison["dropped"] + comparison["notes"]:
+        out.print(f"  {line}")
+
+
+def print_validation(result, method, by_placement, as_json):
+    """validate's cross-validation beside the registered nominal's, and the learning curve."""
+    if as_json:
+        print_json(result)
+        return
+    kind = ("leave-one-placement-out socket consistency" if by_placement
+            else f"{result['folds']}-fold cross-validation")
+    table = Table(title=f"{method}, {kind} on {result['poses']} poses (mm)")
+    for col in ("model", "mean", "RMS", "max"):
+        table.add_column(col, justify="right")
+    nominal = "nominal" if by_placement else "nominal, registered"
+    for label, key in ((method, "cross_validation"), (nominal, "nominal_cross_validation")):
+        _stats_row(table, label, result[key].get("pooled", result[key]))
+    out.print(table)
+    if "learning_curve" in result:
+        curve = Table(title="learning curve: held-out error against training poses (mm)")
+        for col in ("training poses", "mean", "RMS", "max"):
+            curve.add_column(col, justify="right")
+        for point in result["learning_curve"]:
+            _stats_row(curve, str(point["n_train"]), point["held_out"])
+        out.print(curve)
+
+
+# --------------------------------------------------------------------------- design
+def print_socket_design(result, out_file):
+    """design --fixture: the placements and configurations chosen, and what they predict."""
+    predicted = result["predicted"]
+    versus = predicted["random_model_rms_mm"]
+    table = Table(title=f"{result['configurations']} configurations in {len(result['placements'])} placements of "
+                        f"fixture {result['fixture']} ({result['criterion']}) -> {out_file}", show_header=False)
+    for key, value in (("robot", result["robot"]), ("candidate placements", result["placements_from"]),
+                       ("reachable placements", result["reachable_placements"]),
+                       ("chosen placements", ", ".join(result["placements"])),
+                       ("configurations per socket", result["per_socket"]),
+                       ("candidate configurations", result["candidates"]),
+                       ("ball-centre error after calibration", f"{predicted['model_rms_mm']:.4f} mm RMS predicted"
+                        + ("" if versus is None else f" (random choices of the same number: {versus:.4f} mm)")),
+                       ("identifiable parameters", len(result["identifiable"])),
+                       ("exchanges", result["exchanges"])):
+        table.add_row(key, str(value))
+    out.print(table)
+
+
+def print_design(result, out_file):
+    """design: the poses chosen, the noise assumed, the predicted error beside random poses,
+    and the predicted standard error of every identifiable parameter."""
+    predicted = result["predicted"]
+    versus = predicted["random_model_rms_mm"]
+    table = Table(title=f"{result['poses']} poses of {result['candidates']} candidates ({result['criterion']}) "
+                        f"-> {out_file}", show_header=False)
+    for key, value in (("robot", result["robot"]), ("candidates", result["candidates_from"]),
+                       ("working volume", result["working_volume"]), ("targets", result["targets"]),
+                       ("measured before", result["existing"]),
+                       ("noise", f"{result['noise_mm']:.4f} mm ({result['noise_from']})"
+                        + (f", {result['joint_noise_deg']:g} deg at every joint" if result["joint_noise_deg"] else "")
+                        + (f", sag {result['sag_deg']:g} deg left out" if result["sag_deg"] else "")),
+                       ("calibrated TCP error at the targets", f"{predicted['model_rms_mm']:.4f} mm RMS predicted"
+                        + ("" if versus is None else f" (random poses of the same number: {versus:.4f} mm)")),
+                       ("held-out error with a reading's noise",
+                        f"mean {predicted['held_out_mean_mm']:.4f} mm, RMS {predicted['held_out_rms_mm']:.4f} mm "
+                        "predicted"),
+                       ("O1, noise amplification", f"{result['o1']:.4g}, {result['noise_amplification']:.4g}"),
+                       ("condition number", f"{result['condition_number']:.4g}"),
+                       ("motion", f"{result['tour_deg']:.0f} deg of the largest joint's motion "
+                                f"({result['order_of_choice_deg']:.0f} in the order of choice)"),
+                       ("exchanges after the greedy selection", str(result["exchanges"]))):
+        table.add_row(key, str(value))
+    if "variance" in result:
+        table.add_row("largest predictive variance left", f"{result['variance']['max_relative']:.3g} of the prior's "
+                                                            f"({result['variance']['prior']})")
+    out.print(table)
+    parameters_table = Table(title=f"predicted standard errors ({len(result['std_errors'])} identifiable parameters)")
+    for column in ("parameter", "std. error", "unit"):
+        parameters_table.add_column(column, justify="right")
+    for name, entry in result["std_errors"].items():
+        parameters_table.add_row(name, f"{entry['std_error']:.3g}", entry["unit"])
+    out.print(parameters_table)
+    for name, reason in result["fixed"].items():
+        out.print(f"not identifiable from these candidates, {name}: {reason}")
+
+
+# --------------------------------------------------------------------------- fleet, listings
+def print_fleet(result, columns, ok):
+    """The fleet's summary: a row per robot (failed ones in red), their notes, the files."""
+    table = Table(title=f"fleet of {len(result['robots'])} robots on {result['ran_on']} (mm)")
+    for column in columns:
+        table.add_column(column, justify="right" if column.endswith(("_mm", "train", "test")) else "left")
+    for row in result["robots"]:
+        table.add_row(*[cell(row[c]) if row[c] is not None else "" for c in columns],
+                      style=None if row["status"] == ok else "red")
+    out.print(table)
+    for row in result["robots"]:
+        if row["message"]:
+            out.print(Text(f"{row['name']}: {row['message']}", style="" if row["status"] == ok else "red"))
+    out.print(f"-> {result['summary_csv']}, {result['summary_html']}")
+
+
+def print_rows(columns, rows):
+    """A plain table: ``columns`` and one row of texts per entry of ``rows``."""
+    table = Table(*columns)
+    for row in rows:
+        table.add_row(*row)
+    out.print(table)
+
+
+def print_all(renderables):
+    """Tables built elsewhere (a robot's parameter table, the demo's)."""
+    for renderable in renderables:
+        out.print(renderable)
