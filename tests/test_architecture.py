@@ -8,8 +8,8 @@ import pytest
 from robocal.methods import method_names
 
 PACKAGE = Path(__file__).resolve().parents[1] / "robocal"
-LAYERS = ["spatial", "kinematics", "io", "simulation", "estimation", "planning", "compensation", "methods",
-          "interfaces"]
+LAYERS = ["spatial", "kinematics", "io", "simulation", "estimation", "planning", "compensation", "acceptance",
+          "methods", "interfaces"]
 
 
 def _modules():

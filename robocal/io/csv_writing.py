@@ -6,7 +6,6 @@ import csv
 import io
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -15,12 +14,10 @@ from robocal.io.atomic import write_text_atomic
 from robocal.io.csv_table import JOINT_COLUMN, ORIENTATION_COLUMNS, POSITION_COLUMNS, SIGMA_COLUMNS
 from robocal.io.file_kinds import marked
 
-if TYPE_CHECKING:  # the type only: tables imports this module
-    from robocal.io.tables import Measurements
 
-
-def write_measurements(path: str | os.PathLike, data: Measurements) -> Path:
-    """Write ``data`` as a measurement CSV file, atomically, and return the path.
+def write_measurements(path: str | os.PathLike, data) -> Path:
+    """Write ``data`` (a :class:`~robocal.io.tables.Measurements`) as a measurement CSV file, atomically, and
+    return the path.
 
     Columns: q1 … qn, then x, y, z / rx, ry, rz / sx, sy, sz / fixture, socket where
     present, then the extra columns.  Floats are written exactly (shortest repr), so

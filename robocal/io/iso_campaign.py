@@ -51,11 +51,11 @@ def read_iso_campaign(path) -> IsoCampaign:
                               "ISO 9283 campaign gives each visit's commanded x_cmd, y_cmd, z_cmd and measured x, y, z "
                               "(mm), and optionally pose, cycle, rx_cmd..rz_cmd and rx..rz (deg)")
     present = [set(group) <= set(table.header) for group in (COMMANDED_ANGLES, ATTAINED_ANGLES)]
-    if present[0] != present[1]:
-        have, lack = (COMMANDED_ANGLES, ATTAINED_ANGLES) if present[0] else (ATTAINED_ANGLES, COMMANDED_ANGLES)
-        raise FileFormatError(f"{table.path} has {', '.join(have)} but not {', '.join(lack)}: orientation "
-                              "characteristics need the commanded and the measured angles")
-    angles = present[0]
+    # A plan's commanded angles with positions measured only: the position figures alone.
+    if present[1] and not present[0]:
+        raise FileFormatError(f"{table.path} has {', '.join(ATTAINED_ANGLES)} but not {', '.join(COMMANDED_ANGLES)}: "
+                              "orientation characteristics need the commanded angles beside the measured ones")
+    angles = present[0] and present[1]
     cycle = None
     if "cycle" in table.header:
         cycle = table.numbers(["cycle"])[:, 0]

@@ -108,6 +108,9 @@ def join(points, joints_path, *, by=None, max_dt=MAX_DT):
     joint_names = [f"q{k}" for k in indices]
     joints = table.numbers(joint_names)
     name_column, time_column = _column(table, NAME_COLUMNS), _column(table, TIME_COLUMNS)
+    if by is None and name_column is None and time_column is None:
+        raise FileFormatError(f"{table.path} has no name column ({', '.join(NAME_COLUMNS)}) and no time column "
+                              f"({', '.join(TIME_COLUMNS)}): add the point's name to every joint row")
     by = by or ("name" if name_column is not None else "time")
     if by == "name":
         if name_column is None:

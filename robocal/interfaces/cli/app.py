@@ -28,7 +28,7 @@ from .rendering import err, out, say
 UsageError = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
 # The commands in the order --help lists them (each module of this package adds its own).
 COMMAND_ORDER = ("robots", "show", "simulate", "methods", "calibrate", "evaluate", "compensate", "filter", "serve",
-                 "report", "export", "compare", "validate", "dataset", "design", "demo", "fleet")
+                 "report", "export", "compare", "validate", "dataset", "design", "import", "iso9283", "demo", "fleet")
 
 
 def _plain_flags(params):

@@ -327,3 +327,24 @@ def print_all(renderables):
     """Tables built elsewhere (a robot's parameter table, the demo's)."""
     for renderable in renderables:
         out.print(renderable)
+
+
+def print_iso9283(result):
+    """iso9283: a row per pose of the position figures (mm), of the orientation figures (deg)
+    when the campaign has them, then the distance figures."""
+    tables = [("mm", ("AP", "APx", "APy", "APz", "RP"), "_mm")]
+    if any(p.get("APa_deg") is not None for p in result["poses"]):
+        tables.append(("deg", ("APa", "APb", "APc", "RPa", "RPb", "RPc"), "_deg"))
+    for unit, names, suffix in tables:
+        table = Table(title=f"ISO 9283 pose characteristics, {unit} ({result['file']}; visits matched by "
+                            f"{result['matched_by']})")
+        for column in ("pose", "n") + names + (("command spread",) if unit == "mm" else ()):
+            table.add_column(column, justify="right")
+        for pose in result["poses"]:
+            cells = [pose["pose"], str(pose["n"])] + [f"{pose[name + suffix]:.4f}" for name in names]
+            table.add_row(*cells, *([f"{pose['command_spread_mm']:.4f}"] if unit == "mm" else []))
+        out.print(table)
+    distance = result["distance"]
+    if distance is not None:
+        out.print(f"distance {'-'.join(distance['between'])} ({distance['commanded_mm']:.3f} mm commanded, "
+                  f"{distance['n']} cycles): AD {distance['AD_mm']:.4f} mm, RD {distance['RD_mm']:.4f} mm")
