@@ -8,6 +8,7 @@ import numpy as np
 from ..errors import InputError
 from ..estimation.metrics import error_stats
 from ..io.atomic import check_outputs
+from ..io.fingerprint import of_observations
 from ..io.library import load_robot
 from ..io.model_file import load_model, save_model
 from ..io.observations import read_observations, read_target_poses, write_joint_commands
@@ -37,7 +38,9 @@ class Calibrated:
     kinematics: object = None  # the fitted method's Chain
 
     def to_dict(self):
-        return {"method": self.method, "robot": self.robot, "out": self.out, **self.data, **self.record.to_dict()}
+        # The training rows' fingerprint is for robocal to read back, not for people.
+        data = {key: value for key, value in self.data.items() if key != "fingerprint"}
+        return {"method": self.method, "robot": self.robot, "out": self.out, **data, **self.record.to_dict()}
 
 
 def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=None, fixture=None, progress=None,
@@ -55,7 +58,8 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
     check_outputs([out], [measurements, fixture, robot])
     chain = load_robot(robot, root=root, tip=tip)
     observations = read_observations(measurements, chain, fixture, beyond_limits=beyond_limits)
-    training = {"file": str(measurements), "n_poses": observations.n_poses, "kind": observations.kind}
+    training = {"file": str(measurements), "n_poses": observations.n_poses, "kind": observations.kind,
+                "fingerprint": of_observations(chain, observations)}
     if fixture is not None:
         training["fixture_file"] = str(fixture)
     if auto:
@@ -76,7 +80,7 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
 FRAMES = "frames"
 # What a re-registered model file keeps of the original's training entry (the data it was
 # fitted on), beside the re-registration record.
-KEPT_TRAINING = ("file", "n_poses", "kind", "fixture_file", "comparison")
+KEPT_TRAINING = ("file", "n_poses", "kind", "fixture_file", "comparison", "fingerprint")
 
 
 def reregister_job(model_path, measurements, out, *, parameters=None, beyond_limits=False,

@@ -89,3 +89,25 @@ def seen(entry, joints, positions=None, labels=None, where="the model file"):
     for grid, text in enumerate(entry["grids"]):
         out |= np.isin(digests(joints, positions, labels, grid), _decode(text, where))
     return out
+
+
+def of_observations(chain, observations):
+    """:func:`fingerprint` of :class:`~robocal.io.observations.Observations` of ``chain``
+    (their rows in file units: degrees and mm)."""
+    joints = chain.joints_to_file(observations.joints)
+    if observations.positions is not None:
+        return fingerprint(joints, observations.positions)
+    return fingerprint(joints, labels=_socket_labels(observations))
+
+
+def seen_observations(entry, chain, observations, where="the model file"):
+    """:func:`seen` for :class:`~robocal.io.observations.Observations` of ``chain``."""
+    joints = chain.joints_to_file(observations.joints)
+    if observations.positions is not None:
+        return seen(entry, joints, observations.positions, where=where)
+    return seen(entry, joints, labels=_socket_labels(observations), where=where)
+
+
+def _socket_labels(observations):
+    return np.char.add(np.char.add(np.asarray(observations.placement).astype(str), "/"),
+                       np.asarray(observations.socket).astype(str))
