@@ -565,6 +565,7 @@ def calibrate(
     accept_extrapolation: bool = typer.Option(False, "--accept-extrapolation", help="Keep a model predicted to miss by more than the registered nominal robot over the working range (poses that cover too little of it)."),
     jobs: int = typer.Option(None, help="kriging, hybrid, auto: " + JOBS_HELP.replace("the independent fits (the folds)", "the independent fits (each error component's likelihood search; auto's comparison)"), **_number(whole=True, at_least=1, at_most=1024)),
     scheduler: str = typer.Option(None, metavar="<tcp://HOST:PORT>", help="kriging, hybrid, auto: " + SCHEDULER_HELP),
+    folds: int = typer.Option(None, help="auto: folds of the comparison (default 5; on a campaign too small for 5 folds of 30 training poses, leave-one-out, or with --folds K, K folds repeated 5 times).", **_number(whole=True, at_least=2, at_most=1000)),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Fit a calibration / error model to measurements and save it as a model file.
@@ -581,6 +582,9 @@ def calibrate(
         correlation=correlation, inputs=inputs, kriging=kriging, parameters=parameters, loss=loss, payload=payload,
         generations=generations, trainer=trainer, refine=refine, base_model=base_model, pairs=pairs, prior=prior,
         tolerance_scale=tolerance_scale)
+    if folds is not None and method != AUTO:
+        raise InputError(f"--folds sets the folds of --method auto's comparison: leave it out for --method {method} "
+                         "(robocal validate --folds cross-validates one method)")
     if method == FRAMES:
         return _reregister(robot, measurements, out_file, settings, beyond_limits, as_json, root=root, tip=tip,
                            fixture=fixture, accept_extrapolation=accept_extrapolation)
@@ -600,9 +604,9 @@ def calibrate(
     with parallel.executor(jobs=jobs, scheduler=scheduler), progress(label, total, enabled=not as_json) as advance:
         result = calibrate_job(robot, measurements, out_file, method=fitter, settings=settings if method == AUTO else None,
                                fixture=fixture, progress=advance, beyond_limits=beyond_limits, root=root, tip=tip,
-                               accept_extrapolation=accept_extrapolation)
+                               accept_extrapolation=accept_extrapolation, folds=folds)
     if method == AUTO and not as_json:
-        _print_comparison(result.data["comparison"])
+        _print_reasoning(result.data["comparison"])
     if not as_json and result.record.calibration is not None:
         _print_calibration(result.record.calibration, result.kinematics)
     shown = {k: v for k, v in result.to_dict().items() if k != "comparison"}
@@ -852,6 +856,50 @@ def _print_comparison(comparison):
     out.print(f"recommended (*): {comparison['recommended']['label']}  (< marks the lowest mean of each split)")
     for line in comparison["reasons"] + comparison["dropped"] + comparison["notes"]:
         out.print(f"  {line}")
+    _print_advice(comparison)
+
+
+def _print_advice(comparison):
+    """What to measure to let a richer model win (robocal.methods.selection.advice)."""
+    if comparison.get("advice"):
+        out.print("to let a richer model win:")
+        for line in comparison["advice"]:
+            out.print(f"  {line}")
+
+
+def _print_reasoning(comparison):
+    """calibrate --method auto's choice in one screen: one table of every model's held-out
+    mean on each split and what the random folds told of it against the baseline, then why
+    the winner, and what to measure to let a richer model win."""
+    verdicts = {v["label"]: v for v in comparison.get("verdicts", [])}
+    chosen, outside = comparison["recommended"]["label"], (comparison.get("outside_domain") or {}).get("label")
+    dropped = {line.split(" dropped:")[0] for line in comparison["dropped"]}
+    table = Table(title=f"auto on {comparison['poses']} poses: held-out mean (mm) on each split, and what the random "
+                        "folds tell of each model against the baseline")
+    table.add_column("model")
+    for split in comparison["splits"]:
+        table.add_column(split["name"], justify="right")
+    table.add_column("verdict (gain ± fold-to-fold spread, mm)")
+    for model in comparison["models"]:
+        label, verdict = model["label"], verdicts.get(model["label"])
+        said = "" if verdict is None else verdict["verdict"]
+        if verdict is not None and said != "baseline":
+            said += f" ({verdict['gain_mm']:+.4f} ± {verdict['spread_mm']:.4f})"
+        said += "; chosen" if label == chosen else "; answers outside the domain" if label == outside else ""
+        said += "; dropped (no gain over its base on the regions)" if label in dropped else ""
+        table.add_row(label + (" *" if label == chosen else ""),
+                      *[f"{model['scores'][s['name']]['pooled']['mean_mm']:.4f}" for s in comparison["splits"]],
+                      said.lstrip("; "))
+    out.print(table)
+    out.print(f"chosen (*): {chosen}")
+    for line in comparison["reasons"]:
+        out.print(f"  {line}")
+    # Candidates left out by their minimum are named in the advice; the other notes say which
+    # splits could not be made.
+    for line in comparison["notes"]:
+        if " fit needs " not in line:
+            out.print(f"  {line}")
+    _print_advice(comparison)
 
 
 @command()
@@ -859,7 +907,7 @@ def _print_comparison(comparison):
 def compare(
     robot: str = typer.Argument(..., help="Built-in name, robot .toml or .urdf file."),
     measurements: str = typer.Argument(..., help="Measurement CSV (q1..qN, x, y, z, ...), or ball-in-socket data with --fixture."),
-    folds: int = typer.Option(5, help="Folds of each split (random folds, and regions of joint space).", **_number(whole=True, at_least=2, at_most=20)),
+    folds: int = typer.Option(None, help="Folds of each split (random folds, and regions of joint space; default 5). A campaign too small for 5 folds of 30 training poses is split leave-one-out, or with --folds K into K folds repeated 5 times.", **_number(whole=True, at_least=2, at_most=1000)),
     seed: int = typer.Option(0, help="Seed of the random folds and of the regions' clustering.", **_number(whole=True, at_least=0)),
     network: bool = typer.Option(None, "--network/--no-network", help="Include the ann method (default: when the training folds hold 500 poses or more)."),
     fixture: str = typer.Option(None, help="Ball-in-socket data: the fixture TOML."),

@@ -41,8 +41,11 @@ from ..estimation.metrics import error_stats
 from ..estimation.registration import kabsch, register_base_and_tool
 from ..io.model_file import robot_hash
 from ..spatial import invert, make_transform, pose_to_xyz_rpy, so3_log
+from .fallback import DomainFallback
 from .plausibility import check_robot_data
 
+# calibrate MODEL.json NEW.csv --method frames: a model file re-registered on a new set-up.
+FRAMES = "frames"
 PARAMETER_CHOICES = ("frames", "frames+offsets")
 DOCUMENT_TYPE = "reframed"
 TOOL_ORIENTATION = ("tool_rx", "tool_ry", "tool_rz")
@@ -289,7 +292,12 @@ class ReregistrationRecord:
 # ----------------------------------------------------------------- the problem
 class _Problem:
     """The re-registration of one model on one set of poses: what it predicts for a
-    candidate chain and the weighted residual the fit minimises."""
+    candidate chain and the weighted residual the fit minimises.
+
+    A model of ``calibrate --method auto`` that answers with a fallback outside its training
+    domain (:class:`~robocal.methods.fallback.DomainFallback`) moves as one: the fallback's
+    chain takes the same change of frames (and joint offsets) as the chosen model's, and each
+    pose is predicted by the model that answers for it."""
 
     def __init__(self, compensator, joints, positions, rotations, weights):
         self.old = compensator.chain
@@ -301,6 +309,20 @@ class _Problem:
         self.weights = weights
         self.rows = weights.shape[1]
         self.offsets = [self.old.rigid.offset_parameter(k) for k in range(self.old.n_joints)]
+        fallback = getattr(compensator, "outside", None)
+        self.fallback = None if fallback is None else fallback.chain
+        self.answered_outside = (np.zeros(len(joints), dtype=bool) if fallback is None
+                                 else compensator.outside_mask(joints))
+
+    def moved_fallback(self, chain):
+        """The fallback's chain with the change of frames (and joint offsets) that takes the
+        chosen model's chain to ``chain``: the same new base, and the same change of the tool
+        in the flange frame (the fallback keeps its own calibrated TCP offset)."""
+        frame = self.frame(chain)
+        turn = chain.tool @ invert(self.old.tool)
+        moved = self.fallback.replace(base=frame @ self.fallback.base, tool=turn @ self.fallback.tool)
+        change = chain.parameter_values(self.offsets) - self.old.parameter_values(self.offsets)
+        return moved.perturbed(self.offsets, change) if np.any(change) else moved
 
     def frame(self, chain):
         """T, old measurement frame → the one of ``chain``: the robot base stays put."""
@@ -336,6 +358,16 @@ class _Problem:
         if model is not None:
             inputs = pose_positions if self.error_input == "position" else self.q
             pose_positions = pose_positions + model.predict(inputs)
+        out = self.answered_outside
+        if out.any():
+            fallback = self.moved_fallback(chain)
+            pose_positions = pose_positions.copy()
+            if pose_rotations is None:
+                pose_positions[out] = fallback.fk_positions(self.q[out])
+            else:
+                pose = fallback.fk(self.q[out])
+                pose_positions[out], pose_rotations = pose[:, :3, 3], pose_rotations.copy()
+                pose_rotations[out] = pose[:, :3, :3]
         return pose_positions, pose_rotations
 
     def residual(self, chain):
@@ -349,8 +381,11 @@ class _Problem:
     def jacobian(self, chain, names):
         """The weighted derivative of the prediction, (N·rows, P): the chain's analytic
         identification Jacobian (the error model's change is second order, see the module notes)."""
-        jac = chain.identification_jacobian(self.q, names)[:, :self.rows, :] * self.weights[:, :, None]
-        return jac.reshape(-1, len(names))
+        jac = chain.identification_jacobian(self.q, names)[:, :self.rows, :]
+        out = self.answered_outside
+        if out.any():
+            jac[out] = self.moved_fallback(chain).identification_jacobian(self.q[out], names)[:, :self.rows, :]
+        return (jac * self.weights[:, :, None]).reshape(-1, len(names))
 
     def steps(self, prior=None):
         """The analyse / fit / linearise steps :func:`~robocal.estimation.identification.identify`
@@ -441,6 +476,12 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
     new = copy.copy(fitted)
     new.compensator_ = Compensator(chain, error_model, nominal=reference, error_input=compensator.error_input,
                                    controller=compensator.controller, reference=reference)
+    if problem.fallback is not None:
+        # The pair moves together (calibrate --method auto): the fallback with the same frames.
+        moved = problem.moved_fallback(chain)
+        new.compensator_ = DomainFallback(new.compensator_, Compensator(
+            moved, None, nominal=moved.rigid, controller=compensator.controller, reference=reference),
+            compensator.domain, compensator.label)
     new.reference_ = reference
     domain = getattr(fitted, "domain_", None)
     if domain is not None and getattr(domain, "box_min", None) is not None:
@@ -453,6 +494,10 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
         # own error, the model is not what answers there.
         names, covariance, own = new.frames_posterior_
         new.domain_ = dataclasses.replace(new.domain_, frames=(names, covariance, own * np.sqrt(3.0)))
+    if problem.fallback is not None and getattr(new, "domain_", None) is not None:
+        # The pair decides by the domain the model now has.
+        new.compensator_ = dataclasses.replace(new.compensator_, domain=new.domain_)
+        after = error_stats(positions - new.predict(q))
     notes = _warnings(old, chain, q, found.names, after["rms_mm"], training_rms)
     for note in notes:
         warnings.warn(note, RobocalWarning, stacklevel=2)
@@ -494,10 +539,6 @@ def _check_model(fitted, robot):
     if getattr(fitted, "data_kind", "position") != "position":
         raise InputError(f"a {fitted.name} model is calibrated from ball-in-socket data, which have no measurement "
                          "frame to move: re-registration is for models of measured TCP positions")
-    if hasattr(compensator, "outside"):  # a DomainFallback (robocal.methods.fallback)
-        raise InputError(f"this model (calibrate --method auto) answers with {compensator.label} outside its training "
-                         "domain, and re-registering such a pair is not supported yet: calibrate --method auto again "
-                         "on the new set-up's data, or re-register a model of one method")
     controller = compensator.controller if compensator.controller is not None else compensator.nominal
     if robot is not None and controller is not None and robot_hash(robot) != robot_hash(controller):
         raise InputError(f"the model belongs to robot '{controller.name}' (hash {robot_hash(controller)}), the data "

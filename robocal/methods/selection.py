@@ -46,6 +46,8 @@ __all__ = ["BRANCH_MIN_SHARE", "FOLDS", "MIN_TRAINING_POSES", "NOMINAL", "PARAME
            "cluster_split", "compare", "joint_features", "leave_one_out", "outside_choice", "placement_split",
            "random_split", "recommend", "repeated_split", "score", "score_task", "splits", "time_split"]
 
+# calibrate --method auto: the meta-method that fits the model compare recommends.
+AUTO = "auto"
 # Differences of held-out mean error below this (mm) are ties whatever their spread: no
 # tracker resolves them, and two models that differ only where a parameter was left out (a
 # compliance not told from zero) otherwise differ by 1e-4 mm with a spread of 0.
@@ -73,11 +75,11 @@ def candidates(observations, *, chain=None, training=None, network=None, folds=F
 
 
 def _fitting(candidate_list, split, n):
-    """(candidates whose fit the split's training parts can take, notes on the others): a
-    linearised fit on a small campaign's split is fitted on all ``n`` poses (deletion); any
-    other on the training part of each fold."""
+    """(candidates whose fit the split's training parts can take, notes on the others,
+    [(labels, poses to measure)]): a linearised fit on a small campaign's split is fitted on
+    all ``n`` poses (deletion); any other on the training part of each fold."""
     refit = n - max(len(t) for t in split.tests)
-    kept, notes = [], []
+    kept, short = [], {}
     for candidate in candidate_list:
         sees = n if (candidate.linear and split.deletion) else refit
         if sees >= candidate.minimum_poses:
@@ -88,9 +90,10 @@ def _fitting(candidate_list, split, n):
         folds = len(split.tests) if split.groups is None and not split.deletion else None
         measure = (candidate.minimum_poses + 1 if folds is None
                    else int(np.ceil(candidate.minimum_poses * folds / (folds - 1))))
-        notes.append(f"{candidate.label} left out: its fit needs {candidate.minimum_poses} poses, the comparison's "
-                     f"fits see {sees}; measure at least {measure}")
-    return kept, notes
+        short.setdefault((candidate.minimum_poses, sees, measure), []).append(candidate.label)
+    notes = [f"{', '.join(labels)} left out: {'its' if len(labels) == 1 else 'their'} fit needs {need} poses, the "
+             f"comparison's fits see {sees}; measure at least {measure}" for (need, sees, measure), labels in short.items()]
+    return kept, notes, [(labels, measure) for (_, _, measure), labels in short.items()]
 
 
 # ---------------------------------------------------------------------------- the choice
@@ -310,13 +313,12 @@ def verdicts(comparison_scores, candidate_list, split_list, baseline):
     return out
 
 
-def advice(found, candidate_list, chosen, split_list, notes, poses):
+def advice(found, candidate_list, chosen, split_list, wants, poses):
     """Lines saying what to measure to let a richer model than ``chosen`` win: poses for the
-    models left out by their minimum, the regions' guard, and, for a richer model whose gain
-    lay within its spread, about how many poses would tell it (the spread of a fold's mean
-    shrinks as one over the root of its poses)."""
-    lines = [note.split(" left out: ")[0] + ": " + note.split("; ")[-1]
-             for note in notes if " left out: its fit needs " in note]
+    models left out by their minimum (``wants``: [(labels, poses)]), the regions' guard, and,
+    for a richer model whose gain lay within its spread, about how many poses would tell it
+    (the spread of a fold's mean shrinks as one over the root of its poses)."""
+    lines = [f"{', '.join(labels)}: measure at least {measure} poses" for labels, measure in wants]
     by_label = {c.label: c for c in candidate_list}
     hopeful = [v for v in found if v["verdict"] == "not told apart" and v["gain_mm"] > RESOLUTION
                and by_label[v["label"]].richness() > chosen.richness()]
@@ -345,7 +347,7 @@ def compare(chain, observations, *, folds=None, seed=0, network=None, on_fit=Non
     n = observations.n_poses
     offered, left_out = candidates(observations, chain=chain, training=n - max(len(t) for t in random.tests),
                                    network=network)
-    candidate_list, too_few = _fitting(offered, random, n)
+    candidate_list, too_few, wants = _fitting(offered, random, n)
     if not candidate_list:
         least = min(offered, key=lambda c: c.minimum_poses)
         need = least.minimum_poses + (0 if least.linear and random.deletion else 1)
@@ -365,7 +367,7 @@ def compare(chain, observations, *, folds=None, seed=0, network=None, on_fit=Non
         reasons.append(why)
     found = verdicts(scores, candidate_list, split_list, candidate_list[0])
     return Comparison(n, observations.path, split_list, scores, candidate_list, chosen, reasons, dropped, notes,
-                      seconds, outside, found, advice(found, candidate_list, chosen, split_list, notes, n))
+                      seconds, outside, found, advice(found, candidate_list, chosen, split_list, wants, n))
 
 
 def choose(chain, observations, *, folds=None, seed=0, network=None, on_fit=None, progress=None):
