@@ -16,7 +16,7 @@ from ..methods import DEFAULT_METHOD, fitted_from_model_file, make_method
 from ..methods.evaluation import position_scores, socket_scores, with_fixture
 from ..methods.base import option_of
 from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
-from ..methods.reregistration import FRAMES
+from ..methods.reregistration import FRAMES  # noqa: F401  (the command line and fleet files name it here)
 from ..methods.selection import AUTO, choose, compare
 from ..methods.validation import cross_validate
 
