@@ -48,6 +48,9 @@ __all__ = ["BRANCH_MIN_SHARE", "FOLDS", "MIN_TRAINING_POSES", "NOMINAL", "PARAME
 
 # calibrate --method auto: the meta-method that fits the model compare recommends.
 AUTO = "auto"
+# The registered nominal robot, the baseline of every table, is registered on each training
+# part: that takes 4 poses (robocal.estimation.registration).
+REGISTRATION_POSES = 4
 # Differences of held-out mean error below this (mm) are ties whatever their spread: no
 # tracker resolves them, and two models that differ only where a parameter was left out (a
 # compliance not told from zero) otherwise differ by 1e-4 mm with a spread of 0.
@@ -348,9 +351,10 @@ def compare(chain, observations, *, folds=None, seed=0, network=None, on_fit=Non
     offered, left_out = candidates(observations, chain=chain, training=n - max(len(t) for t in random.tests),
                                    network=network)
     candidate_list, too_few, wants = _fitting(offered, random, n)
-    if not candidate_list:
+    held = max(len(t) for t in random.tests)
+    if not candidate_list or n - held < REGISTRATION_POSES:
         least = min(offered, key=lambda c: c.minimum_poses)
-        need = least.minimum_poses + (0 if least.linear and random.deletion else 1)
+        need = max(least.minimum_poses + (0 if least.linear and random.deletion else held), REGISTRATION_POSES + held)
         raise InputError(f"{observations.path or 'the data'} holds {n} poses: the simplest model, {least.label}, "
                          f"needs {need} to be fitted and judged on poses it did not see; measure more poses")
     notes = notes + left_out + too_few
