@@ -92,14 +92,12 @@ def kriging_too_many(training):
 
 # Kriging's hyperparameters (one length scale per input) are learnt from the data: a Gaussian
 # process needs about ten points per input dimension for them (Loeppky, Sacks & Welch 2009,
-# "Choosing the sample size of a computer experiment"): 30 over the TCP position, 120 over the
-# sines and cosines of a 6-axis arm.
+# "Choosing the sample size of a computer experiment"): 30 over the TCP position; over the
+# joints, or their sines and cosines (two coordinates of one angle), ten per joint (60 for a
+# 6-axis arm).
 POINTS_PER_DIMENSION = 10
 
 
 def kriging_minimum(chain, inputs):
     """The fewest training poses a Kriging over ``inputs`` is compared with."""
-    revolute = np.asarray(chain.revolute, dtype=bool)
-    dimensions = {"position": 3, "joints": chain.n_joints,
-                  "sincos": 2 * int(revolute.sum()) + int((~revolute).sum())}[inputs]
-    return POINTS_PER_DIMENSION * dimensions
+    return POINTS_PER_DIMENSION * (3 if inputs == "position" else chain.n_joints)
