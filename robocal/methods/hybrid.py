@@ -4,7 +4,8 @@ or over the joints (``inputs``)."""
 from ..compensation import Compensator
 from ..estimation.metrics import error_stats
 from .base import Method
-from .candidacy import PARAMETER_SETS, RESIDUAL_INPUTS, Candidate, kinematic_candidates, kriging_minimum, kriging_too_many
+from .candidacy import (PARAMETER_SETS, RESIDUAL_INPUTS, Candidate, kinematic_candidates, kriging_minimum,
+                        kriging_too_many)
 from .kinematic import KinematicMethod
 from .kriging import KRIGING_SETTINGS, KrigingResidual, fit_error_model
 
@@ -27,7 +28,8 @@ class HybridMethod(KrigingResidual, Method):
         return [Candidate(f"{cls.name} {c.settings['parameters']}", cls.name,
                           {**c.settings, "inputs": RESIDUAL_INPUTS}, base=c.label,
                           minimum_poses=max(need, c.minimum_poses))
-                for c in kinematic_candidates("kinematic", chain, observations, PARAMETER_SETS[:1] + PARAMETER_SETS[2:])], []
+                for c in kinematic_candidates("kinematic", chain, observations,
+                                              PARAMETER_SETS[:1] + PARAMETER_SETS[2:])], []
 
     def kinematic(self):
         """The unfitted :class:`KinematicMethod` of these settings (the hybrid's base)."""

@@ -95,7 +95,8 @@ def _fitting(candidate_list, split, n):
                    else int(np.ceil(candidate.minimum_poses * folds / (folds - 1))))
         short.setdefault((candidate.minimum_poses, sees, measure), []).append(candidate.label)
     notes = [f"{', '.join(labels)} left out: {'its' if len(labels) == 1 else 'their'} fit needs {need} poses, the "
-             f"comparison's fits see {sees}; measure at least {measure}" for (need, sees, measure), labels in short.items()]
+             f"comparison's fits see {sees}; measure at least {measure}"
+             for (need, sees, measure), labels in short.items()]
     return kept, notes, [(labels, measure) for (_, _, measure), labels in short.items()]
 
 
