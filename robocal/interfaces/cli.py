@@ -874,8 +874,9 @@ def _print_reasoning(comparison):
     verdicts = {v["label"]: v for v in comparison.get("verdicts", [])}
     chosen, outside = comparison["recommended"]["label"], (comparison.get("outside_domain") or {}).get("label")
     dropped = {line.split(" dropped:")[0] for line in comparison["dropped"]}
-    table = Table(title=f"auto on {comparison['poses']} poses: held-out mean (mm) on each split, and what the random "
-                        "folds tell of each model against the baseline")
+    table = Table(title=f"auto on {comparison['poses']} poses: held-out mean (mm, every held-out pose; the choice weighs "
+                        "those inside each fold's training domain) on each split, and what the random folds tell of "
+                        "each model against the baseline")
     table.add_column("model")
     for split in comparison["splits"]:
         table.add_column(split["name"], justify="right")
