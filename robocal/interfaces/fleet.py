@@ -62,7 +62,8 @@ OPTIONAL_KEYS = ("test", "method", "fixture", "options")
 # calibrate's parameters that a robot's options do not take: its files and its method have
 # keys of their own, and the fleet decides what is written and printed.
 # (--jobs and --scheduler too: the fleet itself is spread; a robot's fits run on its worker.)
-NOT_OPTIONS = ("robot", "measurements", "out_file", "method", "fixture", "as_json", "debug", "jobs", "scheduler")
+NOT_OPTIONS = ("robot", "measurements", "out_file", "method", "fixture", "as_json", "debug", "jobs", "scheduler",
+               "folds")  # --folds (auto's comparison) is not offered in fleet files
 # calibrate's options that go to calibrate_job itself; the others are the method's settings.
 JOB_OPTIONS = ("root", "tip", "beyond_limits", "accept_extrapolation")
 # A robot's name names its folder: a plain file name, nothing a file system reads as a path.
