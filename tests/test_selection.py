@@ -141,11 +141,14 @@ def test_socket_data_are_split_at_random_within_sockets_and_by_fixture_placement
 
 
 def test_too_few_poses_are_refused_with_one_line(ur5):
+    # Only below what the simplest model needs (kinematic offsets: 15 parameters from 3
+    # coordinates a pose); 25 poses are a small campaign, split leave-one-out (issue 24).
     chain, _, obs = ur5
+    assert splits(chain, obs.subset(np.arange(25)))[0][0].name == "leave-one-out"
     with pytest.raises(InputError) as refused:
-        splits(chain, obs.subset(np.arange(25)), folds=5)
+        compare(chain, obs.subset(np.arange(4)))
     message = str(refused.value)
-    assert "25 poses" in message and "\n" not in message
+    assert "4 poses" in message and "kinematic offsets" in message and "\n" not in message
     with pytest.raises(InputError) as one_fold:
         compare(chain, obs, folds=1)
     assert "--folds" in str(one_fold.value)

@@ -64,7 +64,8 @@ OPTIONAL_KEYS = ("test", "method", "fixture", "options")
 # calibrate's options that go to calibrate_job itself (flags but root and tip); the others a
 # robot's options take are the methods' settings.  Its files, its method and its fixture have
 # keys of their own, the fleet decides what is written and printed, and --jobs and
-# --scheduler are the fleet's own (a robot's fits run on its worker).
+# --scheduler are the fleet's own (a robot's fits run on its worker); --folds (auto's
+# comparison) is not offered in fleet files.
 JOB_OPTIONS = {"root": None, "tip": None, "beyond_limits": Flag(), "accept_extrapolation": Flag()}
 # A robot's name names its folder: a plain file name, nothing a file system reads as a path.
 NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}\Z")

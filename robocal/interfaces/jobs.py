@@ -17,11 +17,9 @@ from ..methods import DEFAULT_METHOD, fitted_from_model_file, make_method
 from ..methods.evaluation import position_scores, socket_scores, with_fixture
 from ..methods.base import option_of
 from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
-from ..methods.selection import choose, compare
+from ..methods.reregistration import FRAMES  # noqa: F401  (the command line and fleet files name it here)
+from ..methods.selection import AUTO, choose, compare
 from ..methods.validation import cross_validate
-
-# calibrate --method auto: the method compare recommends (robocal.methods.selection).
-AUTO = "auto"
 
 
 @dataclass(frozen=True)
@@ -44,13 +42,18 @@ class Calibrated:
 
 
 def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=None, fixture=None, progress=None,
-                  root=None, tip=None, beyond_limits=False, accept_extrapolation=False):
+                  root=None, tip=None, beyond_limits=False, accept_extrapolation=False, folds=None):
     """Fit a method (an unfitted :class:`~robocal.methods.Method`, or a registered name with
     its ``settings``) to a measurement file and save the model file.  ``progress(**info)`` is
     called as the method reports its steps.  The error to expect where the robot will work is
     kept in the record; a model predicted to do worse there than the registered nominal robot
-    is refused unless ``accept_extrapolation``."""
+    is refused unless ``accept_extrapolation``.  ``folds``: auto's comparison folds (default
+    5; leave-one-out on a small campaign)."""
     auto = method == AUTO
+    if folds is not None and not auto:
+        raise InputError(f"--folds sets the folds of --method auto's comparison: leave it out for the "
+                         f"{getattr(method, 'name', method)} "
+                         "method (robocal validate --folds cross-validates one method)")
     if auto and settings:
         raise InputError(f"--method auto chooses the method and its settings by comparing them: leave out "
                          f"{', '.join(option_of(name) for name in settings)}, or name a method")
@@ -63,7 +66,7 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
     if fixture is not None:
         training["fixture_file"] = str(fixture)
     if auto:
-        fitter, comparison = choose(chain, observations, on_fit=progress)
+        fitter, comparison = choose(chain, observations, folds=folds, on_fit=progress)
         training["comparison"] = comparison.to_dict()
     else:
         fitter.fit(chain, observations, progress=progress)
@@ -76,8 +79,6 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
     return Calibrated(fitter.name, chain.name, str(out), training, fitter.record_, fitter.compensator_.chain)
 
 
-# calibrate MODEL.json NEW.csv --method frames: re-register a model on a new set-up.
-FRAMES = "frames"
 # What a re-registered model file keeps of the original's training entry (the data it was
 # fitted on), beside the re-registration record.
 KEPT_TRAINING = ("file", "n_poses", "kind", "fixture_file", "comparison", "fingerprint")
@@ -403,7 +404,7 @@ def validate_job(robot, measurements, *, method=DEFAULT_METHOD, settings=None, f
     return {"robot": chain.name, **result}
 
 
-def compare_job(robot, measurements, *, folds=5, seed=0, fixture=None, network=None, root=None, tip=None,
+def compare_job(robot, measurements, *, folds=None, seed=0, fixture=None, network=None, root=None, tip=None,
                 on_fit=None, beyond_limits=False):
     """Every applicable method scored on held-out poses, split at random and by region, beside
     the registered nominal; the recommended model and why (:mod:`robocal.methods.selection`)."""

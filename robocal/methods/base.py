@@ -101,6 +101,17 @@ class Method:
         """How many steps ``fit`` reports through its ``progress`` callback (None: unknown)."""
         return None
 
+    def clone(self):
+        """A new unfitted method with the same settings."""
+        return type(self)(**{s.name: getattr(self, s.name) for s in self.settings})
+
+    @classmethod
+    def candidates(cls, chain, observations, training, forced=None):
+        """(list of :class:`~robocal.methods.candidacy.Candidate`, notes): how this method is
+        compared on ``observations`` of ``chain`` whose comparison fits see ``training`` poses
+        (``forced``: {method name: True/False} to force one in or out).  Not a candidate here."""
+        return [], []
+
     # ------------------------------------------------------------------ fitting
     def fit(self, chain, observations, progress=None):
         """Fit to ``observations`` (:class:`~robocal.io.observations.Observations`) of ``chain``;

@@ -7,6 +7,7 @@ from ..estimation.constraint import PAIRINGS, ConstraintCalibration
 from ..io.fixtures import fixture_to_dict
 from ..settings import Choice, Setting
 from .base import PARAMETERS, PAYLOAD, PRIOR, TOLERANCE_SCALE, Method, check_parameters
+from .candidacy import PARAMETER_SETS, Candidate
 from .records import CalibrationRecord, FitRecord
 
 PAIRS = Setting("pairs", "all", "--pairs", "all pairs of configurations, or spanning (fewer, faster)",
@@ -40,6 +41,14 @@ class ConstraintMethod(Method):
     description = "ball-in-socket calibration of the POE model from position and distance constraints"
     data_kind = "sockets"
     settings = (PAIRS, PARAMETERS, PAYLOAD, PRIOR, TOLERANCE_SCALE)
+
+    @classmethod
+    def candidates(cls, chain, observations, training, forced=None):
+        """Ball-in-socket data: one candidate per 'full' parameter set."""
+        if observations.positions is not None or observations.placement is None:
+            return [], []
+        return [Candidate(f"{cls.name} {p}", cls.name, {"parameters": p}) for p in PARAMETER_SETS
+                if p.startswith("full")], []
 
     def calibration(self):
         """The unfitted :class:`ConstraintCalibration` these settings ask for."""

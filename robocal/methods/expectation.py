@@ -11,11 +11,10 @@ hyperparameters kept), and outside it by what it falls back to there: the anchor
 calibrated model if it has one, else the nominal robot, since an error model knows nothing
 beyond its data.
 """
-import warnings
 
 import numpy as np
 
-from ..errors import InputError, RobocalWarning
+from ..errors import InputError
 from ..estimation.prediction import PredictedError, error_norms, prediction_draws, working_range
 
 # Folds of the held-out estimate inside the training domain (methods that refit at fixed
@@ -89,29 +88,18 @@ def reregistered_error(method, work_joints=None, seed=0):
 
 
 def held_out_errors(method, chain, observations, seed=0):
-    """(N,) mm: each training pose's error under the method fitted without it, over k folds
-    (:meth:`refit` when the method has one: the hyperparameters kept)."""
+    """(N,) mm: each training pose's error under the method fitted without it, over k random
+    folds of the selection engine (:func:`~robocal.methods.splits.random_split`,
+    :func:`~robocal.methods.scoring.fold_errors`: :meth:`refit` when the method has one, the
+    hyperparameters kept)."""
+    from .scoring import fold_errors
+    from .splits import random_split
+
     count = observations.n_poses
-    refit = getattr(method, "refit", None)
-    folds = FOLDS if refit is not None else FEW_FOLDS
+    folds = FOLDS if getattr(method, "refit", None) is not None else FEW_FOLDS
     if count < 2 * folds:
         raise InputError(f"{count} poses are too few to estimate the held-out error with {folds} folds")
-    order = np.random.default_rng(seed).permutation(count)
-    errors = np.empty(count)
-    for fold in np.array_split(order, folds):
-        train = np.setdiff1d(np.arange(count), fold)
-        part = observations.subset(train)
-        with warnings.catch_warnings():
-            # The fit's own warnings were shown once; its folds' would repeat them.
-            warnings.simplefilter("ignore", RobocalWarning)
-            if refit is not None:
-                fitted = refit(chain, part)
-            else:
-                fitted = type(method)(**{s.name: getattr(method, s.name) for s in method.settings})
-                fitted._fit(chain, part, None)
-        test = observations.subset(np.sort(fold))
-        errors[np.sort(fold)] = np.linalg.norm(test.positions - fitted.predict(test.joints), axis=1)
-    return errors
+    return fold_errors(method, chain, observations, random_split(count, folds, seed))
 
 
 def refuse_if_worse_than_nominal(predicted, domain=None):

@@ -4,6 +4,8 @@ or over the joints (``inputs``)."""
 from ..compensation import Compensator
 from ..estimation.metrics import error_stats
 from .base import Method
+from .candidacy import (PARAMETER_SETS, RESIDUAL_INPUTS, Candidate, kinematic_candidates, kriging_minimum,
+                        kriging_too_many)
 from .kinematic import KinematicMethod
 from .kriging import KRIGING_SETTINGS, KrigingResidual, fit_error_model
 
@@ -15,6 +17,19 @@ class HybridMethod(KrigingResidual, Method):
     name = "hybrid"
     description = "parametric calibration, then Kriging of the residual error (over the TCP position or the joints)"
     settings = KinematicMethod.settings + KRIGING_SETTINGS
+
+    @classmethod
+    def candidates(cls, chain, observations, training, forced=None):
+        """Position data, up to KRIGING_MAX_POSES training poses: on each 'full' parameter set,
+        its residual over the joints' sines and cosines, to beat its own kinematic calibration."""
+        if observations.positions is None or kriging_too_many(training):
+            return [], []
+        need = kriging_minimum(chain, RESIDUAL_INPUTS)
+        return [Candidate(f"{cls.name} {c.settings['parameters']}", cls.name,
+                          {**c.settings, "inputs": RESIDUAL_INPUTS}, base=c.label,
+                          minimum_poses=max(need, c.minimum_poses))
+                for c in kinematic_candidates("kinematic", chain, observations,
+                                              PARAMETER_SETS[:1] + PARAMETER_SETS[2:])], []
 
     def kinematic(self):
         """The unfitted :class:`KinematicMethod` of these settings (the hybrid's base)."""

@@ -8,6 +8,7 @@ from ..estimation.calibration import KinematicCalibration, OutlierError, Outlier
 from ..estimation.metrics import error_stats
 from .base import LOSS, PARAMETERS, PAYLOAD, PRIOR, REGISTER, TOLERANCE_SCALE, Method, check_parameters, \
     require_positions
+from .candidacy import kinematic_candidates
 from .records import CalibrationRecord, FitRecord
 from .frames import registered_nominal
 
@@ -24,6 +25,14 @@ class KinematicMethod(Method):
     name = "kinematic"
     description = "parametric calibration of links, base and tool (optionally joint compliance and gains)"
     settings = (REGISTER, PARAMETERS, LOSS, PAYLOAD, PRIOR, TOLERANCE_SCALE)
+
+    @classmethod
+    def candidates(cls, chain, observations, training, forced=None):
+        """Position data: one candidate per parameter set, the default ``full`` first (scored
+        by deletion on small campaigns: a linearised fit)."""
+        if observations.positions is None:
+            return [], []
+        return kinematic_candidates(cls.name, chain, observations, linear=True), []
 
     def calibration(self):
         """The unfitted :class:`KinematicCalibration` these settings ask for (the settings

@@ -14,6 +14,7 @@ from ..estimation.kriging import CORRELATIONS, REGRESSIONS
 from ..settings import Choice, Either, Flag, Number, Setting
 from .base import (ERROR_MODEL_INPUTS, PRIOR, RANDOM_STATE, REGISTER, TOLERANCE_SCALE, Method, require_distinct,
                    require_positions)
+from .candidacy import RESIDUAL_INPUTS, Candidate, kriging_minimum, kriging_too_many
 from .records import FitRecord, ReportFigure
 from .frames import measurement_frame
 
@@ -173,8 +174,7 @@ class KrigingResidual:
         hyperparameters have then seen this fit's data; the fold's predictions have not.
         ``base``: for the hybrid, its kinematic calibration already fitted to ``observations``."""
         self._check_fitted()
-        new = type(self)(**{s.name: getattr(self, s.name) for s in self.settings})
-        return new._fit_error_model_on(chain, observations, like=self.compensator_.error_model, base=base)
+        return self.clone()._fit_error_model_on(chain, observations, like=self.compensator_.error_model, base=base)
 
 
 class KrigingMethod(KrigingResidual, Method):
@@ -188,6 +188,16 @@ class KrigingMethod(KrigingResidual, Method):
     name = "kriging"
     description = "Kriging of the position error over the TCP position (or the joints), targets moved against it"
     settings = (REGISTER,) + KRIGING_SETTINGS + (PRIOR, TOLERANCE_SCALE)
+
+    @classmethod
+    def candidates(cls, chain, observations, training, forced=None):
+        """Position data: over the TCP position and over the joints' sines and cosines, each
+        needing ten training poses per input dimension, up to KRIGING_MAX_POSES."""
+        too_many = kriging_too_many(training)
+        if observations.positions is None or too_many:
+            return [], [too_many] if observations.positions is not None else []
+        return [Candidate(f"kriging ({inputs})", cls.name, {"inputs": inputs},
+                          minimum_poses=kriging_minimum(chain, inputs)) for inputs in ("position", RESIDUAL_INPUTS)], []
 
     def _fit(self, chain, observations, progress):
         return self._fit_error_model_on(chain, observations)

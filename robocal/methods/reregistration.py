@@ -42,14 +42,17 @@ from ..estimation.registration import kabsch, register_base_and_tool
 from ..io.model_file import robot_hash
 from ..settings import Choice, Setting
 from ..spatial import invert, make_transform, pose_to_xyz_rpy, so3_log
+from .fallback import DomainFallback
+from .reframed import ReframedErrorModel, is_reframed, reframed_document, reframed_from_document  # noqa: F401
 from .plausibility import check_robot_data
 
+# calibrate MODEL.json NEW.csv --method frames: a model file re-registered on a new set-up.
+FRAMES = "frames"
 PARAMETER_CHOICES = ("frames", "frames+offsets")
 # Re-registration's one setting (calibrate --method frames --parameters ...).
 FRAME_PARAMETERS = Setting("parameters", "frames", "--parameters",
                            "frames (base and tool) or frames+offsets (and the joint offsets)",
                            Choice(PARAMETER_CHOICES))
-DOCUMENT_TYPE = "reframed"
 TOOL_ORIENTATION = ("tool_rx", "tool_ry", "tool_rz")
 # Row weights when the data carry no standard deviations: the kinematic calibration's
 # defaults, so that orientation rows weigh against position rows as they did in the fit
@@ -68,147 +71,6 @@ MIN_POSES = 4
 RESIDUAL_FACTOR = 3.0
 RESIDUAL_FLOOR_MM = 0.5
 MAX_ITERATIONS = 50
-
-
-# ------------------------------------------------------------ the error model
-class ReframedErrorModel:
-    """An error model learned in one measurement frame, predicting in another.
-
-    Parameters
-    ----------
-    error_model : object
-        The model as it was fitted: ``predict(X)`` → (N, 3) mm, measured minus model, in the
-        old measurement frame (Kriging, the network, ...).
-    frame : (4, 4) array
-        T, old measurement frame → new one (mm): a point p_old is T·p_old in the new frame.
-    error_input : str
-        'position' (X is the TCP position, (N, 3) mm) or 'joints' (X is the joint vector,
-        (N, n) rad or mm).
-    joint_shift : (n,) array or None
-        Joint-space models only: what to add to a new joint reading to get the reading the
-        old model knew for the same configuration (rad, mm; the joint offsets' change).
-    """
-
-    def __init__(self, error_model, frame, error_input="position", joint_shift=None):
-        if error_input not in ("position", "joints"):
-            raise InputError(f"error_input must be 'position' or 'joints', got {error_input!r}")
-        frame = np.asarray(frame, dtype=float)
-        if frame.shape != (4, 4) or not np.all(np.isfinite(frame)):
-            raise InputError(f"the frame must be a finite 4x4 transform, got shape {frame.shape}")
-        rotation = frame[:3, :3]
-        if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
-            raise InputError("the frame's rotation is not a rotation matrix")
-        if joint_shift is not None and error_input != "joints":
-            raise InputError("a joint shift applies to a joint-space error model only")
-        self.error_model = error_model
-        self.frame = frame
-        self.error_input = error_input
-        self.joint_shift = None if joint_shift is None else np.asarray(joint_shift, dtype=float).reshape(-1)
-
-    def __getattr__(self, name):
-        # The fitted attributes (diagnostics_, history_, ...) are the wrapped model's: the
-        # reframing changes where the model is used, not what it learned.
-        if name.endswith("_") and not name.startswith("__") and "error_model" in self.__dict__:
-            return getattr(self.__dict__["error_model"], name)
-        raise AttributeError(name)
-
-    def inputs(self, X):
-        """The wrapped model's input for X: T⁻¹·p for positions (N, 3) mm, the shifted
-        readings for joints (N, n)."""
-        X = np.atleast_2d(np.asarray(X, dtype=float))
-        if self.error_input == "position":
-            return (X - self.frame[:3, 3]) @ self.frame[:3, :3]
-        return X if self.joint_shift is None else X + self.joint_shift
-
-    def predict(self, X, return_mse=False, **options):
-        """The error (N, 3) mm in the new frame at X (see :meth:`inputs`); with
-        ``return_mse`` also its mean squared error per new axis (N, 3) mm², the diagonal of
-        R·diag(mse)·Rᵀ (the wrapped model's components taken as independent).  Other keywords
-        go to the wrapped model."""
-        rotation = self.frame[:3, :3]
-        if return_mse:
-            mean, mse = self.error_model.predict(self.inputs(X), return_mse=True, **options)
-            mean = np.asarray(mean, dtype=float).reshape(-1, 3)
-            return mean @ rotation.T, np.asarray(mse, dtype=float).reshape(-1, 3) @ (rotation ** 2).T
-        mean = np.asarray(self.error_model.predict(self.inputs(X), **options), dtype=float).reshape(-1, 3)
-        return mean @ rotation.T
-
-    def moved(self, frame, joint_shift=None):
-        """This model carried on by ``frame`` (current frame → a newer one) and a further
-        joint shift: one wrapper around the original model, not a wrapper of wrappers."""
-        shift = self.joint_shift
-        if joint_shift is not None:
-            shift = np.asarray(joint_shift, dtype=float) + (0.0 if shift is None else shift)
-        return ReframedErrorModel(self.error_model, np.asarray(frame, dtype=float) @ self.frame,
-                                  self.error_input, shift)
-
-    def to_dict(self, inner_document, revolute=None):
-        """The model file's ``error_model`` entry: {"type": "reframed", "frame": 4x4 (mm),
-        "error_input" ('position' or 'joints'), "error_model": ``inner_document`` (the wrapped
-        model's own entry)}; "input" repeats the inner entry's, so that a reader checking what
-        a model is over finds it where it always was; "joint_shift" in file units (deg for
-        revolute joints, mm for prismatic ones, as ``revolute`` (n,) bool says) and
-        "joint_units" when there is a joint shift."""
-        doc = {"type": DOCUMENT_TYPE, "frame": self.frame.tolist(), "error_input": self.error_input,
-               "error_model": inner_document}
-        if isinstance(inner_document, dict) and "input" in inner_document:
-            doc["input"] = inner_document["input"]
-        if self.joint_shift is not None:
-            revolute = np.ones(len(self.joint_shift), bool) if revolute is None else np.asarray(revolute, bool)
-            doc["joint_shift"] = np.where(revolute, np.degrees(self.joint_shift), self.joint_shift).tolist()
-            doc["joint_units"] = ["deg" if r else "mm" for r in revolute]
-        return doc
-
-    @classmethod
-    def from_dict(cls, document, inner_loader):
-        """The wrapper back from :meth:`to_dict`; ``inner_loader(inner document)`` returns
-        (wrapped model, its input).  FileFormatError, in one line, if the document is damaged."""
-        where = "the reframed error model"
-        if not isinstance(document, dict) or document.get("type") != DOCUMENT_TYPE:
-            raise FileFormatError(f"{where}: not a reframed error model (no \"type\": \"{DOCUMENT_TYPE}\"); "
-                                  "regenerate the file")
-        try:
-            inner, error_input = inner_loader(document["error_model"])
-            if document["error_input"] != error_input:
-                raise ValueError(f"error_input {document['error_input']!r} but the wrapped model takes {error_input!r}")
-            shift = None
-            if "joint_shift" in document:
-                values = np.asarray(document["joint_shift"], dtype=float)
-                units = np.asarray(document["joint_units"])
-                if units.shape != values.shape or not set(units.tolist()) <= {"deg", "mm"}:
-                    raise ValueError("joint_units must name 'deg' or 'mm' for each joint_shift value")
-                shift = np.where(units == "deg", np.radians(values), values)
-            return cls(inner, document["frame"], error_input, shift)
-        except FileFormatError:
-            raise
-        except (KeyError, TypeError, ValueError, InputError) as exc:
-            raise FileFormatError(f"{where} is damaged ({exc}); regenerate the file") from None
-
-
-def reframed_document(fitted):
-    """The ``error_model`` entry of a re-registered method whose error model is a
-    :class:`ReframedErrorModel`: the wrapper around the method's own entry for the wrapped
-    model (the method writes that one as it always does)."""
-    wrapper = fitted.compensator_.error_model
-    plain = copy.copy(fitted)
-    plain.compensator_ = Compensator(fitted.compensator_.chain, wrapper.error_model,
-                                     nominal=fitted.compensator_.nominal, error_input=wrapper.error_input,
-                                     controller=fitted.compensator_.controller,
-                                     reference=fitted.compensator_.reference)
-    return wrapper.to_dict(plain.error_model_document(), fitted.compensator_.chain.revolute)
-
-
-def is_reframed(document):
-    """True for a model file's ``error_model`` entry written by :func:`reframed_document`."""
-    return isinstance(document, dict) and document.get("type") == DOCUMENT_TYPE
-
-
-def reframed_from_document(document, inner_loader):
-    """(ReframedErrorModel, its input) from a model file's entry; ``inner_loader(document)``
-    gives (model, input) for the wrapped model's entry (the method's
-    ``error_model_from_document``)."""
-    model = ReframedErrorModel.from_dict(document, inner_loader)
-    return model, model.error_input
 
 
 # ------------------------------------------------------------------ the record
@@ -294,7 +156,12 @@ class ReregistrationRecord:
 # ----------------------------------------------------------------- the problem
 class _Problem:
     """The re-registration of one model on one set of poses: what it predicts for a
-    candidate chain and the weighted residual the fit minimises."""
+    candidate chain and the weighted residual the fit minimises.
+
+    A model of ``calibrate --method auto`` that answers with a fallback outside its training
+    domain (:class:`~robocal.methods.fallback.DomainFallback`) moves as one: the fallback's
+    chain takes the same change of frames (and joint offsets) as the chosen model's, and each
+    pose is predicted by the model that answers for it."""
 
     def __init__(self, compensator, joints, positions, rotations, weights):
         self.old = compensator.chain
@@ -306,6 +173,20 @@ class _Problem:
         self.weights = weights
         self.rows = weights.shape[1]
         self.offsets = [self.old.rigid.offset_parameter(k) for k in range(self.old.n_joints)]
+        fallback = getattr(compensator, "outside", None)
+        self.fallback = None if fallback is None else fallback.chain
+        self.answered_outside = (np.zeros(len(joints), dtype=bool) if fallback is None
+                                 else compensator.outside_mask(joints))
+
+    def moved_fallback(self, chain):
+        """The fallback's chain with the change of frames (and joint offsets) that takes the
+        chosen model's chain to ``chain``: the same new base, and the same change of the tool
+        in the flange frame (the fallback keeps its own calibrated TCP offset)."""
+        frame = self.frame(chain)
+        turn = chain.tool @ invert(self.old.tool)
+        moved = self.fallback.replace(base=frame @ self.fallback.base, tool=turn @ self.fallback.tool)
+        change = chain.parameter_values(self.offsets) - self.old.parameter_values(self.offsets)
+        return moved.perturbed(self.offsets, change) if np.any(change) else moved
 
     def frame(self, chain):
         """T, old measurement frame → the one of ``chain``: the robot base stays put."""
@@ -341,6 +222,16 @@ class _Problem:
         if model is not None:
             inputs = pose_positions if self.error_input == "position" else self.q
             pose_positions = pose_positions + model.predict(inputs)
+        out = self.answered_outside
+        if out.any():
+            fallback = self.moved_fallback(chain)
+            pose_positions = pose_positions.copy()
+            if pose_rotations is None:
+                pose_positions[out] = fallback.fk_positions(self.q[out])
+            else:
+                pose = fallback.fk(self.q[out])
+                pose_positions[out], pose_rotations = pose[:, :3, 3], pose_rotations.copy()
+                pose_rotations[out] = pose[:, :3, :3]
         return pose_positions, pose_rotations
 
     def residual(self, chain):
@@ -354,8 +245,11 @@ class _Problem:
     def jacobian(self, chain, names):
         """The weighted derivative of the prediction, (N·rows, P): the chain's analytic
         identification Jacobian (the error model's change is second order, see the module notes)."""
-        jac = chain.identification_jacobian(self.q, names)[:, :self.rows, :] * self.weights[:, :, None]
-        return jac.reshape(-1, len(names))
+        jac = chain.identification_jacobian(self.q, names)[:, :self.rows, :]
+        out = self.answered_outside
+        if out.any():
+            jac[out] = self.moved_fallback(chain).identification_jacobian(self.q[out], names)[:, :self.rows, :]
+        return (jac * self.weights[:, :, None]).reshape(-1, len(names))
 
     def steps(self, prior=None):
         """The analyse / fit / linearise steps :func:`~robocal.estimation.identification.identify`
@@ -444,6 +338,12 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
     new = copy.copy(fitted)
     new.compensator_ = Compensator(chain, error_model, nominal=reference, error_input=compensator.error_input,
                                    controller=compensator.controller, reference=reference)
+    if problem.fallback is not None:
+        # The pair moves together (calibrate --method auto): the fallback with the same frames.
+        moved = problem.moved_fallback(chain)
+        new.compensator_ = DomainFallback(new.compensator_, Compensator(
+            moved, None, nominal=moved.rigid, controller=compensator.controller, reference=reference),
+            compensator.domain, compensator.label)
     new.reference_ = reference
     domain = getattr(fitted, "domain_", None)
     if domain is not None and getattr(domain, "box_min", None) is not None:
@@ -456,6 +356,10 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
         # own error, the model is not what answers there.
         names, covariance, own = new.frames_posterior_
         new.domain_ = dataclasses.replace(new.domain_, frames=(names, covariance, own * np.sqrt(3.0)))
+    if problem.fallback is not None and getattr(new, "domain_", None) is not None:
+        # The pair decides by the domain the model now has.
+        new.compensator_ = dataclasses.replace(new.compensator_, domain=new.domain_)
+        after = error_stats(positions - new.predict(q))
     notes = _warnings(old, chain, q, found.names, after["rms_mm"], training_rms)
     for note in notes:
         warnings.warn(note, RobocalWarning, stacklevel=2)
@@ -497,10 +401,6 @@ def _check_model(fitted, robot):
     if getattr(fitted, "data_kind", "position") != "position":
         raise InputError(f"a {fitted.name} model is calibrated from ball-in-socket data, which have no measurement "
                          "frame to move: re-registration is for models of measured TCP positions")
-    if hasattr(compensator, "outside"):  # a DomainFallback (robocal.methods.fallback)
-        raise InputError(f"this model (calibrate --method auto) answers with {compensator.label} outside its training "
-                         "domain, and re-registering such a pair is not supported yet: calibrate --method auto again "
-                         "on the new set-up's data, or re-register a model of one method")
     controller = compensator.controller if compensator.controller is not None else compensator.nominal
     if robot is not None and controller is not None and robot_hash(robot) != robot_hash(controller):
         raise InputError(f"the model belongs to robot '{controller.name}' (hash {robot_hash(controller)}), the data "

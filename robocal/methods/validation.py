@@ -21,7 +21,7 @@ def method_fitter(method, chain, observations, on_fit=None):
     q = observations.joints
 
     def fit(train):
-        fitted = type(method)(**method.get_settings()).fit(chain, observations.subset(train))
+        fitted = method.clone().fit(chain, observations.subset(train))
         if on_fit is not None:
             on_fit()
 
@@ -132,7 +132,7 @@ def placement_validation(method, chain, observations, on_fit=None):
     folds, nominal_folds, deviations, nominal_deviations = [], [], [], []
     for placement in placements:
         test = obs.placement == placement
-        fitted = type(method)(**method.get_settings()).fit(chain, obs.subset(~test))
+        fitted = method.clone().fit(chain, obs.subset(~test))
         if on_fit is not None:
             on_fit()
         held = obs.subset(test)

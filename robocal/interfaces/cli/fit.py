@@ -31,6 +31,9 @@ def calibrate(
                                "a new set-up (base and tool; --parameters frames+offsets adds the joint offsets).",
                                **parsed(Choice(method_names() + (AUTO, FRAMES)))),
     settings: dict = None,
+    folds: int = typer.Option(None, help="auto: folds of the comparison (default 5; on a campaign too small for 5 "
+                              "folds of 30 training poses, leave-one-out, or with --folds K, K folds repeated 5 "
+                              "times).", **parsed(Number(whole=True, at_least=2, at_most=1000))),
     fixture: str = FIXTURE,
     tip: str = TIP,
     root: str = ROOT,
@@ -47,6 +50,9 @@ def calibrate(
 
     Example: robocal calibrate ur5 meas.csv --method kinematic --out model.json
     """
+    if folds is not None and method != AUTO:
+        raise InputError(f"--folds sets the folds of --method auto's comparison: leave it out for --method {method} "
+                         "(robocal validate --folds cross-validates one method)")
     if method == FRAMES:
         return _reregister(robot, measurements, out_file, settings, beyond_limits, as_json, root=root, tip=tip,
                            fixture=fixture, accept_extrapolation=accept_extrapolation)
@@ -67,7 +73,7 @@ def calibrate(
         result = calibrate_job(robot, measurements, out_file, method=fitter,
                                settings=settings if method == AUTO else None,
                                fixture=fixture, progress=advance, beyond_limits=beyond_limits, root=root, tip=tip,
-                               accept_extrapolation=accept_extrapolation)
+                               accept_extrapolation=accept_extrapolation, folds=folds)
     print_calibrated(result, out_file, as_json, comparison=method == AUTO)
 
 
@@ -89,8 +95,10 @@ def _reregister(model, measurements, out_file, settings, beyond_limits, as_json,
 def compare(
     robot: str = ROBOT,
     measurements: str = MEASUREMENTS,
-    folds: int = typer.Option(5, help="Folds of each split (random folds, and regions of joint space).",
-                              **parsed(Number(whole=True, at_least=2, at_most=20))),
+    folds: int = typer.Option(None, help="Folds of each split (random folds, and regions of joint space; default 5). "
+                              "A campaign too small for 5 folds of 30 training poses is split leave-one-out, or with "
+                              "--folds K into K folds repeated 5 times.",
+                              **parsed(Number(whole=True, at_least=2, at_most=1000))),
     seed: int = SEED,
     network: bool = typer.Option(None, "--network/--no-network", help="Include the ann method (default: when the "
                                  "training folds hold 500 poses or more)."),

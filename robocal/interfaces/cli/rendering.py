@@ -160,7 +160,7 @@ def print_calibrated(result, out_file, as_json, comparison=False):
     """calibrate's result (a job result with ``to_dict``, ``record`` and ``kinematics``):
     the comparison when auto chose, the identified parameters, then the summary."""
     if comparison and not as_json:
-        print_comparison(result.data["comparison"])
+        print_reasoning(result.data["comparison"])
     if not as_json and result.record.calibration is not None:
         print_calibration(result.record.calibration, result.kinematics)
     shown = {k: v for k, v in result.to_dict().items() if k != "comparison"}
@@ -216,6 +216,51 @@ def print_comparison(comparison):
     out.print(f"recommended (*): {comparison['recommended']['label']}  (< marks the lowest mean of each split)")
     for line in comparison["reasons"] + comparison["dropped"] + comparison["notes"]:
         out.print(f"  {line}")
+    print_advice(comparison)
+
+
+def print_advice(comparison):
+    """What to measure to let a richer model win (robocal.methods.selection.advice)."""
+    if comparison.get("advice"):
+        out.print("to let a richer model win:")
+        for line in comparison["advice"]:
+            out.print(f"  {line}")
+
+
+def print_reasoning(comparison):
+    """calibrate --method auto's choice in one screen: one table of every model's held-out
+    mean on each split and what the random folds told of it against the baseline, then why
+    the winner, and what to measure to let a richer model win."""
+    verdicts = {v["label"]: v for v in comparison.get("verdicts", [])}
+    chosen, outside = comparison["recommended"]["label"], (comparison.get("outside_domain") or {}).get("label")
+    dropped = {line.split(" dropped:")[0] for line in comparison["dropped"]}
+    table = Table(title=f"auto on {comparison['poses']} poses: held-out mean (mm, every held-out pose; the choice "
+                        "weighs those inside each fold's training domain) on each split, and what the random folds "
+                        "tell of each model against the baseline")
+    table.add_column("model")
+    for split in comparison["splits"]:
+        table.add_column(split["name"], justify="right")
+    table.add_column("verdict (gain ± fold-to-fold spread, mm)")
+    for model in comparison["models"]:
+        label, verdict = model["label"], verdicts.get(model["label"])
+        said = "" if verdict is None else verdict["verdict"]
+        if verdict is not None and said != "baseline":
+            said += f" ({verdict['gain_mm']:+.4f} ± {verdict['spread_mm']:.4f})"
+        said += "; chosen" if label == chosen else "; answers outside the domain" if label == outside else ""
+        said += "; dropped (no gain over its base on the regions)" if label in dropped else ""
+        table.add_row(label + (" *" if label == chosen else ""),
+                      *[f"{model['scores'][s['name']]['pooled']['mean_mm']:.4f}" for s in comparison["splits"]],
+                      said.lstrip("; "))
+    out.print(table)
+    out.print(f"chosen (*): {chosen}")
+    for line in comparison["reasons"]:
+        out.print(f"  {line}")
+    # Candidates left out by their minimum are named in the advice; the other notes say which
+    # splits could not be made.
+    for line in comparison["notes"]:
+        if " fit needs " not in line:
+            out.print(f"  {line}")
+    print_advice(comparison)
 
 
 def print_validation(result, method, by_placement, as_json):
