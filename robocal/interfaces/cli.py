@@ -628,16 +628,20 @@ def evaluate(
     measurements: str = typer.Argument(..., help="Measurement CSV (use poses the model was not trained on)."),
     fixture: str = typer.Option(None, help="Ball-in-socket data: the fixture TOML (default: the one the model stores)."),
     beyond_limits: bool = typer.Option(False, "--beyond-limits", help=BEYOND_LIMITS_HELP),
+    per_pose: str = typer.Option(None, "--per-pose", help="Write one CSV line per pose: row, measured and model "
+                                 "x, y, z, error_mm, bound95_mm (the model's 95 % bound) and in_domain.",
+                                 **_output(".csv")),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ):
     """Residual of a model on measured data, beside the nominal robot's.
 
     On ball-in-socket data: the socket consistency (distance of each ball centre from the
-    mean of its socket group) and the socket-distance error.
+    mean of its socket group) and the socket-distance error.  On position data, bound95
+    says which share of the poses lie within the model's 95 % bound.
 
-    Example: robocal evaluate model.json test.csv --json
+    Example: robocal evaluate model.json test.csv --json --per-pose poses.csv
     """
-    result = evaluate_job(model, measurements, fixture=fixture, beyond_limits=beyond_limits)
+    result = evaluate_job(model, measurements, fixture=fixture, beyond_limits=beyond_limits, per_pose=per_pose)
     _print_result(result if as_json else _without_domain(result), as_json, f"{result['method']} model on {measurements}")
     if not as_json:
         _say_domain(result)
