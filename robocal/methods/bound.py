@@ -21,13 +21,21 @@ q · s(x), q the split-conformal quantile of the scores of the random folds' hel
 (those inside their fold's domain): with m scores, the ⌈(m + 1)·0.95⌉-th smallest, which
 covers a new pose like them with probability at least 0.95.
 
-**Outside it**, the error grows with the distance from the training configurations (a
-parameter error turns a joint-space distance into a position error), so the bound is
-q · s(x) · (1 + γ · d(x)), d the distance (rad) from x to the nearest training configuration
-in joint space, and γ (1/rad) the conformal quantile, over the held-out poses that lay
-outside their fold's domain when whole regions were left out (joint-space clusters,
+**Outside it**, the error grows with the distance d(x) (rad) from x to the nearest training
+configuration in joint space, by two mechanisms the bound takes the larger of:
+
+* what no parameter models grows as the arm goes elsewhere: q · s(x) · (1 + γ · d(x));
+* the model's own uncertainty is a linearisation about the training configurations (for a
+  Kriging model, a process variance fitted there) and grows faster than it says:
+  q · sqrt(s(x)² + (κ · σ(x) · d(x))²).
+
+γ and κ (1/rad) are each the conformal quantile, over the held-out poses that lay outside
+their fold's domain when whole regions were left out (joint-space clusters,
 :func:`~robocal.methods.selection.cluster_split`, and an arm branch's other side when the
-data hold both), of the growth each of them needed: max(0, |e|/(q·s) − 1) / d.
+data hold both), of the growth each pose needed to be covered.  Either form alone was not
+enough on the ipa UR10 data (bench/bound_coverage.py): the distance form covered 0.16 of the
+other shoulder side of series A, the σ form 0.74 of a simulated KR 150-2's unseen half of q2;
+their larger covered both.
 
 A model that answers with another outside its domain (``calibrate --method auto``,
 :mod:`robocal.methods.fallback`) has the bound of the chosen model inside and the bound of its
@@ -84,7 +92,8 @@ def conformal_quantile(scores, coverage=COVERAGE):
     which a new exchangeable score stays below with probability at least ``coverage``.
     With fewer than 1/(1 − coverage) − 1 scores that rank does not exist: the largest score,
     scaled by (m + 1)/m, stands for it (the guarantee is then approximate).  NaN if empty."""
-    scores = np.sort(np.asarray(scores, dtype=float)[np.isfinite(scores)])
+    scores = np.sort(np.asarray(scores, dtype=float))
+    scores = scores[~np.isnan(scores)]
     m = len(scores)
     if m == 0:
         return float("nan")
@@ -214,6 +223,9 @@ class PositionBound:
         γ, how fast the bound grows outside the domain per rad of joint-space distance from
         the nearest training configuration; None when no region could be left out (then
         the bound outside is unknown: NaN).
+    sigma_growth_per_rad : float or None
+        κ, how fast the model's own σ grows outside the domain per rad (None: the model has
+        no σ, or it cannot cover what the regions left out showed; the γ form alone then).
     posterior : (names, (P, P) covariance) or None
         The parametric posterior propagated into σ(x) (mm and rad), or None.
     training_joints : (M, n) array
@@ -230,6 +242,7 @@ class PositionBound:
     residual_mm: float
     inside_factor: float
     growth_per_rad: float | None
+    sigma_growth_per_rad: float | None
     posterior: tuple | None
     training_joints: np.ndarray = field(repr=False)
     fallback: PositionBound | None = None
@@ -238,8 +251,11 @@ class PositionBound:
     # ------------------------------------------------------------------ predicting
     def scale(self, joints):
         """(N,) mm: s(x) = sqrt(σ(x)² + r²) at ``joints`` (N, n) rad."""
-        sigma = _model_sigma(self.method, joints, self.posterior)
-        return np.sqrt(sigma ** 2 + self.residual_mm ** 2)
+        return np.sqrt(self.sigma(joints) ** 2 + self.residual_mm ** 2)
+
+    def sigma(self, joints):
+        """(N,) mm: the model's own standard deviation σ(x) at ``joints`` (N, n) rad."""
+        return _model_sigma(self.method, joints, self.posterior)
 
     def inside_mask(self, joints):
         """(N,) bool: the configurations inside the method's training domain (all of them
@@ -266,20 +282,17 @@ class PositionBound:
 
     def _own(self, joints, inside):
         """This bound's formula at ``joints`` (all inside, or all outside)."""
-        bound = self.inside_factor * self.scale(joints)
-        if inside:
-            return bound
-        if self.growth_per_rad is None:
-            return np.full(len(joints), np.nan)
-        distance = joint_distance(joints, self.training_joints, _chain_of(self.method).revolute)
-        return bound * (1.0 + self.growth_per_rad * distance)
+        sigma = self.sigma(joints)
+        return outside_bound(self.inside_factor, self.residual_mm, sigma, None if inside else joint_distance(
+            joints, self.training_joints, _chain_of(self.method).revolute), self.growth_per_rad,
+            self.sigma_growth_per_rad)
 
     # ------------------------------------------------------------------ documents
     def to_dict(self):
         """The model file's ``bound`` entry (mm, rad, dimensionless; the training
         configurations in rad as the distances are measured)."""
         return {"coverage": self.coverage, "residual_mm": self.residual_mm, "inside_factor": self.inside_factor,
-                "growth_per_rad": self.growth_per_rad,
+                "growth_per_rad": self.growth_per_rad, "sigma_growth_per_rad": self.sigma_growth_per_rad,
                 "posterior": None if self.posterior is None else {
                     "names": list(self.posterior[0]), "covariance_mm_rad": np.asarray(self.posterior[1]).tolist()},
                 "training_joints_rad": np.asarray(self.training_joints).tolist(),
@@ -302,12 +315,14 @@ class PositionBound:
             if training.ndim != 2 or not len(training) or not np.all(np.isfinite(training)):
                 raise ValueError("training_joints_rad must be rows of finite numbers")
             growth = document["growth_per_rad"]
+            sigma_growth = document["sigma_growth_per_rad"]
             numbers = [float(document[k]) for k in ("coverage", "residual_mm", "inside_factor")]
             if not all(np.isfinite(numbers)) or min(numbers) < 0:
                 raise ValueError("coverage, residual_mm and inside_factor must be finite and >= 0")
             fallback = document.get("fallback")
             bound = cls(method=method, coverage=numbers[0], residual_mm=numbers[1], inside_factor=numbers[2],
-                        growth_per_rad=None if growth is None else float(growth), posterior=posterior,
+                        growth_per_rad=None if growth is None else float(growth),
+                        sigma_growth_per_rad=None if sigma_growth is None else float(sigma_growth), posterior=posterior,
                         training_joints=training, calibration=dict(document.get("calibration") or {}))
             if fallback is not None:
                 bound = replace(bound, fallback=cls.from_dict(fallback, fallback_method or method, path))
@@ -315,6 +330,37 @@ class PositionBound:
         except (KeyError, TypeError, ValueError) as exc:
             raise FileFormatError(f"{path}: the 95 % bound is damaged ({exc}); regenerate the file with "
                                   "'robocal calibrate'") from None
+
+
+def outside_bound(factor, residual, sigma, distance, growth, sigma_growth):
+    """(N,) mm: the bound at configurations whose model σ is ``sigma`` (N,) mm, ``distance``
+    (N,) rad from the training configurations (None: inside the domain), with the inside
+    factor q, the residual scale r (mm) and the growths γ and κ (1/rad; None: not used;
+    both None outside: NaN, unknown)."""
+    scale = np.sqrt(np.asarray(sigma) ** 2 + residual ** 2)
+    if distance is None:
+        return factor * scale
+    if growth is None and sigma_growth is None:
+        return np.full(len(scale), np.nan)
+    bound = np.zeros(len(scale))
+    if growth is not None:
+        bound = factor * scale * (1.0 + growth * distance)
+    if sigma_growth is not None:
+        bound = np.maximum(bound, factor * np.sqrt(scale ** 2 + (sigma_growth * sigma * distance) ** 2))
+    return bound
+
+
+def _growths(factor, residual, error, sigma, distance):
+    """(γ, κ) of the module docstring from held-out poses outside their fold's domain:
+    error, sigma (N,) mm, distance (N,) rad.  κ is None when the model has no σ there or
+    more than 1 − COVERAGE of the poses need more than σ can give (σ · d = 0)."""
+    scale = np.sqrt(sigma ** 2 + residual ** 2)
+    growth = conformal_quantile(np.maximum(error / (factor * scale) - 1.0, 0.0) / distance)
+    missing = np.sqrt(np.maximum((error / factor) ** 2 - scale ** 2, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        needed = np.where(missing > 0, missing / (sigma * distance), 0.0)
+    sigma_growth = conformal_quantile(needed) if np.any(sigma > 0) else float("inf")
+    return growth, (sigma_growth if np.isfinite(sigma_growth) else None)
 
 
 # ------------------------------------------------------------------ calibrating it
@@ -415,25 +461,23 @@ def _calibrate(method, chain, observations, posterior, seed, regions=True):
     factor = conformal_quantile(scores)
     record = {"inside": {"poses": int(len(scores)), "folds": int(folds),
                          "covered": float(np.mean(scores <= factor)) if len(scores) else None}}
-    growth = None
+    growth = sigma_growth = None
     if regions:
-        outside_error, outside_scale, outside_distance = [error[~inside]], [scale[~inside]], [distance[~inside]]
+        outside_error, outside_sigma, outside_distance = [error[~inside]], [sigma[~inside]], [distance[~inside]]
         region_part = _held_out(method, chain, observations, _region_tests(chain, observations, seed))
         if region_part is not None:
             _, r_error, r_sigma, r_distance, r_inside, r_folds = region_part
-            r_scale = np.sqrt(r_sigma ** 2 + residual ** 2)
             outside_error.append(r_error[~r_inside])
-            outside_scale.append(r_scale[~r_inside])
+            outside_sigma.append(r_sigma[~r_inside])
             outside_distance.append(r_distance[~r_inside])
-        e, s, d = (np.concatenate(x) for x in (outside_error, outside_scale, outside_distance))
+        e, s, d = (np.concatenate(x) for x in (outside_error, outside_sigma, outside_distance))
         if len(e):
-            # The growth each pose needed to be covered: none if the inside bound covers it.
-            needed = np.maximum(e / (factor * s) - 1.0, 0.0) / np.maximum(d, 1e-9)
-            growth = conformal_quantile(needed)
+            growth, sigma_growth = _growths(factor, residual, e, s, np.maximum(d, 1e-9))
+            covered = e <= outside_bound(factor, residual, s, d, growth, sigma_growth)
             record["outside"] = {"poses": int(len(e)), "folds": int(region_part[-1]) if region_part else 0,
-                                 "covered": float(np.mean(needed <= growth))}
+                                 "covered": float(np.mean(covered))}
     return PositionBound(method=method, coverage=COVERAGE, residual_mm=residual, inside_factor=factor,
-                         growth_per_rad=growth, posterior=posterior, training_joints=np.asarray(observations.joints),
+                         growth_per_rad=growth, sigma_growth_per_rad=sigma_growth, posterior=posterior, training_joints=np.asarray(observations.joints),
                          calibration=record)
 
 
