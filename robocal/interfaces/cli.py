@@ -645,6 +645,10 @@ def evaluate(
     _print_result(result if as_json else _without_domain(result), as_json, f"{result['method']} model on {measurements}")
     if not as_json:
         _say_domain(result)
+        bound = result.get("bound95")
+        if bound:
+            _say("note", "yellow", f"{bound['within_share']:.1%} of the {bound['poses']} poses lie within their 95 % "
+                 f"bound (median bound {bound['median_bound_mm']:.4g} mm, median error {bound['median_error_mm']:.4g} mm)")
 
 
 @command()
