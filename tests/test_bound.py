@@ -236,3 +236,16 @@ def test_a_model_file_without_a_bound_says_so_and_gives_none(files):
     assert json.loads(result.output)["bound_note"] == NO_BOUND
     assert {r["bound95_mm"] for r in _rows(out)} == {""}
 
+
+
+def test_a_campaign_too_small_for_folds_gets_no_bound_and_a_warning_not_a_refusal():
+    from robocal.errors import RobocalWarning
+
+    chain = load_robot("ur5")
+    truth = make_true_robot(chain, "typical", seed=8)
+    rng = np.random.default_rng(8)
+    train = truth.observations(uniform_joints(chain, 12, rng), rng)
+    fitted = make_method("kinematic").fit(chain, train)
+    # Each leave-one-out fold keeps 11 poses, fewer than the calibration takes.
+    with pytest.warns(RobocalWarning, match="no 95 % bound"):
+        assert fit_bound(fitted, chain, train) is None
