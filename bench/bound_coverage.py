@@ -29,17 +29,17 @@ import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import warnings  # noqa: E402
+import warnings
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from robocal.io.datasets import ipa_ur10, ur5_tsinghua  # noqa: E402
-from robocal.io.library import builtin  # noqa: E402
-from robocal.io.observations import Observations, observations  # noqa: E402
-from robocal.methods import make_method  # noqa: E402
-from robocal.methods.bound import fit_bound  # noqa: E402
-from robocal.methods.domain import arm_branches  # noqa: E402
-from robocal.simulation import make_true_robot, uniform_joints  # noqa: E402
+from robocal.io.datasets import ipa_ur10, ur5_tsinghua
+from robocal.io.library import builtin
+from robocal.io.observations import Observations, observations
+from robocal.methods import make_method
+from robocal.methods.bound import fit_bound
+from robocal.methods.domain import arm_branches
+from robocal.simulation import make_true_robot, uniform_joints
 
 MAX_TRAINING = 600
 # The network's genetic algorithm: few generations (its default is 300), for time.

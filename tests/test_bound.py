@@ -17,7 +17,14 @@ from robocal.io.library import load_robot
 from robocal.io.model_file import _canonical
 from robocal.io.tables import write_measurements
 from robocal.methods import make_method
-from robocal.methods.bound import NO_BOUND, PositionBound, bound95, conformal_quantile, fit_bound, joint_distance
+from robocal.methods.bound import (
+    NO_BOUND,
+    PositionBound,
+    bound95,
+    conformal_quantile,
+    fit_bound,
+    joint_distance,
+)
 from robocal.methods.fallback import wrap
 from robocal.simulation import make_true_robot
 from robocal.simulation.sampling import uniform_joints
@@ -148,8 +155,7 @@ def files(tmp_path_factory):
     rpy = np.degrees(matrix_to_rpy(poses[:, :3, :3]))
     with open(targets, "w") as f:
         f.write("x,y,z,rx,ry,rz\n")
-        for p, r in zip(poses[:, :3, 3], rpy):
-            f.write(",".join(f"{v:.6f}" for v in (*p, *r)) + "\n")
+        f.writelines(",".join(f"{v:.6f}" for v in (*p, *r)) + "\n" for p, r in zip(poses[:, :3, 3], rpy))
     return folder, train, held, targets
 
 

@@ -466,14 +466,14 @@ def _calibrate(method, chain, observations, posterior, seed, regions=True):
     # with the regions; the rest calibrate the bound inside.
     scores = (error / scale)[inside] if inside.sum() >= 1 else error / scale
     factor = conformal_quantile(scores)
-    record = {"inside": {"poses": int(len(scores)), "folds": int(folds),
+    record = {"inside": {"poses": len(scores), "folds": int(folds),
                          "covered": float(np.mean(scores <= factor)) if len(scores) else None}}
     growth = sigma_growth = None
     if regions:
         outside_error, outside_sigma, outside_distance = [error[~inside]], [sigma[~inside]], [distance[~inside]]
         region_part = _held_out(method, chain, observations, _region_tests(chain, observations, seed))
         if region_part is not None:
-            _, r_error, r_sigma, r_distance, r_inside, r_folds = region_part
+            _, r_error, r_sigma, r_distance, r_inside, _ = region_part
             outside_error.append(r_error[~r_inside])
             outside_sigma.append(r_sigma[~r_inside])
             outside_distance.append(r_distance[~r_inside])
@@ -481,11 +481,23 @@ def _calibrate(method, chain, observations, posterior, seed, regions=True):
         if len(e):
             growth, sigma_growth = _growths(factor, residual, e, s, np.maximum(d, 1e-9))
             covered = e <= outside_bound(factor, residual, s, d, growth, sigma_growth)
-            record["outside"] = {"poses": int(len(e)), "folds": int(region_part[-1]) if region_part else 0,
+            record["outside"] = {"poses": len(e), "folds": int(region_part[-1]) if region_part else 0,
                                  "covered": float(np.mean(covered))}
     return PositionBound(method=method, coverage=COVERAGE, residual_mm=residual, inside_factor=factor,
-                         growth_per_rad=growth, sigma_growth_per_rad=sigma_growth, posterior=posterior, training_joints=np.asarray(observations.joints),
-                         calibration=record)
+                         growth_per_rad=growth, sigma_growth_per_rad=sigma_growth, posterior=posterior,
+                         training_joints=_kept(observations.joints, seed), calibration=record)
+
+
+def _kept(joints, seed):
+    """The training configurations the distance is measured from: all distinct ones, or a
+    random NEIGHBOUR_KEEP of them (the model file stays small, as the domain's does; a
+    distance to a subset is never shorter, so the bound errs on the safe side)."""
+    from .domain import NEIGHBOUR_KEEP
+
+    kept = np.unique(np.asarray(joints, dtype=float), axis=0)
+    if len(kept) > NEIGHBOUR_KEEP:
+        kept = kept[np.sort(np.random.default_rng(seed).choice(len(kept), NEIGHBOUR_KEEP, replace=False))]
+    return kept
 
 
 def _fallback_method(method, chain, observations):
