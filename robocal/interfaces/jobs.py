@@ -16,6 +16,7 @@ from ..io.tables import write_measurements
 from ..methods import DEFAULT_METHOD, fitted_from_model_file, make_method
 from ..methods.evaluation import position_scores, socket_scores, with_fixture
 from ..methods.base import option_of
+from ..methods.bound import NO_BOUND, bound_of_model, fit_bound
 from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
 from ..methods.reregistration import FRAMES  # noqa: F401  (the command line and fleet files name it here)
 from ..methods.selection import AUTO, choose, compare
@@ -75,7 +76,12 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
         refuse_if_worse_than_nominal(predicted, getattr(fitter, "domain_", None))
     if predicted is not None:
         fitter.record_ = fitter.record_.replace(predicted_error=predicted.to_dict())
-    save_model(fitter.to_model_file(chain, training), out)
+    document = fitter.to_model_file(chain, training)
+    # The 95 % bound of the fitted model (robocal.methods.bound), computed here only: the fold
+    # fits of compare and auto's comparison do not pay for it.
+    fitter.bound_ = fit_bound(fitter, chain, observations)
+    document.bound = None if fitter.bound_ is None else fitter.bound_.to_dict()
+    save_model(document, out)
     return Calibrated(fitter.name, chain.name, str(out), training, fitter.record_, fitter.compensator_.chain)
 
 
@@ -108,9 +114,12 @@ def reregister_job(model_path, measurements, out, *, parameters=None, beyond_lim
 
 
 def load_fitted(model_path, robot=None):
-    """A model file -> (ModelFile, the fitted method it holds)."""
+    """A model file -> (ModelFile, the fitted method it holds, with ``bound_``: its 95 %
+    bound, None when the file stores none)."""
     model = load_model(model_path, robot=robot)
-    return model, fitted_from_model_file(model, model_path)
+    fitted = fitted_from_model_file(model, model_path)
+    fitted.bound_ = bound_of_model(model, fitted, model_path)
+    return model, fitted
 
 
 # What evaluate and compensate say of a model file written before domains were recorded.
@@ -137,37 +146,100 @@ def _uncertainty(fitted, joints, known):
     return out
 
 
-def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False):
+def _bound_summary(error, bound, inside):
+    """``evaluate --json``'s ``bound95`` entry: the share of poses whose error (N,) mm lies
+    within their 95 % bound (N,) mm, overall and inside / outside the training domain
+    (``inside`` (N,) bool), and the median bound beside the median error."""
+    def share(mask):
+        count = int(np.count_nonzero(mask))
+        return {"poses": count, "within_share": float(np.mean(error[mask] <= bound[mask])) if count else None,
+                "median_bound_mm": float(np.median(bound[mask])) if count else None,
+                "median_error_mm": float(np.median(error[mask])) if count else None}
+
+    everything = np.ones(len(error), dtype=bool)
+    return {**share(everything), "inside": share(inside), "outside": share(~inside)}
+
+
+# The columns of evaluate --per-pose.
+PER_POSE_COLUMNS = ("row", "x_measured", "y_measured", "z_measured", "x_model", "y_model", "z_model", "error_mm",
+                    "bound95_mm", "in_domain")
+
+
+def _write_per_pose(path, rows, measured, predicted, error, bound, inside):
+    """evaluate --per-pose: one line per pose (PER_POSE_COLUMNS), atomically; ``bound`` None
+    (no bound in the model file) and ``inside`` None (no domain) leave their cells empty."""
+    import csv
+    import io
+
+    from ..io.atomic import write_text_atomic
+
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(PER_POSE_COLUMNS)
+    for i in range(len(rows)):
+        writer.writerow([int(rows[i]), *(repr(float(v)) for v in measured[i]), *(repr(float(v)) for v in predicted[i]),
+                         f"{error[i]:.6g}", "" if bound is None else f"{bound[i]:.6g}",
+                         "" if inside is None else int(inside[i])])
+    write_text_atomic(path, buffer.getvalue())
+
+
+def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False, per_pose=None):
     """Residual of a model on measured positions, and of the nominal robot; on ball-in-socket
     data the socket consistency and socket-distance errors.  Each pose is checked against the
     model's domain of validity: ``outside_domain`` counts those outside, ``domain_summary``
     says why in one line, and on position data ``in_domain`` / ``out_of_domain`` are the
-    error statistics of each part."""
+    error statistics of each part.  On position data ``bound95`` is the share of poses whose
+    error lies within the model's 95 % bound (robocal.methods.bound; None, with ``bound_note``
+    saying why, for a model file without one), and ``per_pose`` (a path) writes one CSV line
+    per pose: PER_POSE_COLUMNS."""
+    if per_pose is not None:
+        check_outputs([per_pose], [model_path, measurements, fixture])
     model, fitted = load_fitted(model_path)
     observations = read_observations(measurements, model.kinematics, fixture, beyond_limits=beyond_limits)
     head = {"model": str(model_path), "method": model.method, "file": str(measurements)}
     if observations.positions is None:
+        if per_pose is not None:
+            raise InputError(f"{measurements} is ball-in-socket data: --per-pose writes each pose's position error "
+                             "and needs measured x, y, z columns")
         scores = socket_scores(fitted, with_fixture(fitted, observations, model_path))
         after = None
     else:
         _, after, scores = position_scores(fitted, observations, model.nominal.name)
-    if fitted.domain_ is None:
-        return {**head, **scores, "outside_domain": None, "domain_summary": NO_DOMAIN}
     q = observations.joints
-    check = fitted.domain_.check(q, observations.positions, observations.placement,
-                                 _uncertainty(fitted, q, np.ones(len(q), dtype=bool)), what="poses")
-    result = {**head, **scores, "outside_domain": check.n_outside, "domain_summary": _answered(fitted, check)}
-    if after is not None:
-        result.update(in_domain=error_stats(after[check.inside]), out_of_domain=error_stats(after[~check.inside]))
+    if fitted.domain_ is None:
+        result = {**head, **scores, "outside_domain": None, "domain_summary": NO_DOMAIN}
+        inside = None
+    else:
+        check = fitted.domain_.check(q, observations.positions, observations.placement,
+                                     _uncertainty(fitted, q, np.ones(len(q), dtype=bool)), what="poses")
+        result = {**head, **scores, "outside_domain": check.n_outside, "domain_summary": _answered(fitted, check)}
+        inside = check.inside
+        if after is not None:
+            result.update(in_domain=error_stats(after[inside]), out_of_domain=error_stats(after[~inside]))
+    if after is None:
+        return result
+    error = np.linalg.norm(after, axis=1)
+    bound = None if fitted.bound_ is None else fitted.bound_.predict(q, inside=inside)
+    if bound is None:
+        result.update(bound95=None, bound_note=NO_BOUND)
+    else:
+        result["bound95"] = _bound_summary(error, bound, np.ones(len(q), dtype=bool) if inside is None else inside)
+    if per_pose is not None:
+        _write_per_pose(per_pose, observations.rows, observations.positions, observations.positions - after, error,
+                        bound, inside)
+        result["per_pose"] = str(per_pose)
     return result
 
 
 def compensate_job(model_path, targets_path, out, *, iterate=False):
     """Joint commands and corrected Cartesian targets for a targets file.  The commands CSV
     says of each reachable target whether it lies in the model's domain of validity
-    (``in_domain`` 1/0, ``domain_note`` why not) and, for a method with an error model that
-    predicts one, ``uncertainty_mm``; the result counts ``outside_domain`` and sums them up in
-    ``domain_summary``."""
+    (``in_domain`` 1/0, ``domain_note`` why not), ``bound95_mm``: the 95 % bound on the
+    position error there (robocal.methods.bound; every method; empty cells, and
+    ``bound_note`` in the result, for a model file without one) and, for a method with an
+    error model that predicts one, ``uncertainty_mm`` (that model's own standard deviation,
+    kept for the files written before the bound); the result counts ``outside_domain`` and
+    sums them up in ``domain_summary``."""
     check_outputs([out], [model_path, targets_path])
     model, fitted = load_fitted(model_path)
     targets = read_target_poses(targets_path, model.kinematics)
@@ -178,22 +250,32 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
     reached = result.success
     sigma = _uncertainty(fitted, result.q, reached)
     extra = {}
+    # Unreachable targets have no configuration to judge: NaN rows count as neither.
+    q = np.where(reached[:, None], result.q, np.nan)
+    inside = None
     if fitted.domain_ is None:
         outside, summary = None, NO_DOMAIN
     else:
-        # Unreachable targets have no configuration to judge: NaN rows count as neither.
-        q = np.where(reached[:, None], result.q, np.nan)
         check = fitted.domain_.check(q, targets.poses[:, :3, 3], uncertainty=sigma)
         extra["in_domain"] = [("1" if inside else "0") if ok else "" for inside, ok in zip(check.inside, reached)]
         extra["domain_note"] = list(check.reasons)
         outside, summary = check.n_outside, _answered(fitted, check)
+        inside = check.inside
+    bound = None if fitted.bound_ is None else fitted.bound_.predict(q, inside=inside)
+    extra["bound95_mm"] = ["" if bound is None or not ok else f"{b:.4f}" for b, ok in
+                           zip(np.full(len(q), np.nan) if bound is None else bound, reached)]
     if sigma is not None:
         extra["uncertainty_mm"] = [f"{s:.4f}" if ok else "" for s, ok in zip(sigma, reached)]
     write_joint_commands(out, model.kinematics, result.q, result.corrected, reached, extra=extra)
-    return {"targets": int(len(targets.poses)), "reachable": int(reached.sum()),
-            "unreachable_rows": [int(r) for r in targets.rows[~reached]], "out": str(out),
-            "predicted_error": error_stats(result.predicted_error[np.isfinite(result.predicted_error).all(axis=1)]),
-            "outside_domain": outside, "domain_summary": summary}
+    answer = {"targets": int(len(targets.poses)), "reachable": int(reached.sum()),
+              "unreachable_rows": [int(r) for r in targets.rows[~reached]], "out": str(out),
+              "predicted_error": error_stats(result.predicted_error[np.isfinite(result.predicted_error).all(axis=1)]),
+              "outside_domain": outside, "domain_summary": summary}
+    if bound is None:
+        answer["bound_note"] = NO_BOUND
+    else:
+        answer["bound95_median_mm"] = float(np.nanmedian(bound[reached]))
+    return answer
 
 
 EXPORT_FORMATS = ("toml", "urdf")

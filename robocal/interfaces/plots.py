@@ -216,3 +216,38 @@ def domain_coverage(training, low, high, margin, joints, inside, units):
     axes.flat[0].legend(fontsize=7)
     fig.tight_layout()
     return fig
+
+
+def bound_against_error(error, bound, inside):
+    """The 95 % bound against the error at each pose (mm, log-log), inside the training
+    domain (blue) and outside it (red), with the line bound = error: a pose below the line
+    lies within its bound.  error, bound: (N,) mm; inside: (N,) bool.  The title gives the
+    share within, which should be about 0.95."""
+    plt = _pyplot()
+    error, bound = np.asarray(error, dtype=float), np.asarray(bound, dtype=float)
+    inside = np.asarray(inside, dtype=bool)
+    known = np.isfinite(bound) & (error > 0) & (bound > 0)
+    fig, ax = plt.subplots(figsize=(5.2, 4.6))
+    for mask, color, label in ((inside, AFTER, "inside the training domain"),
+                               (~inside, OUTSIDE, "outside the training domain")):
+        chosen = known & mask
+        if chosen.any():
+            share = np.mean(error[chosen] <= bound[chosen])
+            ax.scatter(bound[chosen], error[chosen], s=6, color=color, alpha=0.6,
+                       label=f"{label}: {share:.1%} within ({chosen.sum()} poses)")
+    if known.any():
+        low = min(error[known].min(), bound[known].min()) * 0.8
+        high = max(error[known].max(), bound[known].max()) * 1.2
+        ax.plot([low, high], [low, high], color="grey", lw=0.8, ls="--", label="error = bound")
+        ax.set_xlim(low, high)
+        ax.set_ylim(low, high)
+        ax.set_title(f"{np.mean(error[known] <= bound[known]):.1%} of the poses within their 95 % bound",
+                     fontsize=10)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("95 % bound (mm)")
+    ax.set_ylabel("position error |e| (mm)")
+    ax.grid(True, which="both", lw=0.3)
+    ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    return fig

@@ -126,6 +126,16 @@ def _figures(fitted, observations, positions, before, after, validation):
                         "counts as inside) and histogram (grey), against the configurations of this file: inside "
                         f"the domain of validity (blue outline) or outside it (red). {check.summary}.",
                         plots.domain_coverage(**domain.coverage(observations.joints, observations.positions))))
+    bound = getattr(fitted, "bound_", None)
+    if bound is not None and observations.positions is not None:
+        inside = (domain.check(observations.joints, observations.positions).inside if domain is not None
+                  else np.ones(observations.n_poses, dtype=bool))
+        figures.append(("95 % bound against error", ("Each pose's position error against the 95 % bound the model "
+                        "states there (robocal evaluate --per-pose writes both): calibrated when the model was fitted, "
+                        "on held-out folds, to cover 95 % of poses like these; poses below the dashed line lie within "
+                        "it. On the training poses themselves the share is higher than on held-out ones."),
+                        plots.bound_against_error(np.linalg.norm(after, axis=1),
+                                                  bound.predict(observations.joints, inside=inside), inside)))
     if validation is not None and validation.get("learning_curve"):
         figures.append(("Learning curve", "Held-out error against the number of training poses "
                         f"({validation['method']}, from {validation['file']}).",

@@ -9,8 +9,9 @@ the joint command).
   (``q`` optional) in, ``{"q": [...], "x", "y", "z", "rx", "ry", "rz", "in_domain",
   "bound95_mm"}`` out.
 * CSV lines (``--format csv``): ``x,y,z,rx,ry,rz[,q1..qN]`` in, ``q1..qN,x,y,z,rx,ry,rz,
-  in_domain,bound95_mm`` out (in_domain 1/0, empty when unknown; bound95_mm empty when the
-  model has none).
+  in_domain,bound95_mm`` out (in_domain 1/0, empty when unknown; bound95_mm, the model's 95 %
+  bound on the position error there as ``compensate`` writes it (:mod:`robocal.methods.bound`),
+  empty when the model file stores none).
 
 Every bad request gets one ``{"error": "..."}`` line (in both formats) and the connection goes
 on.  Bounded everywhere: a line longer than MAX_LINE bytes is discarded as it arrives (one
@@ -148,15 +149,18 @@ class Answerer:
                 raise BadRequest("unreachable: the calibrated robot cannot reach this target within its joint "
                                  "limits (is it in the measurement frame, in mm and degrees?)")
             q = result.q
-            sigma = self.fitted.uncertainty(q)
         in_domain = None
+        inside = None
         if self.domain is not None:
-            check = self.domain.check(q, pose[None, :3, 3])  # (the uncertainty only words its summary)
-            in_domain = bool(check.inside[0])
+            inside = self.domain.check(q, pose[None, :3, 3]).inside
+            in_domain = bool(inside[0])
+        bound = None
+        if self.fitted.bound_ is not None:
+            bound = float(self.fitted.bound_.predict(q, inside=inside)[0])
         position, rpy = pose_to_xyz_rpy(result.corrected)
         joints = self.robot.joints_to_file(q)[0]
         return {"q": joints.tolist(), **dict(zip(CARTESIAN, position[0].tolist() + np.degrees(rpy[0]).tolist())),
-                "in_domain": in_domain, "bound95_mm": None if sigma is None else float(sigma[0])}
+                "in_domain": in_domain, "bound95_mm": bound}
 
     def answer(self, line):
         """(answer line, True) for one request line, or (error line, False); never raises."""

@@ -12,6 +12,7 @@ Layout (schema 1; schema 2 when it has ``outside_domain``)::
      "training": {...}, "options": {...},
      "domain": {...} or absent,             # the training data's domain of validity (deg, mm)
      "outside_domain": {...} or absent,     # schema 2: what answers beyond the domain
+     "bound": {...} or absent,              # the 95 % bound on the position error
      "checksum": "sha256 of everything above"}
 
 ``outside_domain`` (``calibrate --method auto``, :mod:`robocal.methods.fallback`) holds a
@@ -69,6 +70,9 @@ class ModelFile:
     domain: dict | None = None
     # What answers beyond the domain: (label, kinematics Chain, reference Chain), or None.
     outside: tuple | None = None
+    # The 95 % bound on the position error (robocal.methods.bound.PositionBound.to_dict), or
+    # None in files written before robocal computed one (and for ball-in-socket data).
+    bound: dict | None = None
     created: str = ""
     software_version: str = __version__
 
@@ -91,6 +95,8 @@ class ModelFile:
             doc["joint_compliance"] = self.kinematics.compliance_document()
         if self.domain is not None:
             doc["domain"] = self.domain
+        if self.bound is not None:
+            doc["bound"] = self.bound
         if self.outside is not None:
             label, chain, reference = self.outside
             doc["outside_domain"] = {"label": label, "kinematics": chain_to_dict(chain),
@@ -168,6 +174,9 @@ def load_model(path, robot=None) -> ModelFile:
     domain = doc.get("domain")
     if domain is not None and not isinstance(domain, dict):
         raise FileFormatError(f"{path}: 'domain' has the wrong type; regenerate the file")
+    bound = doc.get("bound")
+    if bound is not None and not isinstance(bound, dict):
+        raise FileFormatError(f"{path}: 'bound' has the wrong type; regenerate the file")
     outside = None
     if "outside_domain" in doc:
         entry = _require(doc, "outside_domain", dict, path)
@@ -184,5 +193,5 @@ def load_model(path, robot=None) -> ModelFile:
     return ModelFile(
         method=method, nominal=nominal, kinematics=kinematics, error_model=error_model, reference=reference,
         training=doc.get("training") or {}, options=doc.get("options") or {}, domain=domain, outside=outside,
-        created=doc.get("created", ""), software_version=doc.get("software_version", ""),
+        bound=bound, created=doc.get("created", ""), software_version=doc.get("software_version", ""),
     )

@@ -97,6 +97,11 @@ def print_scored(result, as_json, title):
     print_result(result if as_json else without_domain(result), as_json, title)
     if not as_json:
         say_domain(result)
+        bound = result.get("bound95")
+        if bound:
+            say("note", "yellow", f"{bound['within_share']:.1%} of the {bound['poses']} poses lie within their 95 % "
+                f"bound (median bound {bound['median_bound_mm']:.4g} mm, median error "
+                f"{bound['median_error_mm']:.4g} mm)")
 
 
 def print_compensated(result, out_file, as_json):

@@ -21,16 +21,20 @@ def evaluate(
     measurements: str = typer.Argument(..., help="Measurement CSV (use poses the model was not trained on)."),
     fixture: str = FIXTURE,
     beyond_limits: bool = BEYOND_LIMITS,
+    per_pose: str = typer.Option(None, "--per-pose", help="Write one CSV line per pose: row, measured and model "
+                                 "x, y, z, error_mm, bound95_mm (the model's 95 % bound) and in_domain.",
+                                 **parsed(Output(".csv"))),
     as_json: bool = JSON,
 ):
     """Residual of a model on measured data, beside the nominal robot's.
 
     On ball-in-socket data: the socket consistency (distance of each ball centre from the
-    mean of its socket group) and the socket-distance error.
+    mean of its socket group) and the socket-distance error.  On position data, bound95
+    says which share of the poses lie within the model's 95 % bound.
 
-    Example: robocal evaluate model.json test.csv --json
+    Example: robocal evaluate model.json test.csv --json --per-pose poses.csv
     """
-    result = evaluate_job(model, measurements, fixture=fixture, beyond_limits=beyond_limits)
+    result = evaluate_job(model, measurements, fixture=fixture, beyond_limits=beyond_limits, per_pose=per_pose)
     print_scored(result, as_json, f"{result['method']} model on {measurements}")
 
 

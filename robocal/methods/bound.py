@@ -1,0 +1,610 @@
+"""A 95 % bound on the position error of a fitted method, per pose and per target.
+
+What a model states about its own uncertainty is too small on real data: the Kriging variance
+says what the process it assumed would do, not what the robot does (held out on 2,000
+simulated KR 150-2 poses it was 15 times too small), and a calibration's posterior says
+nothing of what no parameter models.  The bound here starts from the model's own
+uncertainty and corrects it by what cross-validation shows the model misses:
+
+* **the model's own standard deviation** σ(x) (mm): for a parametric calibration its
+  posterior covariance Σ propagated through the identification Jacobian,
+  σ² = trace(J Σ Jᵀ) over the position rows (issue 23's posterior,
+  :mod:`robocal.estimation.prediction`); for a Kriging error model its predicted variance
+  (:meth:`~robocal.methods.kriging.KrigingResidual.uncertainty`); both for the hybrid; none
+  for the network, whose cross-validated spread is the residual scale below;
+* **the cross-validated residual scale** r (mm): the root mean square of the held-out error
+  norms over random folds of the training data;
+* their combination s(x) = sqrt(σ(x)² + r²) is the scale of a normalised score |e| / s(x).
+
+**Inside the training domain** (:meth:`~robocal.methods.domain.Domain.check`), the bound is
+q · s(x), q the split-conformal quantile of the scores of the random folds' held-out poses
+(those inside their fold's domain): with m scores, the ⌈(m + 1)·0.95⌉-th smallest, which
+covers a new pose like them with probability at least 0.95.
+
+**Outside it**, the error grows with the distance d(x) (rad) from x to the nearest training
+configuration in joint space, by two mechanisms the bound takes the larger of:
+
+* what no parameter models grows as the arm goes elsewhere: q · s(x) · (1 + γ · d(x));
+* the model's own uncertainty is a linearisation about the training configurations (for a
+  Kriging model, a process variance fitted there) and grows faster than it says:
+  q · sqrt(s(x)² + (κ · σ(x) · d(x))²).
+
+γ and κ (1/rad) are each the conformal quantile, over the held-out poses that lay outside
+their fold's domain when whole regions were left out (joint-space clusters,
+:func:`~robocal.methods.selection.cluster_split`, and an arm branch's other side when the
+data hold both), of the growth each pose needed to be covered.  Either form alone was not
+enough on the ipa UR10 data (bench/bound_coverage.py): the distance form covered 0.16 of the
+other shoulder side of series A, the σ form 0.74 of a simulated KR 150-2's unseen half of q2;
+their larger covered both.
+
+A model that answers with another outside its domain (``calibrate --method auto``,
+:mod:`robocal.methods.fallback`) has the bound of the chosen model inside and the bound of its
+fallback outside.
+
+The fold fits are cheap where the method offers ``refit`` (Kriging, hybrid: the
+hyperparameters kept); the bound is computed by ``calibrate`` only, never by the fold fits of
+``compare``.  Use from Python::
+
+    bound = fit_bound(method, chain, observations)   # method: fitted
+    bound.predict(joints)                            # (N,) mm, 95 % bound per configuration
+    method.bound_ = bound; bound95(method, joints)   # the same, as the verbs ask a model
+
+A model file stores the bound (:meth:`PositionBound.to_dict`); a file written before robocal
+computed bounds has none, and the verbs say so instead of giving one.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import FileFormatError, InputError, RobocalWarning
+from ..io.observations import Observations
+from .domain import Domain
+
+# The share of poses the bound is to cover.
+COVERAGE = 0.95
+# Random folds of the inside calibration.  Below LEAVE_ONE_OUT_BELOW poses each pose is
+# left out alone (for the methods that refit cheaply), so that a campaign of a dozen poses
+# still gives a dozen held-out scores.
+FOLDS = 5
+LEAVE_ONE_OUT_BELOW = 40
+# The network trains from scratch on every fold: two random folds (its held-out spread), as
+# robocal.methods.expectation judges it, and its genetic algorithm stops after at most this
+# many generations on a fold (its default is 300): a network trained less misses more, so the
+# bound errs on the safe side (bench/bound_coverage.py: trained 20 generations throughout,
+# 0.97 to 1.00 covered) and calibrate costs a few full fits instead of ten.
+NETWORK_FOLDS = 2
+NETWORK_FOLD_GENERATIONS = 60
+# A region left out must keep this many training poses to be fitted (the parametric
+# calibration under its priors fits from fewer, but its posterior then says little).
+MIN_REGION_TRAINING = 8
+# At most this many training poses form a posterior (evenly spread; their information
+# scaled up to all poses), as robocal.estimation.prediction does.
+POSTERIOR_POSES = 2000
+# A prismatic joint's travel counts as this many rad per mm in the joint-space distance:
+# a metre of travel moves the TCP about as far as a radian of a 1 m arm's shoulder.
+PRISMATIC_RAD_PER_MM = 1e-3
+# What evaluate, compensate and serve say of a model file without a bound.
+NO_BOUND = ("this model file holds no 95 % bound (written before robocal computed one, from too few poses to "
+            "calibrate one, or for ball-in-socket data): regenerate it with 'robocal calibrate' to get bound95_mm")
+
+
+def conformal_quantile(scores, coverage=COVERAGE):
+    """The split-conformal quantile of ``scores`` (m,): the ⌈(m + 1)·coverage⌉-th smallest,
+    which a new exchangeable score stays below with probability at least ``coverage``.
+    With fewer than 1/(1 − coverage) − 1 scores that rank does not exist: the largest score,
+    scaled by (m + 1)/m, stands for it (the guarantee is then approximate).  NaN if empty."""
+    scores = np.sort(np.asarray(scores, dtype=float))
+    scores = scores[~np.isnan(scores)]
+    m = len(scores)
+    if m == 0:
+        return float("nan")
+    rank = math.ceil((m + 1) * coverage)
+    if rank > m:
+        return float(scores[-1] * (m + 1) / m)
+    return float(scores[rank - 1])
+
+
+def joint_distance(joints, training, revolute):
+    """(N,) rad: the joint-space distance from each of ``joints`` (N, n) to the nearest of
+    ``training`` (M, n) (rad; mm for prismatic joints).  Revolute joints count by the chord
+    of their angle difference (±180 deg is one place), prismatic ones by
+    PRISMATIC_RAD_PER_MM."""
+    from scipy.spatial import cKDTree
+
+    def features(q):
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        revolute_ = np.asarray(revolute, dtype=bool)
+        # 2 sin(Δ/2) is the chord of (cos, sin): equal to Δ for small Δ.
+        parts = [np.cos(q[:, revolute_]), np.sin(q[:, revolute_]), q[:, ~revolute_] * PRISMATIC_RAD_PER_MM]
+        return np.hstack(parts)
+
+    joints = np.atleast_2d(np.asarray(joints, dtype=float))
+    out = np.full(len(joints), np.nan)
+    known = np.all(np.isfinite(joints), axis=1)
+    if known.any():
+        out[known] = cKDTree(features(training)).query(features(joints[known]))[0]
+    return out
+
+
+# ------------------------------------------------------------------ the model's own σ
+def calibration_posterior(calibration, joints, positions):
+    """(names, (P, P) covariance in mm and rad) of a fitted
+    :class:`~robocal.estimation.calibration.KinematicCalibration`'s parameters on its
+    training ``joints`` (N, n) rad and ``positions`` (N, 3) mm: the parameters it identified
+    and, at nominal, those it held fixed that have a tolerance, as
+    :func:`robocal.estimation.prediction.prediction_draws` propagates them."""
+    from ..estimation.prediction import _posterior, _posterior_names, _rows
+
+    result = calibration.result_
+    q = np.asarray(joints, dtype=float)
+    names, prior_std = _posterior_names(calibration, q)
+    pick = np.linspace(0, len(q) - 1, min(len(q), POSTERIOR_POSES)).astype(int)
+    jac = _rows(calibration.chain_, q[pick], names)
+    information = jac.T @ jac * (len(q) / len(pick))
+    residual = np.asarray(positions, dtype=float) - calibration.chain_.fk_positions(q)
+    noise = float(np.sum(residual ** 2)) / max(3 * len(q) - len(result.names), 1)
+    return list(names), _posterior(information, np.asarray(prior_std) * result.tolerance_scale, noise)
+
+
+def posterior_sigma(chain, joints, names, covariance):
+    """(N,) mm: the standard deviation of the TCP position's error norm that the parameter
+    posterior ``covariance`` (P, P) of ``names`` gives at ``joints`` (N, n) rad of ``chain``,
+    sqrt(trace(J Σ Jᵀ)) over the three position rows; NaN for a NaN configuration."""
+    joints = np.atleast_2d(np.asarray(joints, dtype=float))
+    out = np.full(len(joints), np.nan)
+    known = np.all(np.isfinite(joints), axis=1)
+    if known.any():
+        jac = chain.identification_jacobian(joints[known], list(names))[:, :3, :]
+        out[known] = np.sqrt(np.maximum(np.einsum("nip,pq,niq->n", jac, covariance, jac), 0.0))
+    return out
+
+
+def _kinematic_calibration(method):
+    """The method's own parametric calibration (kinematic; the hybrid's and a kinematic-based
+    network's base are not kept by their fits), or None."""
+    calibration = getattr(method, "calibration_", None)
+    if calibration is not None and hasattr(calibration.result_, "orientation_rms_deg"):
+        return calibration
+    return None
+
+
+def _base_calibration(method, chain, observations):
+    """The parametric calibration under ``method``'s prediction, fitted here when the method
+    did not keep it (the hybrid's base), or None for a method without one."""
+    own = _kinematic_calibration(method)
+    if own is not None:
+        return own
+    if method.name == "hybrid" or (method.name == "ann" and getattr(method, "base_model", None) == "kinematic"):
+        from .kinematic import KinematicMethod
+
+        base = KinematicMethod(**{s.name: getattr(method, s.name) for s in KinematicMethod.settings})
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RobocalWarning)
+            base._fit(chain, observations, None)
+        return base.calibration_
+    return None
+
+
+def _model_sigma(method, joints, posterior):
+    """(N,) mm: the model's own standard deviation at ``joints``: the parametric posterior's
+    (``posterior``: (names, covariance) or None) and the error model's, combined in
+    quadrature; zeros for a method with neither."""
+    joints = np.atleast_2d(np.asarray(joints, dtype=float))
+    variance = np.zeros(len(joints))
+    if posterior is not None:
+        variance = variance + posterior_sigma(_chain_of(method), joints, *posterior) ** 2
+    own = method.uncertainty(joints) if method.compensator_.error_model is not None else None
+    if own is not None:
+        variance = variance + np.asarray(own, dtype=float) ** 2
+    return np.sqrt(variance)
+
+
+def _chain_of(method):
+    """The chain a method predicts with (the chosen model's for a domain fallback)."""
+    compensator = method.compensator_
+    return getattr(compensator, "inside", compensator).chain
+
+
+# ------------------------------------------------------------------ the bound
+@dataclass(frozen=True)
+class PositionBound:
+    """A fitted 95 % bound on a method's position error (see the module docstring).
+
+    Attributes
+    ----------
+    method : Method or None
+        The fitted method it bounds (not part of the document: :meth:`from_dict` takes it).
+    coverage : float
+        The share of poses it is calibrated to cover (0.95).
+    residual_mm : float
+        r, the root mean square of the held-out error norms over random folds (mm).
+    inside_factor : float
+        q, the conformal quantile of |e| / s(x) inside the domain (dimensionless).
+    growth_per_rad : float or None
+        γ, how fast the bound grows outside the domain per rad of joint-space distance from
+        the nearest training configuration; None when no region could be left out (then
+        the bound outside is unknown: NaN).
+    sigma_growth_per_rad : float or None
+        κ, how fast the model's own σ grows outside the domain per rad (None: the model has
+        no σ, or it cannot cover what the regions left out showed; the γ form alone then).
+    posterior : (names, (P, P) covariance) or None
+        The parametric posterior propagated into σ(x) (mm and rad), or None.
+    training_joints : (M, n) array
+        The training configurations the distance is measured from (rad; mm prismatic).
+    fallback : PositionBound or None
+        The bound of what answers outside the domain (``calibrate --method auto``).
+    calibration : dict
+        How it was calibrated: held-out poses and folds of each part, and the share each
+        part covered (on its own calibration scores, ≥ 0.95 by construction).
+    """
+
+    method: object = field(repr=False, compare=False)
+    coverage: float
+    residual_mm: float
+    inside_factor: float
+    growth_per_rad: float | None
+    sigma_growth_per_rad: float | None
+    posterior: tuple | None
+    training_joints: np.ndarray = field(repr=False)
+    fallback: PositionBound | None = None
+    calibration: dict = field(default_factory=dict)
+
+    # ------------------------------------------------------------------ predicting
+    def scale(self, joints):
+        """(N,) mm: s(x) = sqrt(σ(x)² + r²) at ``joints`` (N, n) rad."""
+        return np.sqrt(self.sigma(joints) ** 2 + self.residual_mm ** 2)
+
+    def sigma(self, joints):
+        """(N,) mm: the model's own standard deviation σ(x) at ``joints`` (N, n) rad."""
+        return _model_sigma(self.method, joints, self.posterior)
+
+    def inside_mask(self, joints):
+        """(N,) bool: the configurations inside the method's training domain (all of them
+        when the method records no domain)."""
+        domain = getattr(self.method, "domain_", None)
+        joints = np.atleast_2d(np.asarray(joints, dtype=float))
+        return np.ones(len(joints), dtype=bool) if domain is None else domain.check(joints).inside
+
+    def predict(self, joints, inside=None):
+        """The 95 % bound (N,) mm on the position error at ``joints`` (N, n) rad (mm for
+        prismatic joints); NaN for a NaN row.  ``inside`` (N,) bool: which lie inside the
+        training domain, when the caller has checked already."""
+        joints = np.atleast_2d(np.asarray(joints, dtype=float))
+        inside = self.inside_mask(joints) if inside is None else np.asarray(inside, dtype=bool)
+        known = np.all(np.isfinite(joints), axis=1)
+        out = np.full(len(joints), np.nan)
+        chosen = known & inside
+        if chosen.any():
+            out[chosen] = self._own(joints[chosen], inside=True)
+        beyond = known & ~inside
+        if beyond.any():
+            out[beyond] = (self.fallback or self)._own(joints[beyond], inside=False)
+        return out
+
+    def _own(self, joints, inside):
+        """This bound's formula at ``joints`` (all inside, or all outside)."""
+        sigma = self.sigma(joints)
+        return outside_bound(self.inside_factor, self.residual_mm, sigma, None if inside else joint_distance(
+            joints, self.training_joints, _chain_of(self.method).revolute), self.growth_per_rad,
+            self.sigma_growth_per_rad)
+
+    # ------------------------------------------------------------------ documents
+    def to_dict(self):
+        """The model file's ``bound`` entry (mm, rad, dimensionless; the training
+        configurations in rad as the distances are measured)."""
+        return {"coverage": self.coverage, "residual_mm": self.residual_mm, "inside_factor": self.inside_factor,
+                "growth_per_rad": self.growth_per_rad, "sigma_growth_per_rad": self.sigma_growth_per_rad,
+                "posterior": None if self.posterior is None else {
+                    "names": list(self.posterior[0]), "covariance_mm_rad": np.asarray(self.posterior[1]).tolist()},
+                "training_joints_rad": np.asarray(self.training_joints).tolist(),
+                "fallback": None if self.fallback is None else self.fallback.to_dict(),
+                "calibration": self.calibration}
+
+    @classmethod
+    def from_dict(cls, document, method, path="<bound>", fallback_method=None):
+        """The bound of ``method`` (fitted) that :meth:`to_dict` wrote; FileFormatError when the
+        entry is damaged.  ``fallback_method``: what answers outside the domain, if anything."""
+        try:
+            posterior = document["posterior"]
+            if posterior is not None:
+                names = [str(n) for n in posterior["names"]]
+                covariance = np.asarray(posterior["covariance_mm_rad"], dtype=float)
+                if covariance.shape != (len(names), len(names)) or not np.all(np.isfinite(covariance)):
+                    raise ValueError("the posterior covariance must be square and finite")
+                posterior = (names, covariance)
+            training = np.asarray(document["training_joints_rad"], dtype=float)
+            if training.ndim != 2 or not len(training) or not np.all(np.isfinite(training)):
+                raise ValueError("training_joints_rad must be rows of finite numbers")
+            growth = document["growth_per_rad"]
+            sigma_growth = document["sigma_growth_per_rad"]
+            numbers = [float(document[k]) for k in ("coverage", "residual_mm", "inside_factor")]
+            if not all(np.isfinite(numbers)) or min(numbers) < 0:
+                raise ValueError("coverage, residual_mm and inside_factor must be finite and >= 0")
+            fallback = document.get("fallback")
+            bound = cls(method=method, coverage=numbers[0], residual_mm=numbers[1], inside_factor=numbers[2],
+                        growth_per_rad=None if growth is None else float(growth),
+                        sigma_growth_per_rad=None if sigma_growth is None else float(sigma_growth), posterior=posterior,
+                        training_joints=training, calibration=dict(document.get("calibration") or {}))
+            if fallback is not None:
+                bound = replace(bound, fallback=cls.from_dict(fallback, fallback_method or method, path))
+            return bound
+        except (KeyError, TypeError, ValueError) as exc:
+            raise FileFormatError(f"{path}: the 95 % bound is damaged ({exc}); regenerate the file with "
+                                  "'robocal calibrate'") from None
+
+
+def outside_bound(factor, residual, sigma, distance, growth, sigma_growth):
+    """(N,) mm: the bound at configurations whose model σ is ``sigma`` (N,) mm, ``distance``
+    (N,) rad from the training configurations (None: inside the domain), with the inside
+    factor q, the residual scale r (mm) and the growths γ and κ (1/rad; None: not used;
+    both None outside: NaN, unknown)."""
+    scale = np.sqrt(np.asarray(sigma) ** 2 + residual ** 2)
+    if distance is None:
+        return factor * scale
+    if growth is None and sigma_growth is None:
+        return np.full(len(scale), np.nan)
+    bound = np.zeros(len(scale))
+    if growth is not None:
+        bound = factor * scale * (1.0 + growth * distance)
+    if sigma_growth is not None:
+        bound = np.maximum(bound, factor * np.sqrt(scale ** 2 + (sigma_growth * sigma * distance) ** 2))
+    return bound
+
+
+def _growths(factor, residual, error, sigma, distance):
+    """(γ, κ) of the module docstring from held-out poses outside their fold's domain:
+    error, sigma (N,) mm, distance (N,) rad.  κ is None when the model has no σ there or
+    more than 1 − COVERAGE of the poses need more than σ can give (σ · d = 0)."""
+    scale = np.sqrt(sigma ** 2 + residual ** 2)
+    growth = conformal_quantile(np.maximum(error / (factor * scale) - 1.0, 0.0) / distance)
+    missing = np.sqrt(np.maximum((error / factor) ** 2 - scale ** 2, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        needed = np.where(missing > 0, missing / (sigma * distance), 0.0)
+    sigma_growth = conformal_quantile(needed) if np.any(sigma > 0) else float("inf")
+    return growth, (sigma_growth if np.isfinite(sigma_growth) else None)
+
+
+# ------------------------------------------------------------------ calibrating it
+def _clone(method):
+    """An unfitted method of the same class and settings."""
+    return type(method)(**{s.name: getattr(method, s.name) for s in method.settings})
+
+
+def _fold_fit(method, chain, part):
+    """``method``'s configuration fitted to ``part``: by ``refit`` (hyperparameters kept)
+    where the method has one, else from scratch; with its parametric calibration, or None
+    when the fit is refused (a fold too small for the method)."""
+    with warnings.catch_warnings():
+        # The fit's own warnings were shown once; its folds' would repeat them.
+        warnings.simplefilter("ignore", RobocalWarning)
+        try:
+            refit = getattr(method, "refit", None)
+            if refit is not None:
+                base = None
+                if method.name == "hybrid":
+                    base = method.kinematic()
+                    base._fit(chain, part, None)
+                fitted = refit(chain, part, base=base)
+                calibration = None if base is None else base.calibration_
+            else:
+                fitted = _clone(method)
+                if method.name == "ann":
+                    fitted.generations = min(fitted.generations, NETWORK_FOLD_GENERATIONS)
+                fitted._fit(chain, part, None)
+                calibration = _base_calibration(fitted, chain, part)
+        except (InputError, np.linalg.LinAlgError):
+            return None, None
+    posterior = None if calibration is None else calibration_posterior(calibration, part.joints, part.positions)
+    return fitted, posterior
+
+
+def _held_out(method, chain, observations, tests):
+    """The held-out poses of the folds ``tests`` (held-out index arrays), concatenated:
+    (indices, error norms (mm), the fold model's own σ there (mm), distance to the fold's
+    training configurations (rad), inside the fold's domain (bool), folds fitted); folds
+    whose fit is refused are left out; None when none could be fitted."""
+    n = observations.n_poses
+    parts = []
+    for test in tests:
+        train = np.setdiff1d(np.arange(n), test)
+        part, held = observations.subset(train), observations.subset(test)
+        fitted, posterior = _fold_fit(method, chain, part)
+        if fitted is None:
+            continue
+        error = np.linalg.norm(held.positions - fitted.predict(held.joints), axis=1)
+        sigma = _model_sigma(fitted, held.joints, posterior)
+        distance = joint_distance(held.joints, part.joints, chain.revolute)
+        inside = Domain.of(chain, part).check(held.joints, held.positions).inside
+        parts.append((test, error, sigma, distance, inside))
+    if not parts:
+        return None
+    return tuple(np.concatenate([p[k] for p in parts]) for k in range(5)) + (len(parts),)
+
+
+def _random_tests(n, method, seed):
+    """Held-out index arrays of the random folds."""
+    cheap = hasattr(method, "refit") or method.name == "kinematic"
+    folds = NETWORK_FOLDS if method.name == "ann" else n if (cheap and n < LEAVE_ONE_OUT_BELOW) else FOLDS
+    order = np.random.default_rng(seed).permutation(n)
+    return [np.sort(part) for part in np.array_split(order, folds)]
+
+
+def _region_tests(chain, observations, seed):
+    """Held-out index arrays of whole regions: joint-space clusters, and each side of an arm
+    branch when the data hold both; regions that leave fewer than MIN_REGION_TRAINING poses
+    to train on are left out."""
+    from .selection import branch_split, cluster_split
+
+    n = observations.n_poses
+    tests = []
+    folds = max(2, min(FOLDS, n // MIN_REGION_TRAINING))
+    try:
+        tests += list(cluster_split(chain, observations.joints, folds, seed).tests)
+    except InputError:
+        pass
+    branch = branch_split(chain, observations.joints)
+    if branch is not None:
+        tests += list(branch.tests)
+    return [t for t in tests if n - len(t) >= MIN_REGION_TRAINING and len(t)]
+
+
+def _calibrate(method, chain, observations, posterior, seed, regions=True):
+    """A :class:`PositionBound` of ``method`` (fitted to ``observations``, its parametric
+    ``posterior`` given); the region folds only with ``regions``."""
+    n = observations.n_poses
+    random_part = _held_out(method, chain, observations, _random_tests(n, method, seed))
+    if random_part is None:
+        return None
+    _, error, sigma, distance, inside, folds = random_part
+    residual = float(np.sqrt(np.mean(error ** 2)))
+    scale = np.sqrt(sigma ** 2 + residual ** 2)
+    # Poses held out at random that still fell outside their fold's domain (few) are judged
+    # with the regions; the rest calibrate the bound inside.
+    scores = (error / scale)[inside] if inside.sum() >= 1 else error / scale
+    factor = conformal_quantile(scores)
+    record = {"inside": {"poses": len(scores), "folds": int(folds),
+                         "covered": float(np.mean(scores <= factor)) if len(scores) else None}}
+    growth = sigma_growth = None
+    if regions:
+        outside_error, outside_sigma, outside_distance = [error[~inside]], [sigma[~inside]], [distance[~inside]]
+        region_part = _held_out(method, chain, observations, _region_tests(chain, observations, seed))
+        if region_part is not None:
+            _, r_error, r_sigma, r_distance, r_inside, _ = region_part
+            outside_error.append(r_error[~r_inside])
+            outside_sigma.append(r_sigma[~r_inside])
+            outside_distance.append(r_distance[~r_inside])
+        e, s, d = (np.concatenate(x) for x in (outside_error, outside_sigma, outside_distance))
+        if len(e):
+            growth, sigma_growth = _growths(factor, residual, e, s, np.maximum(d, 1e-9))
+            covered = e <= outside_bound(factor, residual, s, d, growth, sigma_growth)
+            record["outside"] = {"poses": len(e), "folds": int(region_part[-1]) if region_part else 0,
+                                 "covered": float(np.mean(covered))}
+    return PositionBound(method=method, coverage=COVERAGE, residual_mm=residual, inside_factor=factor,
+                         growth_per_rad=growth, sigma_growth_per_rad=sigma_growth, posterior=posterior,
+                         training_joints=_kept(observations.joints, seed), calibration=record)
+
+
+def _kept(joints, seed):
+    """The training configurations the distance is measured from: all distinct ones, or a
+    random NEIGHBOUR_KEEP of them (the model file stays small, as the domain's does; a
+    distance to a subset is never shorter, so the bound errs on the safe side)."""
+    from .domain import NEIGHBOUR_KEEP
+
+    kept = np.unique(np.asarray(joints, dtype=float), axis=0)
+    if len(kept) > NEIGHBOUR_KEEP:
+        kept = kept[np.sort(np.random.default_rng(seed).choice(len(kept), NEIGHBOUR_KEEP, replace=False))]
+    return kept
+
+
+def _fallback_method(method, chain, observations):
+    """The fitted parametric calibration a domain fallback answers with outside (``wrap``
+    labels it "kinematic <parameter set>"), refitted on ``observations``; None otherwise."""
+    from .fallback import DomainFallback
+    from .kinematic import KinematicMethod
+
+    compensator = method.compensator_
+    if not isinstance(compensator, DomainFallback):
+        return None
+    label = compensator.label
+    if not label.startswith("kinematic "):
+        raise InputError(f"the 95 % bound knows no fallback {label!r}")
+    fallback = KinematicMethod(parameters=label.split(" ", 1)[1])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RobocalWarning)
+        fallback.fit(chain, observations)
+    return fallback
+
+
+def fit_bound(method, chain, observations, *, seed=0):
+    """The 95 % bound of a fitted ``method`` on its training ``observations`` of ``chain``
+    (see the module docstring).
+
+    Parameters
+    ----------
+    method : Method
+        Fitted on ``observations`` (any registered method on position data).
+    chain : Chain
+        The nominal robot it was fitted for.
+    observations : Observations
+        Its training data: joints (N, n) rad, positions (N, 3) mm.
+    seed : int
+        Seeds the random folds and the region clusters.
+
+    Returns
+    -------
+    PositionBound or None
+        ``predict(joints)`` gives the bound (N,) mm.  None, with a RobocalWarning, when the
+        method cannot be fitted on the folds (too few poses), and for ball-in-socket data
+        (no position error to bound).
+    """
+    method._check_fitted()
+    if observations.positions is None:
+        return None
+    if not isinstance(observations, Observations):
+        raise InputError("fit_bound takes robocal Observations (robocal.io.observations.Observations.of)")
+    fallback = _fallback_method(method, chain, observations)
+    calibration = _base_calibration(method, chain, observations)
+    posterior = None if calibration is None else calibration_posterior(calibration, observations.joints,
+                                                                       observations.positions)
+    inner = method
+    if fallback is not None:
+        # The chosen model's folds are of the chosen model alone: its fallback answers outside.
+        inner = _clone(method)
+        inner.compensator_ = method.compensator_.inside
+        for name in ("reference_", "record_", "domain_"):
+            setattr(inner, name, getattr(method, name))
+    bound = _calibrate(inner, chain, observations, posterior, seed, regions=fallback is None)
+    if bound is None:
+        warnings.warn(RobocalWarning(
+            f"no 95 % bound: the {method.name} method could not be fitted on any fold of these {observations.n_poses} "
+            "poses (each leaves poses out); the model is saved without one. Measure more poses to get bound95_mm"))
+        return None
+    bound = replace(bound, method=method)
+    if fallback is not None:
+        outside = _calibrate(fallback, chain, observations,
+                             calibration_posterior(fallback.calibration_, observations.joints, observations.positions),
+                             seed)
+        # No fallback bound (its folds could not be fitted): outside, the bound is unknown (NaN).
+        bound = replace(bound, fallback=None if outside is None else replace(outside, method=_FallbackView(method)),
+                        growth_per_rad=None, sigma_growth_per_rad=None)
+    return bound
+
+
+class _FallbackView:
+    """What answers outside an auto model's domain, as its bound sees it: the fallback's
+    chain and no error model; its domain is the chosen model's."""
+
+    def __init__(self, method):
+        compensator = method.compensator_
+        self.compensator_ = compensator.outside
+        self.domain_ = method.domain_
+        self.name = "kinematic"
+
+    def uncertainty(self, joints):
+        return None
+
+
+def bound_of_model(model, method, path):
+    """The :class:`PositionBound` a :class:`~robocal.io.model_file.ModelFile` ``model``
+    stores for its fitted ``method``, or None when the file has none."""
+    if model.bound is None:
+        return None
+    fallback_method = None
+    from .fallback import DomainFallback
+
+    if isinstance(method.compensator_, DomainFallback):
+        fallback_method = _FallbackView(method)
+    return PositionBound.from_dict(model.bound, method, path, fallback_method=fallback_method)
+
+
+def bound95(method, joints):
+    """The 95 % bound (N,) mm at ``joints`` (N, n) rad of a method whose bound was fitted
+    (:func:`fit_bound`, or read from its model file); InputError when it has none."""
+    bound = getattr(method, "bound_", None)
+    if bound is None:
+        raise InputError(NO_BOUND)
+    return bound.predict(joints)
