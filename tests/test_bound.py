@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 from robocal.errors import FileFormatError, InputError
 from robocal.interfaces.cli import app
-from robocal.interfaces.jobs import PER_POSE_COLUMNS
+from robocal.io.csv_writing import PER_POSE_COLUMNS
 from robocal.io.library import load_robot
 from robocal.io.model_file import _canonical
 from robocal.io.tables import write_measurements
@@ -183,7 +183,7 @@ def test_evaluate_per_pose_writes_one_row_per_pose_and_json_says_the_share_withi
     assert result.exit_code == 0, result.output
     shown = json.loads(result.output)
     with open(per_pose, newline="") as f:
-        assert next(csv.reader(f)) == list(PER_POSE_COLUMNS)
+        assert next(csv.reader(f)) == list(PER_POSE_COLUMNS) + ["robocal_file"]
     rows = _rows(per_pose)
     measured = _rows(held)
     assert len(rows) == len(measured) == shown["n"]

@@ -8,7 +8,8 @@ import numpy as np
 from ..errors import InputError
 from ..estimation.metrics import error_stats
 from ..io.atomic import check_outputs
-from ..io.fingerprint import of_observations
+from ..io.csv_writing import write_per_pose
+from ..io.fingerprint import of_observations, seen_observations
 from ..io.library import load_robot
 from ..io.model_file import load_model, save_model
 from ..io.observations import read_observations, read_target_poses, write_joint_commands
@@ -160,27 +161,13 @@ def _bound_summary(error, bound, inside):
     return {**share(everything), "inside": share(inside), "outside": share(~inside)}
 
 
-# The columns of evaluate --per-pose.
-PER_POSE_COLUMNS = ("row", "x_measured", "y_measured", "z_measured", "x_model", "y_model", "z_model", "error_mm",
-                    "bound95_mm", "in_domain")
-
-
-def _write_per_pose(path, rows, measured, predicted, error, bound, inside):
-    """evaluate --per-pose: one line per pose (PER_POSE_COLUMNS), atomically; ``bound`` None
-    (no bound in the model file) and ``inside`` None (no domain) leave their cells empty."""
-    import csv
-    import io
-
-    from ..io.atomic import write_text_atomic
-
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(PER_POSE_COLUMNS)
-    for i in range(len(rows)):
-        writer.writerow([int(rows[i]), *(repr(float(v)) for v in measured[i]), *(repr(float(v)) for v in predicted[i]),
-                         f"{error[i]:.6g}", "" if bound is None else f"{bound[i]:.6g}",
-                         "" if inside is None else int(inside[i])])
-    write_text_atomic(path, buffer.getvalue())
+def _training_poses(model, observations, where):
+    """How many of ``observations`` the model was trained on, by content (None: the model
+    file keeps no fingerprint of its training rows, written before it did)."""
+    entry = model.training.get("fingerprint")
+    if entry is None:
+        return None
+    return int(seen_observations(entry, model.kinematics, observations, where=str(where)).sum())
 
 
 def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False, per_pose=None):
@@ -191,12 +178,15 @@ def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False, pe
     error statistics of each part.  On position data ``bound95`` is the share of poses whose
     error lies within the model's 95 % bound (robocal.methods.bound; None, with ``bound_note``
     saying why, for a model file without one), and ``per_pose`` (a path) writes one CSV line
-    per pose: PER_POSE_COLUMNS."""
+    per pose (:func:`robocal.io.csv_writing.write_per_pose`).  ``training_poses`` counts the
+    poses the model was trained on, by content (the model file's fingerprint; None for a file
+    without one): a score of them is not held out."""
     if per_pose is not None:
         check_outputs([per_pose], [model_path, measurements, fixture])
     model, fitted = load_fitted(model_path)
     observations = read_observations(measurements, model.kinematics, fixture, beyond_limits=beyond_limits)
-    head = {"model": str(model_path), "method": model.method, "file": str(measurements)}
+    head = {"model": str(model_path), "method": model.method, "file": str(measurements),
+            "training_poses": _training_poses(model, observations, model_path)}
     if observations.positions is None:
         if per_pose is not None:
             raise InputError(f"{measurements} is ball-in-socket data: --per-pose writes each pose's position error "
@@ -225,8 +215,8 @@ def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False, pe
     else:
         result["bound95"] = _bound_summary(error, bound, np.ones(len(q), dtype=bool) if inside is None else inside)
     if per_pose is not None:
-        _write_per_pose(per_pose, observations.rows, observations.positions, observations.positions - after, error,
-                        bound, inside)
+        write_per_pose(per_pose, observations.rows, observations.positions, observations.positions - after, error,
+                       bound, inside)
         result["per_pose"] = str(per_pose)
     return result
 

@@ -16,6 +16,7 @@ import numpy as np
 from .. import __version__
 from ..errors import FileFormatError, InputError, RobocalWarning
 from ..estimation.metrics import iso9283_position
+from ..io.fingerprint import seen_observations
 from ..io.atomic import check_outputs, write_bytes_atomic, write_text_atomic
 from . import plots
 from ..io.observations import read_observations
@@ -270,6 +271,25 @@ def _summary(model, fitted, data, label, cv, model_path):
     return summary
 
 
+def _held_out(model, data, measurements, model_path):
+    """(held out?, the label of the poses scored): decided by content, the rows the model
+    file's fingerprint says it was trained on (robocal.io.fingerprint); for a model file
+    written before it kept one, by the training file's name."""
+    entry = model.training.get("fingerprint")
+    if entry is None:
+        held_out = Path(str(model.training.get("file", ""))).resolve() != Path(str(measurements)).resolve()
+        return held_out, ("held-out poses (judged by the file name: this model file keeps no fingerprint of its "
+                          "training rows)" if held_out else "training poses (not held out: scores what the model has "
+                          "seen)")
+    seen = seen_observations(entry, model.kinematics, data, where=str(model_path))
+    if not seen.any():
+        return True, "held-out poses (none of them is a training pose)"
+    if seen.all():
+        return False, "training poses (not held out: every one is a pose the model was trained on)"
+    return False, (f"{int(seen.sum())} of {len(seen)} poses are training poses: not held out (score the others "
+                   "alone for a held-out figure)")
+
+
 def _accuracy_rows(record, stats, held_out):
     rows = []
     if record.residual_before:
@@ -294,8 +314,7 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyo
         _check_validation_matches(cv, model, validation)
     data = read_observations(measurements, model.kinematics, beyond_limits=beyond_limits)
     scores = _scores(model, fitted, data, model_path)
-    held_out = Path(str(model.training.get("file", ""))).resolve() != Path(str(measurements)).resolve()
-    label = "held-out poses" if held_out else "training poses (not held out: scores what the model has seen)"
+    held_out, label = _held_out(model, data, measurements, model_path)
     figures = _figures(fitted, data, scores.positions, scores.before, scores.after, cv)
     summary = _summary(model, fitted, data, label, cv, model_path)
     accuracy_rows = _accuracy_rows(fitted.record_, scores.stats, held_out)

@@ -141,3 +141,25 @@ def _write_csv(path: str | os.PathLike, columns: dict[str, list[str]]) -> Path:
     writer.writerow(list(columns))
     writer.writerows(zip(*columns.values()))
     return write_text_atomic(path, buffer.getvalue())
+
+
+# The columns of evaluate --per-pose.
+PER_POSE_COLUMNS = ("row", "x_measured", "y_measured", "z_measured", "x_model", "y_model", "z_model", "error_mm",
+                    "bound95_mm", "in_domain")
+
+
+def write_per_pose(path, rows, measured, predicted, error, bound, inside) -> Path:
+    """evaluate --per-pose: one line per pose (PER_POSE_COLUMNS: the pose's line in its file,
+    measured and model x, y, z in mm, the error's length and 95 % bound in mm, 1/0 inside
+    the domain), marked as robocal's evaluation, atomically; ``bound`` None (no bound in the
+    model file) and ``inside`` None (no domain) leave their cells empty."""
+    count = len(rows)
+    columns = {"row": [str(int(r)) for r in rows]}
+    for k, axis in enumerate("xyz"):
+        columns[f"{axis}_measured"] = [repr(float(v)) for v in measured[:, k]]
+    for k, axis in enumerate("xyz"):
+        columns[f"{axis}_model"] = [repr(float(v)) for v in predicted[:, k]]
+    columns["error_mm"] = [f"{e:.6g}" for e in error]
+    columns["bound95_mm"] = [""] * count if bound is None else [f"{b:.6g}" for b in bound]
+    columns["in_domain"] = [""] * count if inside is None else [str(int(i)) for i in inside]
+    return _write_csv(path, marked(columns, "evaluation"))

@@ -1,0 +1,40 @@
+"""What says "held out" checks it by content (robocal.io.fingerprint): a byte copy, a re-ordered
+copy or a mix of the training file is not called held-out by `report` or `evaluate`; new
+measurements are."""
+import csv
+import json
+import shutil
+
+import pytest
+
+from refusals import run_ok
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    root = tmp_path_factory.mktemp("held")
+    run_ok("simulate", "ur5", "--n", "60", "--seed", "1", "--out", root / "train.csv")
+    run_ok("simulate", "ur5", "--n", "40", "--seed", "2", "--out", root / "new.csv")
+    run_ok("calibrate", "ur5", root / "train.csv", "--out", root / "model.json")
+    shutil.copy(root / "train.csv", root / "copy.csv")
+    train = list(csv.reader(open(root / "train.csv", newline="")))
+    new = list(csv.reader(open(root / "new.csv", newline="")))
+    with open(root / "mixed.csv", "w", newline="") as stream:
+        csv.writer(stream).writerows([train[0]] + new[1:21] + train[1:11][::-1])
+    return root
+
+
+@pytest.mark.parametrize("name, training", [("copy.csv", 60), ("mixed.csv", 10), ("new.csv", 0)])
+def test_evaluate_counts_the_training_poses_by_content(folder, name, training):
+    result = json.loads(run_ok("evaluate", folder / "model.json", folder / name, "--json").output)
+    assert result["training_poses"] == training
+
+
+@pytest.mark.parametrize("name, says", [
+    ("copy.csv", "training poses (not held out: every one"),
+    ("mixed.csv", "10 of 30 poses are training poses"),
+    ("new.csv", "held-out poses (none of them is a training pose)"),
+])
+def test_the_report_labels_the_poses_it_scores_by_content(folder, tmp_path, name, says):
+    run_ok("report", folder / "model.json", folder / name, "--out", tmp_path / "r.html")
+    assert says in (tmp_path / "r.html").read_text()
