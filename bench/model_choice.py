@@ -57,6 +57,7 @@ from robocal.io import datasets  # noqa: E402
 from robocal.io.observations import observations  # noqa: E402
 from robocal.methods.domain import arm_branches  # noqa: E402
 from robocal.methods.fallback import wrap  # noqa: E402
+from robocal.methods.scoring import unfitted  # noqa: E402
 from robocal.methods.frames import registered_nominal  # noqa: E402
 from robocal.methods.selection import NOMINAL, compare  # noqa: E402
 
@@ -171,7 +172,7 @@ def run_case(description, chain, train, test, split_kind, what, folds, seed, net
         start = time.perf_counter()
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            fitted = fits[candidate.label] = candidate.unfitted().fit(chain, train)
+            fitted = fits[candidate.label] = unfitted(candidate).fit(chain, train)
             seconds = time.perf_counter() - start
             stats = error_stats(held_out(fitted, test))
         means[candidate.label] = stats["mean_mm"]

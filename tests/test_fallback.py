@@ -9,14 +9,12 @@ import pytest
 from typer.testing import CliRunner
 
 from refusals import assert_refused, copy_inputs
-from robocal.errors import InputError
 from robocal.interfaces.cli import app
 from robocal.io.library import load_robot
 from robocal.io.model_file import load_model, save_model
 from robocal.io.tables import write_measurements
 from robocal.methods import fitted_from_model_file, make_method, selection
 from robocal.methods.fallback import DomainFallback, wrap
-from robocal.methods.reregistration import reregister
 from robocal.methods.selection import Candidate, Score, Split, outside_choice
 from robocal.simulation import make_true_robot
 from robocal.simulation.sampling import uniform_joints
@@ -105,10 +103,10 @@ def test_a_fallback_entry_without_a_domain_is_refused_as_damaged(half_range, tmp
         fitted_from_model_file(load_model(path), path)
 
 
-def test_the_command_line_refuses_a_fallback_model_it_cannot_use_with_one_line(half_range, tmp_path,
-                                                                               monkeypatch):
-    """Re-registering an auto model with a fallback, and a fallback entry whose file lost its
-    domain: exit status 2, one line, no traceback, nothing written."""
+def test_the_command_line_refuses_a_fallback_model_without_its_domain_with_one_line(half_range, tmp_path,
+                                                                                   monkeypatch):
+    """A fallback entry whose file lost its domain: exit status 2, one line, no traceback,
+    nothing written (re-registering such a model: tests/test_auto_reregistration.py)."""
     chain, truth, _, _, _, model, q = half_range
     inputs = tmp_path / "inputs"
     inputs.mkdir()
@@ -120,15 +118,7 @@ def test_the_command_line_refuses_a_fallback_model_it_cannot_use_with_one_line(h
     folder = tmp_path / "work"
     folder.mkdir()
     before = copy_inputs(inputs, folder, monkeypatch)
-    assert_refused(["calibrate", "auto.json", "new.csv", "--method", "frames", "--out", "moved.json"],
-                   "calibrate --method auto again", folder, before)
     assert_refused(["evaluate", "no_domain.json", "new.csv"], "records no domain", folder, before)
-
-
-def test_reregistering_a_model_with_a_fallback_is_refused_with_one_line(half_range):
-    _, _, train, _, _, model, _ = half_range
-    with pytest.raises(InputError, match="calibrate --method auto again"):
-        reregister(model, train.subset(np.arange(25)))
 
 
 # ---------------------------------------------------------------------------- the rule

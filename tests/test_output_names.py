@@ -40,7 +40,6 @@ ROWS = [
     (["validate", "ur5", "meas.csv", "--folds", HUGE], "--folds must be a whole number"),
     (["validate", "ur5", "meas.csv", "--sizes", f"10,{HUGE}"], "--sizes must be"),
     # compare, auto and frames, new in issue 15
-    (["compare", "ur5", "meas.csv"], "measure more poses"),
     (["compare", "ur5", "meas.csv", "--folds", "1"], "--folds must be"),
     (["calibrate", "ur5", "meas.csv", "--method", "auto", "--parameters", "full", "--out", "a.json"],
      "--method auto chooses"),

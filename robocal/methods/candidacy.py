@@ -36,12 +36,6 @@ class Candidate:
     minimum_poses: int = 0
     linear: bool = False
 
-    def unfitted(self):
-        """The unfitted method."""
-        from . import make_method
-
-        return make_method(self.method, **self.settings)
-
     def richness(self):
         """What the candidate models, for ranking those the held-out errors cannot tell apart:
         a residual on a kinematic model above the kinematic model, then the parameter set."""

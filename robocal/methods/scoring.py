@@ -35,6 +35,7 @@ from ..estimation.least_squares import residual as residual_of
 from ..estimation.metrics import error_stats
 from ..io.observations import Observations
 from ..kinematics.chain import Chain
+from . import make_method
 from .candidacy import Candidate
 from .domain import Domain
 from .frames import registered_nominal
@@ -42,6 +43,11 @@ from .splits import Split
 
 # The label of the registered nominal robot in every comparison.
 NOMINAL = "nominal (registered)"
+
+
+def unfitted(candidate):
+    """The unfitted method of ``candidate`` (a :class:`~robocal.methods.candidacy.Candidate`)."""
+    return make_method(candidate.method, **candidate.settings)
 
 
 @dataclass
@@ -206,7 +212,7 @@ class _Refits:
         if template is not None and hasattr(template, "refit"):
             base = self.kinematic.get((candidate.settings.get("parameters"),) + where)
             return _Fitted(template.refit(self.chain, observations, base=base))
-        fitted = candidate.unfitted().fit(self.chain, observations)
+        fitted = unfitted(candidate).fit(self.chain, observations)
         self.template.setdefault(candidate.label, fitted)
         if candidate.method == "kinematic":
             self.kinematic[(candidate.settings["parameters"],) + where] = fitted
@@ -218,7 +224,7 @@ class _Refits:
         if not (split.deletion and candidate.linear and observations.positions is not None):
             return None
         if candidate.label not in self.whole:
-            self.whole[candidate.label] = candidate.unfitted().fit(self.chain, observations)
+            self.whole[candidate.label] = unfitted(candidate).fit(self.chain, observations)
         return deleted_errors(self.whole[candidate.label], observations, split.tests)
 
 

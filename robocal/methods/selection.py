@@ -34,7 +34,8 @@ import numpy as np
 from ..errors import InputError
 from .candidacy import PARAMETER_SETS, Candidate
 from .fallback import wrap
-from .scoring import NOMINAL, Score, _Nominal, _Refits, _groups, held_out_errors, score, score_all, score_task
+from .scoring import (NOMINAL, Score, _Nominal, _Refits, _groups, held_out_errors, score, score_all, score_task,
+                      unfitted)
 from .splits import (BRANCH_MIN_SHARE, FOLDS, MIN_TRAINING_POSES, TIME_TAIL, Split, branch_split, cluster_split,
                      joint_features, leave_one_out, placement_split, random_split, repeated_split, splits, time_split)
 
@@ -381,8 +382,8 @@ def choose(chain, observations, *, folds=None, seed=0, network=None, on_fit=None
     them too) outside its training domain (:mod:`robocal.methods.fallback`).  Returns (fitted
     method, :class:`Comparison`)."""
     comparison = compare(chain, observations, folds=folds, seed=seed, network=network, on_fit=on_fit)
-    fitted = comparison.recommended.unfitted().fit(chain, observations, progress=progress)
+    fitted = unfitted(comparison.recommended).fit(chain, observations, progress=progress)
     if comparison.outside is not None:
-        fallback = comparison.outside.unfitted().fit(chain, observations)
+        fallback = unfitted(comparison.outside).fit(chain, observations)
         wrap(fitted, fallback, comparison.outside.label)
     return fitted, comparison
