@@ -33,7 +33,6 @@ import contextlib
 import csv
 import html
 import io
-import json
 import os
 import re
 import secrets
@@ -45,6 +44,7 @@ from pathlib import Path
 from .. import parallel
 from ..errors import FileFormatError, InputError, RobocalError, RobocalWarning
 from ..io.atomic import write_text_atomic
+from ..io.reading import load_json
 from ..methods import DEFAULT_METHOD, FRAMES, make_method, method_names, settings_by_option
 from ..methods.base import option_of
 from ..methods.reregistration import PARAMETER_CHOICES as FRAME_PARAMETERS
@@ -97,17 +97,12 @@ class FleetRobot:
 def read_fleet(path):
     """The robots of a fleet file, every one checked (see the module docstring); InputError
     or FileFormatError in one line, naming the file, the robot and what to do."""
-    from ..io.robot_file import tomllib  # the same parser the robot files are read with
+    from ..io.reading import load_toml
 
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path} does not exist: give the fleet file (TOML, one [[robot]] table per robot)")
-    try:
-        document = tomllib.loads(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError:
-        raise FileFormatError(f"{path} is not a text file: give the fleet file (TOML)") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise FileFormatError(f"{path} is not valid TOML ({exc}): fix that line") from None
+    document = load_toml(path, "fleet file", "fix that line")
     unknown = sorted(set(document) - {"robot"})
     if unknown:
         raise InputError(f"{path}: unknown key {unknown[0]!r} at the top: a fleet file holds [[robot]] tables only")
@@ -443,5 +438,5 @@ def fitted_content(model_path):
             return {key: strip(entry) for key, entry in value.items() if not key.endswith("seconds")}
         return [strip(entry) for entry in value] if isinstance(value, list) else value
 
-    document = json.loads(Path(model_path).read_text(encoding="utf-8"))
+    document = load_json(model_path, "model file", "model")
     return strip({key: value for key, value in document.items() if key not in ("created", "checksum")})

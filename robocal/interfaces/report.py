@@ -63,13 +63,13 @@ def _png(fig):
 
 
 def _read_validation(path):
-    import json
+    from ..io.reading import load_json
 
     if not Path(path).is_file():
         raise FileFormatError(f"{path} does not exist: write it with 'robocal validate ... --json > FILE'")
     try:
-        doc = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
+        doc = load_json(path, "validation file", "settings")
+    except FileFormatError as exc:
         raise FileFormatError(f"{path}: not the JSON 'robocal validate --json' prints ({exc})") from None
     if not isinstance(doc, dict) or "cross_validation" not in doc:
         raise FileFormatError(f"{path}: no 'cross_validation' in it: write it with 'robocal validate ... --json > FILE'")

@@ -33,6 +33,7 @@ from pathlib import Path
 from .. import __version__
 from ..errors import FileFormatError, InputError
 from .atomic import write_text_atomic
+from .reading import load_json
 from .robot_file import chain_from_dict, chain_to_dict, robot_to_toml
 from ..kinematics.compliant import CompliantChain
 
@@ -128,12 +129,12 @@ def _require(doc, key, kind, path, where="the model file"):
 def load_model(path, robot=None) -> ModelFile:
     """Read and validate a model file; ``robot`` (a Chain) must be the robot it belongs to."""
     path = Path(path)
-    if not path.is_file():
-        raise FileFormatError(f"model file {path} does not exist")
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise FileFormatError(f"{path}: not a robocal model file (not JSON: {exc})") from None
+        doc = load_json(path, "model file", "model")
+    except FileFormatError as exc:
+        if not path.is_file():
+            raise
+        raise FileFormatError(f"{path}: not a robocal model file ({exc})") from None
     if not isinstance(doc, dict) or doc.get("schema") != SCHEMA:
         raise FileFormatError(f"{path}: not a robocal model file (no \"schema\": \"{SCHEMA}\")")
     version = _require(doc, "schema_version", int, path)
