@@ -23,7 +23,7 @@ def _by_hand(commanded, attained):
     ap = ((xb - xc) ** 2 + (yb - yc) ** 2 + (zb - zc) ** 2) ** 0.5
     lengths = [((a[0] - xb) ** 2 + (a[1] - yb) ** 2 + (a[2] - zb) ** 2) ** 0.5 for a in attained]
     mean = sum(lengths) / n
-    s = (sum((l - mean) ** 2 for l in lengths) / (n - 1)) ** 0.5
+    s = (sum((length - mean) ** 2 for length in lengths) / (n - 1)) ** 0.5
     return ap, xb - xc, yb - yc, zb - zc, mean + 3 * s
 
 

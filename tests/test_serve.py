@@ -154,7 +154,8 @@ def test_csv_lines(setup):
                                                                          "x", "y", "z", "rx", "ry", "rz")],
                                            atol=1e-6, rtol=0)
                 # The kinematic model's 95 % bound, as compensate writes it (it had none before the bound).
-                assert values[12] == expected["in_domain"] and abs(float(values[13]) - float(expected["bound95_mm"])) < 1e-4
+                assert values[12] == expected["in_domain"]
+                assert abs(float(values[13]) - float(expected["bound95_mm"])) < 1e-4
             assert "error" in json.loads(ask(sock, reader, b"1,2,three,4,5,6"))
             assert "error" in json.loads(ask(sock, reader, b"1,2,3"))
     finally:

@@ -72,7 +72,8 @@ def _read_validation(path):
     except FileFormatError as exc:
         raise FileFormatError(f"{path}: not the JSON 'robocal validate --json' prints ({exc})") from None
     if not isinstance(doc, dict) or "cross_validation" not in doc:
-        raise FileFormatError(f"{path}: no 'cross_validation' in it: write it with 'robocal validate ... --json > FILE'")
+        raise FileFormatError(f"{path}: no 'cross_validation' in it: write it with "
+                              "'robocal validate ... --json > FILE'")
     # What the report reads from it, so that a hand-edited file fails here in one line.
     for key in ("cross_validation", "nominal_cross_validation"):
         pooled = doc.get(key)
@@ -82,7 +83,8 @@ def _read_validation(path):
                                   "'robocal validate ... --json > FILE'")
     for key in ("method", "file", "folds"):
         if key not in doc:
-            raise FileFormatError(f"{path}: no '{key}' in it: write it afresh with 'robocal validate ... --json > FILE'")
+            raise FileFormatError(f"{path}: no '{key}' in it: write it afresh with "
+                                  "'robocal validate ... --json > FILE'")
     return doc
 
 
@@ -103,13 +105,14 @@ def _check_validation_matches(cv, model, path):
         warnings.warn(RobocalWarning(
             f"{path} cross-validates {validated} ({cv.get('poses', '?')} poses) but the model was trained on "
             f"{trained} ({model.training.get('n_poses', '?')} poses): the report shows it as it is; validate the "
-            "training file if it should describe this model"))
+            "training file if it should describe this model"), stacklevel=2)
 
 
 def _figures(fitted, observations, positions, before, after, validation):
     """(title, caption, Figure) for every plot that applies to this model."""
     joints_deg = fitted.compensator_.chain.joints_to_file(observations.joints)
-    what = "error" if observations.positions is not None else "deviation of the ball centre from its socket group's mean"
+    what = ("error" if observations.positions is not None
+            else "deviation of the ball centre from its socket group's mean")
     figures = [
         ("Error distribution", f"Single-point {what}, every pose in the file.",
          plots.error_distribution(before, after)),
@@ -195,7 +198,8 @@ def _calibration_section(calibration, chain):
     parts = [f"<h2>Identified parameters</h2><p class=note>Deviations from the starting model "
              f"({html.escape(calibration.units)}) with their standard errors; "
              f"{ident.rank} parameters from {ident.rows} equations; "
-             f"{calibration.iterations} iterations, {'converged' if calibration.converged else 'stopped at the iteration limit'}.</p>",
+             f"{calibration.iterations} iterations, "
+             f"{'converged' if calibration.converged else 'stopped at the iteration limit'}.</p>",
              _table(("parameter", "deviation", "standard error", "unit", "prior", "from data")[:max(map(len, rows),
                                                                                                   default=4)], rows),
              notes,
@@ -252,7 +256,8 @@ def _summary(model, fitted, data, label, cv, model_path):
     now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     summary = [
         ("robot", model.nominal.name), ("method", model.method), ("model file", str(model_path)),
-        ("model created", model.created), ("trained on", f"{training.get('file', '?')} ({training.get('n_poses', '?')} poses, "
+        ("model created", model.created), ("trained on", f"{training.get('file', '?')} "
+                                                         f"({training.get('n_poses', '?')} poses, "
                                                           f"{training.get('kind', '?')} data)"),
         ("scored on", f"{data.path} ({data.n_poses} poses, {data.kind} data): {label}"),
         ("frame", "measurement frame; base and tool registered to the data" if fitted.record_.registered
@@ -261,7 +266,8 @@ def _summary(model, fitted, data, label, cv, model_path):
     ]
     predicted = fitted.record_.predicted_error
     if predicted:
-        summary.append(("error to expect", f"{predicted['mean_mm']:.4f} mm mean, {predicted['p95_mm']:.4f} mm 95 % over "
+        summary.append(("error to expect", f"{predicted['mean_mm']:.4f} mm mean, "
+                                           f"{predicted['p95_mm']:.4f} mm 95 % over "
                         f"{predicted['where']} (registered nominal robot: {predicted['nominal_mean_mm']:.4f} mm mean, "
                         f"{predicted['nominal_p95_mm']:.4f} mm 95 %)"))
     if cv is not None:

@@ -189,7 +189,8 @@ def load_model(path, robot=None) -> ModelFile:
         if "joint_compliance" in entry:
             chain = CompliantChain.from_document(chain, _require(entry, "joint_compliance", dict, path, where), path)
         if chain.n_joints != nominal.n_joints:
-            raise FileFormatError(f"{path}: the kinematics outside the domain and the robot have different joint counts")
+            raise FileFormatError(f"{path}: the kinematics outside the domain and the robot have different joint "
+                                  "counts")
         outside = (label, chain, outside_reference)
     return ModelFile(
         method=method, nominal=nominal, kinematics=kinematics, error_model=error_model, reference=reference,

@@ -72,6 +72,6 @@ def fitted_from_model_file(model, path):
     return REGISTRY[model.method].from_model_file(model, path)
 
 
-__all__ = ["DEFAULT_METHOD", "REGISTRY", "CalibrationRecord", "ConstraintMethod", "FitRecord", "HybridMethod", "KinematicMethod", "KrigingMethod",
-           "Method", "NetworkMethod", "ReportFigure", "Setting", "fitted_from_model_file", "get_method",
-           "make_method", "method_names", "settings_by_option"]
+__all__ = ["DEFAULT_METHOD", "REGISTRY", "CalibrationRecord", "ConstraintMethod", "FitRecord", "HybridMethod",
+           "KinematicMethod", "KrigingMethod", "Method", "NetworkMethod", "ReportFigure", "Setting",
+           "fitted_from_model_file", "get_method", "make_method", "method_names", "settings_by_option"]

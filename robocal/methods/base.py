@@ -246,7 +246,8 @@ def require_distinct(observations, name, minimum=MIN_DISTINCT_POSES):
     """``observations`` if at least ``minimum`` of their joint configurations differ."""
     distinct = len(np.unique(np.round(observations.joints, 9), axis=0))
     if distinct < minimum:
-        raise InputError(f"{observations.path or 'the data'} holds {distinct} distinct pose(s) in {observations.n_poses} "
+        raise InputError(f"{observations.path or 'the data'} holds {distinct} distinct pose(s) "
+                         f"in {observations.n_poses} "
                          f"rows: the {name} method models the error over the workspace and needs at least {minimum} "
                          "different poses spread over it; measure more poses")
     return observations

@@ -561,7 +561,8 @@ def fit_bound(method, chain, observations, *, seed=0):
     if bound is None:
         warnings.warn(RobocalWarning(
             f"no 95 % bound: the {method.name} method could not be fitted on any fold of these {observations.n_poses} "
-            "poses (each leaves poses out); the model is saved without one. Measure more poses to get bound95_mm"))
+            "poses (each leaves poses out); the model is saved without one. Measure more poses to get bound95_mm"),
+            stacklevel=2)
         return None
     bound = replace(bound, method=method)
     if fallback is not None:

@@ -66,6 +66,7 @@ class ConstraintMethod(Method):
         self.calibration_ = calibration
         self.compensator_ = Compensator(calibration.chain_, None, nominal=chain, controller=chain, reference=chain)
         self.reference_ = chain
-        self.record_ = FitRecord(calibration=CalibrationRecord.from_dict(result.to_dict(calibration.chain_)), fixture=fixture_to_dict(obs.fixture),
-                                 residual_before=result.residual_before, residual_after_training=result.residual_after)
+        self.record_ = FitRecord(calibration=CalibrationRecord.from_dict(result.to_dict(calibration.chain_)),
+                                 fixture=fixture_to_dict(obs.fixture), residual_before=result.residual_before,
+                                 residual_after_training=result.residual_after)
         return self

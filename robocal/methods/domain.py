@@ -207,7 +207,8 @@ class Domain:
             return domain
         if len(kept) > NEIGHBOUR_KEEP:
             kept = kept[np.sort(np.random.default_rng(random_state).choice(len(kept), NEIGHBOUR_KEEP, replace=False))]
-        spacing = np.percentile(replace(domain, neighbours=kept)._nearest(kept, leave_one_out=True), NEIGHBOUR_PERCENTILE)
+        nearest = replace(domain, neighbours=kept)._nearest(kept, leave_one_out=True)
+        spacing = np.percentile(nearest, NEIGHBOUR_PERCENTILE)
         return replace(domain, neighbours=kept, neighbour_radius=float(NEIGHBOUR_FACTOR * spacing))
 
     # ------------------------------------------------------------------ checking
@@ -272,7 +273,8 @@ class Domain:
         file_low, file_high = self.chain.joints_to_file(self.joint_min), self.chain.joints_to_file(self.joint_max)
         for j in range(len(self.joint_min)):
             unit = "deg" if self.chain.revolute[j] else "mm"
-            beyond = (qk[:, j] < self.joint_min[j] - self.joint_margin[j]) | (qk[:, j] > self.joint_max[j] + self.joint_margin[j])
+            beyond = ((qk[:, j] < self.joint_min[j] - self.joint_margin[j])
+                      | (qk[:, j] > self.joint_max[j] + self.joint_margin[j]))
             flag(beyond, f"q{j + 1} beyond its training range",
                  lambda i, j=j, unit=unit: (f"q{j + 1} = {file_q[i, j]:.1f} {unit} beyond the training range "
                                             f"{file_low[j]:.1f}..{file_high[j]:.1f} {unit}"))
@@ -289,7 +291,8 @@ class Domain:
             p = np.asarray(positions, dtype=float)
             for a, axis in enumerate("xyz"):
                 with np.errstate(invalid="ignore"):
-                    beyond = (p[:, a] < self.box_min[a] - self.box_margin) | (p[:, a] > self.box_max[a] + self.box_margin)
+                    beyond = ((p[:, a] < self.box_min[a] - self.box_margin)
+                              | (p[:, a] > self.box_max[a] + self.box_margin))
                 flag(beyond, f"{axis} beyond the training box",
                      lambda i, a=a, axis=axis: (f"{axis} = {p[i, a]:.1f} mm beyond the training box "
                                                 f"{self.box_min[a]:.1f}..{self.box_max[a]:.1f} mm"))

@@ -33,7 +33,7 @@ def position_scores(fitted, observations, robot_name):
     if stats["mean_mm"] > SUSPICIOUS_RESIDUAL_MM:
         warnings.warn(RobocalWarning(
             f"the residual is {stats['mean_mm']:.1f} mm mean after calibration: is {observations.path} "
-            f"from robot '{robot_name}', in mm and degrees, in the frame the model was fitted in?"))
+            f"from robot '{robot_name}', in mm and degrees, in the frame the model was fitted in?"), stacklevel=2)
     return before, after, stats
 
 
@@ -64,7 +64,7 @@ def socket_scores(fitted, observations):
             f"the socket consistency is {after.get('mean_mm', 0.0):.1f} mm mean (socket distances off by "
             f"{after['socket_distance'].get('mean_mm', 0.0):.1f} mm) after calibration: is {obs.path or 'the data'} "
             f"from robot '{fitted.reference_.name}', with joint values in degrees, and is the fixture "
-            f"'{obs.fixture.name}' the one it was measured on?"))
+            f"'{obs.fixture.name}' the one it was measured on?"), stacklevel=2)
     return {"metric": SOCKET_METRIC, **after, "nominal": socket_errors(fitted.reference_, *args)}
 
 

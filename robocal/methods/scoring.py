@@ -315,7 +315,8 @@ def score_task(task):
     observations = Observations.from_plain(task["observations"])
     split_list = [Split.from_plain(s) for s in task["splits"]]
     scores, seconds = _score_group(chain, observations, [Candidate(**c) for c in task["candidates"]], split_list)
-    return {"scores": {label: {name: vars(one) for name, one in by_split.items()} for label, by_split in scores.items()},
+    return {"scores": {label: {name: vars(one) for name, one in by_split.items()}
+                       for label, by_split in scores.items()},
             "seconds": seconds}
 
 
