@@ -33,7 +33,7 @@ from pathlib import Path
 from .. import __version__
 from ..errors import FileFormatError, InputError
 from .atomic import write_text_atomic
-from .reading import load_json
+from .reading import read_text
 from .robot_file import chain_from_dict, chain_to_dict, robot_to_toml
 from ..kinematics.compliant import CompliantChain
 
@@ -130,11 +130,17 @@ def load_model(path, robot=None) -> ModelFile:
     """Read and validate a model file; ``robot`` (a Chain) must be the robot it belongs to."""
     path = Path(path)
     try:
-        doc = load_json(path, "model file", "model")
+        text = read_text(path, "model file", "model", lines=False)
     except FileFormatError as exc:
-        if not path.is_file():
+        if not path.is_file():  # missing, a directory, a device: said as for every file
             raise
-        raise FileFormatError(f"{path}: not a robocal model file ({exc})") from None
+        raise FileFormatError(f"{path}: not a robocal model file ({str(exc).replace(str(path), 'it')})") from None
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise FileFormatError(f"{path}: not a robocal model file (not JSON: {exc})") from None
+    except RecursionError:
+        raise FileFormatError(f"{path}: not a robocal model file (its JSON nests thousands of levels deep)") from None
     if not isinstance(doc, dict) or doc.get("schema") != SCHEMA:
         raise FileFormatError(f"{path}: not a robocal model file (no \"schema\": \"{SCHEMA}\")")
     version = _require(doc, "schema_version", int, path)
