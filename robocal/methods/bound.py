@@ -63,6 +63,8 @@ import numpy as np
 from ..errors import FileFormatError, InputError, RobocalWarning
 from ..io.observations import Observations
 from .domain import Domain
+from .model_sigma import (base_calibration, calibration_posterior, chain_of, joint_distance,  # noqa: F401
+                          model_sigma, posterior_sigma)
 
 # The share of poses the bound is to cover.
 COVERAGE = 0.95
@@ -81,12 +83,6 @@ NETWORK_FOLD_GENERATIONS = 60
 # A region left out must keep this many training poses to be fitted (the parametric
 # calibration under its priors fits from fewer, but its posterior then says little).
 MIN_REGION_TRAINING = 8
-# At most this many training poses form a posterior (evenly spread; their information
-# scaled up to all poses), as robocal.estimation.prediction does.
-POSTERIOR_POSES = 2000
-# A prismatic joint's travel counts as this many rad per mm in the joint-space distance:
-# a metre of travel moves the TCP about as far as a radian of a 1 m arm's shoulder.
-PRISMATIC_RAD_PER_MM = 1e-3
 # What evaluate, compensate and serve say of a model file without a bound.
 NO_BOUND = ("this model file holds no 95 % bound (written before robocal computed one, from too few poses to "
             "calibrate one, or for ball-in-socket data): regenerate it with 'robocal calibrate' to get bound95_mm")
@@ -106,107 +102,6 @@ def conformal_quantile(scores, coverage=COVERAGE):
     if rank > m:
         return float(scores[-1] * (m + 1) / m)
     return float(scores[rank - 1])
-
-
-def joint_distance(joints, training, revolute):
-    """(N,) rad: the joint-space distance from each of ``joints`` (N, n) to the nearest of
-    ``training`` (M, n) (rad; mm for prismatic joints).  Revolute joints count by the chord
-    of their angle difference (±180 deg is one place), prismatic ones by
-    PRISMATIC_RAD_PER_MM."""
-    from scipy.spatial import cKDTree
-
-    def features(q):
-        q = np.atleast_2d(np.asarray(q, dtype=float))
-        revolute_ = np.asarray(revolute, dtype=bool)
-        # 2 sin(Δ/2) is the chord of (cos, sin): equal to Δ for small Δ.
-        parts = [np.cos(q[:, revolute_]), np.sin(q[:, revolute_]), q[:, ~revolute_] * PRISMATIC_RAD_PER_MM]
-        return np.hstack(parts)
-
-    joints = np.atleast_2d(np.asarray(joints, dtype=float))
-    out = np.full(len(joints), np.nan)
-    known = np.all(np.isfinite(joints), axis=1)
-    if known.any():
-        out[known] = cKDTree(features(training)).query(features(joints[known]))[0]
-    return out
-
-
-# ------------------------------------------------------------------ the model's own σ
-def calibration_posterior(calibration, joints, positions):
-    """(names, (P, P) covariance in mm and rad) of a fitted
-    :class:`~robocal.estimation.calibration.KinematicCalibration`'s parameters on its
-    training ``joints`` (N, n) rad and ``positions`` (N, 3) mm: the parameters it identified
-    and, at nominal, those it held fixed that have a tolerance, as
-    :func:`robocal.estimation.prediction.prediction_draws` propagates them."""
-    from ..estimation.prediction import _posterior, _posterior_names, _rows
-
-    result = calibration.result_
-    q = np.asarray(joints, dtype=float)
-    names, prior_std = _posterior_names(calibration, q)
-    pick = np.linspace(0, len(q) - 1, min(len(q), POSTERIOR_POSES)).astype(int)
-    jac = _rows(calibration.chain_, q[pick], names)
-    information = jac.T @ jac * (len(q) / len(pick))
-    residual = np.asarray(positions, dtype=float) - calibration.chain_.fk_positions(q)
-    noise = float(np.sum(residual ** 2)) / max(3 * len(q) - len(result.names), 1)
-    return list(names), _posterior(information, np.asarray(prior_std) * result.tolerance_scale, noise)
-
-
-def posterior_sigma(chain, joints, names, covariance):
-    """(N,) mm: the standard deviation of the TCP position's error norm that the parameter
-    posterior ``covariance`` (P, P) of ``names`` gives at ``joints`` (N, n) rad of ``chain``,
-    sqrt(trace(J Σ Jᵀ)) over the three position rows; NaN for a NaN configuration."""
-    joints = np.atleast_2d(np.asarray(joints, dtype=float))
-    out = np.full(len(joints), np.nan)
-    known = np.all(np.isfinite(joints), axis=1)
-    if known.any():
-        jac = chain.identification_jacobian(joints[known], list(names))[:, :3, :]
-        out[known] = np.sqrt(np.maximum(np.einsum("nip,pq,niq->n", jac, covariance, jac), 0.0))
-    return out
-
-
-def _kinematic_calibration(method):
-    """The method's own parametric calibration (kinematic; the hybrid's and a kinematic-based
-    network's base are not kept by their fits), or None."""
-    calibration = getattr(method, "calibration_", None)
-    if calibration is not None and hasattr(calibration.result_, "orientation_rms_deg"):
-        return calibration
-    return None
-
-
-def _base_calibration(method, chain, observations):
-    """The parametric calibration under ``method``'s prediction, fitted here when the method
-    did not keep it (the hybrid's base), or None for a method without one."""
-    own = _kinematic_calibration(method)
-    if own is not None:
-        return own
-    if method.name == "hybrid" or (method.name == "ann" and getattr(method, "base_model", None) == "kinematic"):
-        from .kinematic import KinematicMethod
-
-        base = KinematicMethod(**{s.name: getattr(method, s.name) for s in KinematicMethod.settings})
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RobocalWarning)
-            base._fit(chain, observations, None)
-        return base.calibration_
-    return None
-
-
-def _model_sigma(method, joints, posterior):
-    """(N,) mm: the model's own standard deviation at ``joints``: the parametric posterior's
-    (``posterior``: (names, covariance) or None) and the error model's, combined in
-    quadrature; zeros for a method with neither."""
-    joints = np.atleast_2d(np.asarray(joints, dtype=float))
-    variance = np.zeros(len(joints))
-    if posterior is not None:
-        variance = variance + posterior_sigma(_chain_of(method), joints, *posterior) ** 2
-    own = method.uncertainty(joints) if method.compensator_.error_model is not None else None
-    if own is not None:
-        variance = variance + np.asarray(own, dtype=float) ** 2
-    return np.sqrt(variance)
-
-
-def _chain_of(method):
-    """The chain a method predicts with (the chosen model's for a domain fallback)."""
-    compensator = method.compensator_
-    return getattr(compensator, "inside", compensator).chain
 
 
 # ------------------------------------------------------------------ the bound
@@ -260,7 +155,7 @@ class PositionBound:
 
     def sigma(self, joints):
         """(N,) mm: the model's own standard deviation σ(x) at ``joints`` (N, n) rad."""
-        return _model_sigma(self.method, joints, self.posterior)
+        return model_sigma(self.method, joints, self.posterior)
 
     def inside_mask(self, joints):
         """(N,) bool: the configurations inside the method's training domain (all of them
@@ -289,7 +184,7 @@ class PositionBound:
         """This bound's formula at ``joints`` (all inside, or all outside)."""
         sigma = self.sigma(joints)
         return outside_bound(self.inside_factor, self.residual_mm, sigma, None if inside else joint_distance(
-            joints, self.training_joints, _chain_of(self.method).revolute), self.growth_per_rad,
+            joints, self.training_joints, chain_of(self.method).revolute), self.growth_per_rad,
             self.sigma_growth_per_rad)
 
     # ------------------------------------------------------------------ documents
@@ -369,11 +264,6 @@ def _growths(factor, residual, error, sigma, distance):
 
 
 # ------------------------------------------------------------------ calibrating it
-def _clone(method):
-    """An unfitted method of the same class and settings."""
-    return type(method)(**{s.name: getattr(method, s.name) for s in method.settings})
-
-
 def _fold_fit(method, chain, part):
     """``method``'s configuration fitted to ``part``: by ``refit`` (hyperparameters kept)
     where the method has one, else from scratch; with its parametric calibration, or None
@@ -391,11 +281,11 @@ def _fold_fit(method, chain, part):
                 fitted = refit(chain, part, base=base)
                 calibration = None if base is None else base.calibration_
             else:
-                fitted = _clone(method)
+                fitted = method.clone()
                 if method.name == "ann":
                     fitted.generations = min(fitted.generations, NETWORK_FOLD_GENERATIONS)
                 fitted._fit(chain, part, None)
-                calibration = _base_calibration(fitted, chain, part)
+                calibration = base_calibration(fitted, chain, part)
         except (InputError, np.linalg.LinAlgError):
             return None, None
     posterior = None if calibration is None else calibration_posterior(calibration, part.joints, part.positions)
@@ -416,7 +306,7 @@ def _held_out(method, chain, observations, tests):
         if fitted is None:
             continue
         error = np.linalg.norm(held.positions - fitted.predict(held.joints), axis=1)
-        sigma = _model_sigma(fitted, held.joints, posterior)
+        sigma = model_sigma(fitted, held.joints, posterior)
         distance = joint_distance(held.joints, part.joints, chain.revolute)
         inside = Domain.of(chain, part).check(held.joints, held.positions).inside
         parts.append((test, error, sigma, distance, inside))
@@ -437,7 +327,7 @@ def _region_tests(chain, observations, seed):
     """Held-out index arrays of whole regions: joint-space clusters, and each side of an arm
     branch when the data hold both; regions that leave fewer than MIN_REGION_TRAINING poses
     to train on are left out."""
-    from .selection import branch_split, cluster_split
+    from .splits import branch_split, cluster_split
 
     n = observations.n_poses
     tests = []
@@ -547,13 +437,13 @@ def fit_bound(method, chain, observations, *, seed=0):
     if not isinstance(observations, Observations):
         raise InputError("fit_bound takes robocal Observations (robocal.io.observations.Observations.of)")
     fallback = _fallback_method(method, chain, observations)
-    calibration = _base_calibration(method, chain, observations)
+    calibration = base_calibration(method, chain, observations)
     posterior = None if calibration is None else calibration_posterior(calibration, observations.joints,
                                                                        observations.positions)
     inner = method
     if fallback is not None:
         # The chosen model's folds are of the chosen model alone: its fallback answers outside.
-        inner = _clone(method)
+        inner = method.clone()
         inner.compensator_ = method.compensator_.inside
         for name in ("reference_", "record_", "domain_"):
             setattr(inner, name, getattr(method, name))
