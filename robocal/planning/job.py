@@ -16,17 +16,13 @@ in the robot base frame (mm; deg, roll-pitch-yaw as every robocal pose), and opt
 ``fixture`` column naming each placement (default P1, P2, …); or from a region (a box of the
 base frame, mm) where the fixture may stand level.
 """
-import csv
-import io
-
 import numpy as np
 
-from ..errors import FileFormatError, InputError
-from ..io.atomic import check_outputs, write_text_atomic
-from ..io.file_kinds import KIND_COLUMN, check_kind, marked
-from ..io.reading import read_text
+from ..errors import InputError
+from ..io.atomic import check_outputs
 from ..io.library import load_robot
 from ..io.observations import check_robot_in_mm, read_observations, read_target_poses
+from ..io.poses import read_joints, read_placements, table, write_poses
 from ..kinematics.ik import solve_ik
 from ..spatial import compose_pose, rpy_to_matrix
 from .candidates import DEFAULT_COUNT, MARGIN_DEG, box_candidates, joint_candidates
@@ -34,88 +30,15 @@ from .criteria import DEFAULT_CRITERION, VarianceKernel
 from .design import design_poses
 from .workspace import WorkingVolume
 
-# Joint values in a file that all lie within this (and spread by at least RADIAN_SPREAD over
-# RADIAN_ROWS rows or more) are radians, not the degrees robocal reads.
-RADIAN_BOUND = 6.3
-RADIAN_SPREAD = 0.5
-RADIAN_ROWS = 5
-# Joint values this far beyond a limit (deg, mm) are refused, as measurement files' are.
-LIMIT_TOLERANCE = 0.5
 # An existing measurement file fitted for its residual needs this many times as many
 # equations as parameters.
 NOISE_FIT_RATIO = 1.5
 
 
-def _table(path):
-    """(header, rows of text) of a CSV file; FileFormatError for an empty one."""
-    text = read_text(path, "CSV file", "table", form="CSV")
-    first = text.splitlines()[0] if text.strip() else ""
-    delimiter = ";" if first.count(";") > first.count(",") else ","
-    rows = [row for row in csv.reader(io.StringIO(text), delimiter=delimiter) if any(cell.strip() for cell in row)]
-    if not rows:
-        raise FileFormatError(f"{path} is empty: give a CSV with columns q1 ... qN (deg)")
-    return [name.strip() for name in rows[0]], rows[1:]
-
-
-def _numbers(path, header, rows, names, unit=""):
-    """(len(rows), len(names)) values of the named columns; FileFormatError naming the first
-    cell that is empty, not a number, NaN or infinite."""
-    index = [header.index(name) for name in names]
-    values = np.empty((len(rows), len(names)))
-    for r, row in enumerate(rows):
-        for c, k in enumerate(index):
-            cell = row[k].strip() if k < len(row) else ""
-            try:
-                values[r, c] = float(cell)
-            except ValueError:
-                values[r, c] = np.nan
-            if not np.isfinite(values[r, c]):
-                shown = repr(cell) if cell else "empty"
-                raise FileFormatError(f"{path} row {r + 2}, column {names[c]}: {shown} is not a finite number{unit}; "
-                                      "fix or remove that row")
-    return values
-
-
-def read_joints(path, chain, what="configurations"):
-    """Joint values of a CSV (columns q1 … qN in deg, mm on prismatic joints; others
-    ignored) -> ((N, n) rad, header).  One-line errors for missing columns, empty, non-numeric
-    or NaN cells, radian-looking values and values beyond the joint limits."""
-    header, rows = _table(path)
-    kind_cells = [row[header.index(KIND_COLUMN)] for row in rows if len(row) == len(header)] \
-        if KIND_COLUMN in header else None
-    check_kind(path, header, kind_cells, ("measurements", "poses"), f"a file of {what}",
-               "measured or planned joint configurations (q1..qN)")
-    names = [f"q{k}" for k in range(1, chain.n_joints + 1)]
-    missing = [name for name in names if name not in header]
-    if missing:
-        raise FileFormatError(f"{path} lacks column{'s' if len(missing) > 1 else ''} {', '.join(missing)}: {what} need "
-                              f"the joint values q1 ... q{chain.n_joints} of robot '{chain.name}' (deg; mm on "
-                              "prismatic joints)")
-    if not rows:
-        raise FileFormatError(f"{path} has a header but no rows of {what}")
-    values = _numbers(path, header, rows, names, " (deg)")
-    revolute = values[:, chain.revolute]
-    if (len(values) >= RADIAN_ROWS and revolute.size and np.abs(revolute).max() < RADIAN_BOUND
-            and np.ptp(revolute, axis=0).max() >= RADIAN_SPREAD):
-        raise FileFormatError(f"all joint values of {path} lie within ±{RADIAN_BOUND}: they look like radians, but "
-                              "robocal reads degrees; convert them with numpy.degrees() or check the export")
-    q = chain.joints_from_file(values)
-    tolerance = np.where(chain.revolute, np.radians(LIMIT_TOLERANCE), LIMIT_TOLERANCE)
-    beyond = np.flatnonzero(np.any((q < chain.lower - tolerance) | (q > chain.upper + tolerance), axis=1))
-    if beyond.size:
-        outside = (q[beyond[0]] < chain.lower - tolerance) | (q[beyond[0]] > chain.upper + tolerance)
-        joint = int(np.flatnonzero(outside)[0])
-        raise InputError(f"{path} row {beyond[0] + 2}: q{joint + 1} = {values[beyond[0], joint]:.6g} lies beyond joint "
-                         f"{joint + 1}'s limits of robot '{chain.name}' "
-                         f"({len(beyond)} row{'s' if beyond.size > 1 else ''} "
-                         "so): remove those rows or fix the robot file's min and max")
-    return np.clip(q, chain.lower, chain.upper), header
-
-
 def _targets(path, chain):
     """Target configurations (rad): a file's q columns, or its x, y, z, rx, ry, rz targets
     solved by the nominal IK (q columns as posture hints), the unreachable ones dropped."""
-    header, _ = _table(path)
+    header, _ = table(path)
     if "x" not in header and "q1" in header:
         return read_joints(path, chain, "targets")[0]
     targets = read_target_poses(path, chain)
@@ -126,37 +49,13 @@ def _targets(path, chain):
     return result.q[result.success]
 
 
-def _write_poses(path, chain, joints, extra=None):
-    """The poses CSV (module notes), atomically."""
-    degrees = chain.joints_to_file(joints)
-    nominal = chain.fk_positions(joints)
-    columns = {"pose": [str(k) for k in range(1, len(joints) + 1)]}
-    for j in range(chain.n_joints):
-        columns[f"q{j + 1}"] = [_number(v) for v in degrees[:, j]]
-    for c, axis in enumerate("xyz"):
-        columns[f"{axis}_nominal"] = [f"{v:.3f}" for v in nominal[:, c]]
-    columns.update(extra or {})
-    columns = marked(columns, "poses")
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(list(columns))
-    writer.writerows(zip(*columns.values()))
-    write_text_atomic(path, buffer.getvalue())
-
-
-def _number(value):
-    # Six decimals of a degree (3.6 milli-arcseconds): far below any controller's resolution.
-    text = f"{value:.6f}".rstrip("0").rstrip(".")
-    return "0" if text in ("-0", "") else text
-
-
 def _noise_from(path, chain, parameters, payload):
     """The per-coordinate standard deviation (mm) a calibration of the measured poses of
     ``path`` leaves, with its degrees of freedom (3N - P); None when the file has no
     positions or too few poses."""
     from ..estimation.calibration import KinematicCalibration
 
-    header, _ = _table(path)
+    header, _ = table(path)
     if not {"x", "y", "z"} <= set(header):
         return None
     observations = read_observations(path, chain)
@@ -182,7 +81,7 @@ def _variance_kernel(path, chain, parameters, payload):
     from ..estimation.joint_kriging import JointKriging
     from ..estimation.kriging import Kriging
 
-    header, _ = _table(path)
+    header, _ = table(path)
     if not {"x", "y", "z"} <= set(header):
         return None
     observations = read_observations(path, chain)
@@ -252,32 +151,11 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
                           noise=0.02 if noise is None else noise, tracker=tracker, targets=target_q,
                           existing=before, payload=payload, seed=seed, order=order, kernel=kernel,
                           joint_noise=joint_noise, sag=sag)
-    _write_poses(out, chain, design.joints)
+    write_poses(out, chain, design.joints)
     return {"robot": chain.name, "out": str(out), "candidates_from": source, "noise_from": noise_note,
             "working_volume": ("your candidates, as given" if candidates is not None else volume.describe()),
             "targets": "the candidates" if targets is None else f"{len(target_q)} configurations of {targets}",
             **design.to_dict()}
-
-
-def _placements(path):
-    """(K, 4, 4) fixture poses (robot base frame, mm) and their ids from a placements CSV
-    (module notes)."""
-    header, rows = _table(path)
-    columns = ["x", "y", "z", "rx", "ry", "rz"]
-    missing = [c for c in columns if c not in header]
-    if missing:
-        raise FileFormatError(f"{path} lacks column{'s' if len(missing) > 1 else ''} "
-                              f"{', '.join(missing)}: a placements "
-                              "file gives the fixture frame in the robot base frame as x, y, z (mm), rx, ry, rz (deg)")
-    if not rows:
-        raise FileFormatError(f"{path} has a header but no placements")
-    values = _numbers(path, header, rows, columns)
-    names = ([row[header.index("fixture")].strip() if header.index("fixture") < len(row) else "" for row in rows]
-             if "fixture" in header else [f"P{k + 1}" for k in range(len(rows))])
-    if any(not name for name in names) or len(set(names)) < len(names):
-        raise FileFormatError(f"{path}: every placement needs its own non-empty id in the fixture column")
-    poses = np.stack([compose_pose(v[:3], np.radians(v[3:])) for v in values])
-    return poses, names
 
 
 def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_socket=None, criterion="prediction",
@@ -301,7 +179,7 @@ def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_sock
     check_robot_in_mm(chain)
     rig = read_fixture(fixture)
     if placements is not None:
-        poses, names = _placements(placements)
+        poses, names = read_placements(placements)
         source = f"{len(poses)} placements of {placements}"
     else:
         poses, names = region_placements(rig, region[0::2], region[1::2], seed=seed), None
@@ -325,7 +203,7 @@ def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_sock
                          f"ask for {whole}" + (f" or {whole + sockets * per_socket}" if count >= 1 else ""))
     design = design_sockets(chain, candidates, per_socket, count, criterion=criterion,
                             noise=0.02 if noise is None else noise, seed=seed)
-    _write_poses(out, chain, design.joints, {"fixture": list(design.placement), "socket": list(design.socket)})
+    write_poses(out, chain, design.joints, {"fixture": list(design.placement), "socket": list(design.socket)})
     return {"robot": chain.name, "out": str(out), "fixture": rig.name, "placements_from": source,
             "reachable_placements": places,
             "placement_poses": {k: {"xyz_mm": [round(float(v), 3) for v in pose[:3, 3]]} for k, pose in
