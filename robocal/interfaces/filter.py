@@ -25,15 +25,14 @@ LIN/CIRC/SPL, URScript) takes the branch nearest the previous motion's joints.
 """
 from __future__ import annotations
 
-import csv
 import functools
-import io
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import FileFormatError, InputError
+from ..io.csv_writing import csv_text
 from ..io.atomic import check_outputs, write_text_atomic
 from ..io.programs import LANGUAGES, krl, language_of, postures
 from ..io.programs.core import (
@@ -391,8 +390,4 @@ def _key_of(language_name):
 
 
 def _summary(rows):
-    stream = io.StringIO()
-    writer = csv.writer(stream, lineterminator="\n")
-    writer.writerow(SUMMARY_COLUMNS)
-    writer.writerows(rows)
-    return stream.getvalue()
+    return csv_text(SUMMARY_COLUMNS, rows)

@@ -30,9 +30,7 @@ robot whose test file is bad leaves the files of an earlier run as they were.
 from __future__ import annotations
 
 import contextlib
-import csv
 import html
-import io
 import os
 import re
 import secrets
@@ -43,6 +41,7 @@ from pathlib import Path
 
 from .. import parallel
 from ..errors import FileFormatError, InputError, RobocalError, RobocalWarning
+from ..io.csv_writing import csv_text
 from ..io.atomic import write_text_atomic
 from ..io.reading import load_json
 from ..methods import DEFAULT_METHOD, FRAMES, make_method, method_names, settings_by_option
@@ -379,13 +378,9 @@ def _check_inputs_are_not_outputs(robots, folders, out, fleet_file):
 
 def write_summary(out, rows, fleet_file):
     """DIR/summary.csv (SUMMARY_COLUMNS) and DIR/summary.html; returns their paths."""
-    text = io.StringIO()
-    writer = csv.writer(text, lineterminator="\n")
-    writer.writerow(SUMMARY_COLUMNS)
-    for row in rows:
-        writer.writerow([_cell(row[column]) for column in SUMMARY_COLUMNS])
+    text = csv_text(SUMMARY_COLUMNS, ([_cell(row[column]) for column in SUMMARY_COLUMNS] for row in rows))
     csv_path, html_path = out / SUMMARY_CSV, out / SUMMARY_HTML
-    write_text_atomic(csv_path, text.getvalue())
+    write_text_atomic(csv_path, text)
     write_text_atomic(html_path, summary_html(rows, fleet_file))
     return {"summary_csv": str(csv_path), "summary_html": str(html_path)}
 

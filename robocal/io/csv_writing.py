@@ -163,3 +163,13 @@ def write_per_pose(path, rows, measured, predicted, error, bound, inside) -> Pat
     columns["bound95_mm"] = [""] * count if bound is None else [f"{b:.6g}" for b in bound]
     columns["in_domain"] = [""] * count if inside is None else [str(int(i)) for i in inside]
     return _write_csv(path, marked(columns, "evaluation"))
+
+
+def csv_text(header, rows) -> str:
+    """The CSV text of ``header`` (column names) and ``rows`` (sequences of cells, written as
+    they are), one line each with "\n" line ends: for summaries written beside other outputs."""
+    stream = io.StringIO()
+    writer = csv.writer(stream, lineterminator="\n")
+    writer.writerow(header)
+    writer.writerows(rows)
+    return stream.getvalue()
