@@ -10,14 +10,14 @@ from typer.testing import CliRunner
 
 from robocal.estimation.metrics import error_stats
 from robocal.interfaces.cli import app
-from robocal.io.library import load_robot
 from robocal.io.model_file import load_model, save_model
 from robocal.io.tables import write_measurements
 from robocal.methods import make_method
-from robocal.methods.fallback import DomainFallback, wrap
+from robocal.methods.fallback import DomainFallback
 from robocal.methods.reregistration import reregister
-from robocal.simulation import make_true_robot, uniform_joints
+from robocal.simulation import uniform_joints
 from robocal.spatial import invert
+from simulated_models import ur5_auto_model
 
 runner = CliRunner()
 # The tracker of the new set-up stands 2 m away, turned by 35 deg about its vertical.
@@ -29,14 +29,7 @@ def pair():
     """A UR5 measured with q1 in the lower half of its range; an auto-like model fitted there
     (full+gains inside its domain, full+compliance outside), the same robot after the tracker
     moved, 25 poses of it over the whole range to re-register on, and 300 to test on."""
-    chain = load_robot("ur5")
-    truth = make_true_robot(chain, "typical", seed=5)
-    rng = np.random.default_rng(5)
-    q = uniform_joints(chain, 200, rng)
-    train = truth.observations(q[q[:, 0] < 0.0][:90], rng)
-    fallback = make_method("kinematic", parameters="full+compliance").fit(chain, train)
-    model = wrap(make_method("kinematic", parameters="full+gains").fit(chain, train), fallback,
-                 "kinematic full+compliance")
+    chain, truth, rng, train, model, fallback = ur5_auto_model()
     deviations = dict(truth.deviations)
     for name, value in MOVE.items():
         deviations[name] = deviations.get(name, 0.0) + value

@@ -25,10 +25,10 @@ from robocal.methods.bound import (
     fit_bound,
     joint_distance,
 )
-from robocal.methods.fallback import wrap
 from robocal.simulation import make_true_robot
 from robocal.simulation.sampling import uniform_joints
 from robocal.spatial import matrix_to_rpy
+from simulated_models import ur5_auto_model
 
 runner = CliRunner()
 
@@ -97,14 +97,7 @@ def test_the_bound_grows_with_the_distance_from_the_training_configurations():
 
 @pytest.mark.filterwarnings("ignore")
 def test_an_auto_model_is_bounded_by_its_fallback_outside_its_domain():
-    chain = load_robot("ur5")
-    truth = make_true_robot(chain, "typical", seed=5)
-    rng = np.random.default_rng(5)
-    q = uniform_joints(chain, 200, rng)
-    train = truth.observations(q[q[:, 0] < 0.0][:90], rng)
-    fallback = make_method("kinematic", parameters="full+compliance").fit(chain, train)
-    model = wrap(make_method("kinematic", parameters="full+gains").fit(chain, train), fallback,
-                 "kinematic full+compliance")
+    chain, _, _, train, model, _ = ur5_auto_model()
     bound = fit_bound(model, chain, train)
     assert bound.fallback is not None and bound.growth_per_rad is None  # the chosen model answers inside only
     every = uniform_joints(chain, 200, np.random.default_rng(6))
