@@ -237,6 +237,21 @@ def test_a_model_file_without_a_bound_says_so_and_gives_none(files):
 
 
 
+@pytest.mark.filterwarnings("ignore")
+def test_a_dozen_poses_get_a_bound_that_covers_held_out_poses():
+    """Leave-one-out through the calibration's hat matrix: no refit of 11 poses needed."""
+    chain = load_robot("ur5")
+    truth = make_true_robot(chain, "typical", seed=8)
+    rng = np.random.default_rng(8)
+    train = truth.observations(uniform_joints(chain, 12, rng), rng)
+    test = truth.observations(uniform_joints(chain, 400, rng), rng)
+    fitted = make_method("kinematic").fit(chain, train)
+    bound = fit_bound(fitted, chain, train)
+    error = np.linalg.norm(test.positions - fitted.predict(test.joints), axis=1)
+    limit = bound.predict(test.joints)
+    assert np.mean(error <= limit) >= 0.85 and np.median(limit) <= 4 * np.median(error)
+
+
 def test_a_campaign_too_small_for_folds_gets_no_bound_and_a_warning_not_a_refusal():
     from robocal.errors import RobocalWarning
 
@@ -244,7 +259,8 @@ def test_a_campaign_too_small_for_folds_gets_no_bound_and_a_warning_not_a_refusa
     truth = make_true_robot(chain, "typical", seed=8)
     rng = np.random.default_rng(8)
     train = truth.observations(uniform_joints(chain, 12, rng), rng)
-    fitted = make_method("kinematic").fit(chain, train)
-    # Each leave-one-out fold keeps 11 poses, fewer than the calibration takes.
+    # A robust loss is refitted on every fold; a leave-one-out fold keeps 11 poses, fewer
+    # than the calibration takes.
+    fitted = make_method("kinematic", loss="huber").fit(chain, train)
     with pytest.warns(RobocalWarning, match="no 95 % bound"):
         assert fit_bound(fitted, chain, train) is None

@@ -292,20 +292,41 @@ def _fold_fit(method, chain, part):
     return fitted, posterior
 
 
-def _held_out(method, chain, observations, tests):
+def _deleted_errors(method, observations, tests):
+    """[(1, 3) mm] leave-one-out errors of a kinematic calibration from the hat matrix of its
+    one fit (:func:`robocal.methods.scoring.deleted_errors`), when ``tests`` leave one pose
+    out each; else None (the folds are refitted)."""
+    if method.name != "kinematic" or any(len(test) != 1 for test in tests):
+        return None
+    from .scoring import deleted_errors
+
+    return deleted_errors(method, observations, tests)
+
+
+def _held_out(method, chain, observations, tests, full_posterior=None):
     """The held-out poses of the folds ``tests`` (held-out index arrays), concatenated:
     (indices, error norms (mm), the fold model's own σ there (mm), distance to the fold's
     training configurations (rad), inside the fold's domain (bool), folds fitted); folds
-    whose fit is refused are left out; None when none could be fitted."""
+    whose fit is refused are left out; None when none could be fitted.  A kinematic
+    calibration left one pose out at a time is not refitted (:func:`_deleted_errors`; its
+    σ from ``full_posterior``, the posterior of the fit on every pose): a campaign of a
+    dozen poses gets a bound too."""
     n = observations.n_poses
+    deleted = _deleted_errors(method, observations, tests)
     parts = []
-    for test in tests:
+    for k, test in enumerate(tests):
         train = np.setdiff1d(np.arange(n), test)
         part, held = observations.subset(train), observations.subset(test)
-        fitted, posterior = _fold_fit(method, chain, part)
-        if fitted is None:
-            continue
-        error = np.linalg.norm(held.positions - fitted.predict(held.joints), axis=1)
+        if deleted is not None:
+            # Leave-one-out of a linearised fit: the full fit with the pose deleted through
+            # its hat matrix, and the full fit's posterior (one pose fewer barely moves it).
+            fitted, posterior = method, full_posterior
+            error = np.linalg.norm(deleted[k], axis=1)
+        else:
+            fitted, posterior = _fold_fit(method, chain, part)
+            if fitted is None:
+                continue
+            error = np.linalg.norm(held.positions - fitted.predict(held.joints), axis=1)
         sigma = model_sigma(fitted, held.joints, posterior)
         distance = joint_distance(held.joints, part.joints, chain.revolute)
         inside = Domain.of(chain, part).check(held.joints, held.positions).inside
@@ -346,7 +367,7 @@ def _calibrate(method, chain, observations, posterior, seed, regions=True):
     """A :class:`PositionBound` of ``method`` (fitted to ``observations``, its parametric
     ``posterior`` given); the region folds only with ``regions``."""
     n = observations.n_poses
-    random_part = _held_out(method, chain, observations, _random_tests(n, method, seed))
+    random_part = _held_out(method, chain, observations, _random_tests(n, method, seed), posterior)
     if random_part is None:
         return None
     _, error, sigma, distance, inside, folds = random_part
