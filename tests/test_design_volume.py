@@ -50,7 +50,7 @@ def test_the_volume_is_checked_in_the_robot_base_frame_not_the_measurement_frame
 
 
 @pytest.mark.parametrize("args, says", [
-    ("design ur5 --n 12 --floor abc --out p.csv", "--floor takes a height in mm"),
+    ("design ur5 --n 12 --floor abc --out p.csv", "--floor must be 'none' or a number"),
     ("design ur5 --n 12 --walls 0,-1,0,1 --out p.csv", "each min below its max"),
     ("design ur5 --n 12 --floor 5000 --out p.csv", "keeps the arm in the working volume"),
 ])

@@ -10,9 +10,9 @@ volume:
   (a wall or ceiling mount, where the walls or a box say where the cell is);
 * within walls (``--walls xmin,xmax,ymin,ymax``), when given;
 
-and says which volume it assumed.  The arm is checked at the origin of every joint beyond
-the first (which sits on the mounting) and at the TCP: where the links and the tool are,
-to first order.  Positions are in mm in the robot base frame (the robot file's base
+and says which volume it assumed.  The arm is checked at the origin of every joint the
+arm's motion carries (not a shoulder that sits on the first axis) and at the TCP: where the
+links and the tool are, to first order.  Positions are in mm in the robot base frame (the robot file's base
 transform is not applied: the mounting is the robot's own).
 """
 from __future__ import annotations
@@ -41,10 +41,13 @@ class WorkingVolume:
             object.__setattr__(self, "walls_mm", walls)
 
     def points(self, chain, joints):
-        """(N, n, 3) mm: the origins of joints 2..n and the TCP, robot base frame."""
+        """(N, m, 3) mm: the origins of the joints that move with the arm (beyond the first,
+        those the joints' motion carries: a shoulder on the first axis stays where it is
+        mounted) and the TCP, robot base frame."""
         mounted = chain.replace(base=np.eye(4))
         _, origins, tcp = mounted.joint_frames(np.asarray(joints, dtype=float))
-        return np.concatenate([origins[:, 1:, :], tcp[:, None, :3, 3]], axis=1)
+        points = np.concatenate([origins[:, 1:, :], tcp[:, None, :3, 3]], axis=1)
+        return points[:, _moving(mounted)]
 
     def inside(self, chain, joints):
         """(N,) bool: the configurations ``joints`` (N, n) rad whose arm stays in the volume."""
@@ -82,6 +85,15 @@ class WorkingVolume:
             "walls_mm": None if self.walls_mm is None else list(self.walls_mm),
             "assumed": self.describe(),
         }
+
+
+def _moving(mounted):
+    """(n,) bool over the points of :meth:`WorkingVolume.points`: those whose position some
+    joint motion changes (judged on a fixed draw of configurations)."""
+    q = mounted.random_configurations(16, np.random.default_rng(0))
+    _, origins, tcp = mounted.joint_frames(q)
+    points = np.concatenate([origins[:, 1:, :], tcp[:, None, :3, 3]], axis=1)
+    return np.ptp(points, axis=0).max(axis=1) > 1e-6
 
 
 def parse_floor(text):

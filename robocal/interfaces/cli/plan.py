@@ -6,7 +6,7 @@ option from the setting of its name (:func:`.options.declared`).
 """
 from ...errors import InputError
 from ...methods.base import PARAMETERS, PAYLOAD
-from ...settings import Choice, Flag, Number, Numbers, Setting
+from ...settings import Choice, Either, Flag, Number, Numbers, Setting
 from ..jobs import SAMPLINGS, simulate_job
 from .app import verb
 from .options import FIXTURE, JSON, ROBOT, ROOT, SEED, TIP, Output, declared, out_option
@@ -79,7 +79,7 @@ DESIGN = (
             Number(at_least=0, at_most=45)),
     Setting("floor", None, "--floor", "The lowest z (mm, robot base frame) the arm's joints and TCP may take in a "
             "drawn candidate. Default 0: above the mounting plane (a table- or floor-mounted robot); none for a wall "
-            "or ceiling mount."),
+            "or ceiling mount.", Either(Choice(("none",)), Number(at_least=-1e6, at_most=1e6))),
     Setting("walls", None, "--walls", "Keep the arm's joints and TCP within xmin,xmax,ymin,ymax (mm, robot base "
             "frame).", Numbers(count=4)),
     Setting("existing", None, "--existing", "Measurement (or poses) CSV of poses measured before: design the --n "
