@@ -4,6 +4,8 @@ nominal's, or on ball-in-socket data the socket consistency beside the nominal r
 import warnings
 from dataclasses import replace
 
+import numpy as np
+
 from ..errors import InputError, RobocalWarning
 from ..estimation.constraint import socket_deviations, socket_errors
 from ..estimation.metrics import error_stats
@@ -25,11 +27,26 @@ def position_residuals(fitted, observations):
     return observations.positions - fitted.reference_.fk_positions(q), observations.positions - fitted.predict(q)
 
 
+def orientation_stats(poses, rotations):
+    """``rot_mean_deg``, ``rot_rms_deg``, ``rot_max_deg``: the angle (deg) of the rotation
+    between each modelled TCP orientation (``poses`` (N, 4, 4)) and the measured one
+    (``rotations`` (N, 3, 3)), over the poses."""
+    relative = np.einsum("nji,njk->nik", np.asarray(poses)[:, :3, :3], np.asarray(rotations, dtype=float))
+    cosine = np.clip((np.trace(relative, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
+    angle = np.degrees(np.arccos(cosine))
+    return {"rot_mean_deg": float(angle.mean()), "rot_rms_deg": float(np.sqrt(np.mean(angle ** 2))),
+            "rot_max_deg": float(angle.max())}
+
+
 def position_scores(fitted, observations, robot_name):
     """(before, after, statistics): :func:`error_stats` of the method's error with the
     nominal's under ``nominal``; warns when the error is too large to be this robot's data."""
     before, after = position_residuals(fitted, observations)
     stats = {**error_stats(after), "nominal": error_stats(before)}
+    if observations.rotations is not None:
+        q = observations.joints
+        stats.update(orientation_stats(fitted.compensator_.chain.fk(q), observations.rotations))
+        stats["nominal"].update(orientation_stats(fitted.reference_.fk(q), observations.rotations))
     if stats["mean_mm"] > SUSPICIOUS_RESIDUAL_MM:
         warnings.warn(RobocalWarning(
             f"the residual is {stats['mean_mm']:.1f} mm mean after calibration: is {observations.path} "

@@ -6,6 +6,7 @@ import warnings
 from ..compensation import Compensator
 from ..estimation.calibration import KinematicCalibration, OutlierError, OutlierWarning
 from ..estimation.metrics import error_stats
+from ..settings import Number, Setting
 from .base import LOSS, PARAMETERS, PAYLOAD, PRIOR, REGISTER, TOLERANCE_SCALE, Method, check_parameters, \
     require_positions
 from .candidacy import kinematic_candidates
@@ -13,18 +14,30 @@ from .records import CalibrationRecord, FitRecord
 from .frames import registered_nominal
 
 
+# How the rows of 6-D data are weighed against each other: one standard deviation of a
+# measured coordinate (mm) and of a measured orientation angle (deg).  The defaults are a
+# laser tracker's (0.02 mm) and its 6-D probe's (0.01 deg).
+POSITION_SIGMA = Setting("position_sigma", 0.02, "--position-sigma",
+                         "one standard deviation of a measured x, y or z in mm, weighing positions against "
+                         "orientations (default 0.02; a file's sx, sy, sz take precedence)", Number(between=(0, 1e3)))
+ORIENTATION_SIGMA = Setting("orientation_sigma", 0.01, "--orientation-sigma",
+                            "one standard deviation of a measured orientation angle in deg, for 6-D data (rx, ry, "
+                            "rz; default 0.01)", Number(between=(0, 90)))
+
+
 class KinematicMethod(Method):
     """Parametric calibration (see :class:`~robocal.estimation.calibration.KinematicCalibration`).
 
     Settings: register ('auto', 'yes', 'no'), parameters (a parameter set), loss ('linear',
     'huber', 'soft_l1'), payload (kg at the TCP, compliance sets only), prior ('tolerances':
-    maximum a posteriori, or 'none') and tolerance_scale.
+    maximum a posteriori, or 'none'), tolerance_scale, and the weights of 6-D rows,
+    position_sigma (mm) and orientation_sigma (deg).
     """
 
     checks_its_data = True
     name = "kinematic"
     description = "parametric calibration of links, base and tool (optionally joint compliance and gains)"
-    settings = (REGISTER, PARAMETERS, LOSS, PAYLOAD, PRIOR, TOLERANCE_SCALE)
+    settings = (REGISTER, PARAMETERS, LOSS, PAYLOAD, PRIOR, TOLERANCE_SCALE, POSITION_SIGMA, ORIENTATION_SIGMA)
 
     @classmethod
     def candidates(cls, chain, observations, training, forced=None):
@@ -39,7 +52,9 @@ class KinematicMethod(Method):
         checked: :meth:`Method.fit` does it first)."""
         check_parameters(self.parameters, self.payload)
         return KinematicCalibration(parameters=self.parameters, loss=self.loss, register=self.register != "no",
-                                    payload=self.payload, prior=self.prior, tolerance_scale=self.tolerance_scale)
+                                    payload=self.payload, prior=self.prior, tolerance_scale=self.tolerance_scale,
+                                    position_sigma=self.position_sigma,
+                                    orientation_sigma=self.orientation_sigma)
 
     def _fit(self, chain, observations, progress):
         obs = require_positions(observations, self.name)
