@@ -18,6 +18,7 @@ from ..methods import DEFAULT_METHOD, fitted_from_model_file, make_method
 from ..methods.evaluation import position_scores, socket_scores, with_fixture
 from ..methods.base import option_of
 from ..methods.bound import NO_BOUND, bound_of_model, fit_bound
+from ..methods.moved_bound import reregistered_bound
 from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
 from ..methods.reregistration import FRAMES  # noqa: F401  (the command line and fleet files name it here)
 from ..methods.selection import AUTO, choose, compare
@@ -110,7 +111,13 @@ def reregister_job(model_path, measurements, out, *, parameters=None, beyond_lim
     training = {key: model.training[key] for key in KEPT_TRAINING if key in model.training}
     training.update(reregistered_from=str(model_path), reregistration_file=str(measurements),
                     reregistration_poses=observations.n_poses)
-    save_model(moved.to_model_file(model.nominal, training), out)
+    document = moved.to_model_file(model.nominal, training)
+    if fitted.bound_ is not None:
+        # The original's bound, checked (and widened where needed) on the new set-up's poses.
+        moved.bound_ = reregistered_bound(fitted.bound_, fitted, moved, observations, parameters or "frames",
+                                          robot=model.nominal)
+        document.bound = moved.bound_.to_dict()
+    save_model(document, out)
     return Calibrated(moved.name, model.nominal.name, str(out), training, moved.record_, moved.compensator_.chain)
 
 

@@ -147,6 +147,9 @@ class PositionBound:
     training_joints: np.ndarray = field(repr=False)
     fallback: PositionBound | None = None
     calibration: dict = field(default_factory=dict)
+    # A re-registered model's bound (reregistered_bound): how much wider the new set-up's
+    # held-out poses showed the original's must be (>= 1; 1 for a model fitted where it answers).
+    set_up_factor: float = 1.0
 
     # ------------------------------------------------------------------ predicting
     def scale(self, joints):
@@ -178,7 +181,7 @@ class PositionBound:
         beyond = known & ~inside
         if beyond.any():
             out[beyond] = (self.fallback or self)._own(joints[beyond], inside=False)
-        return out
+        return out * self.set_up_factor
 
     def _own(self, joints, inside):
         """This bound's formula at ``joints`` (all inside, or all outside)."""
@@ -197,7 +200,7 @@ class PositionBound:
                     "names": list(self.posterior[0]), "covariance_mm_rad": np.asarray(self.posterior[1]).tolist()},
                 "training_joints_rad": np.asarray(self.training_joints).tolist(),
                 "fallback": None if self.fallback is None else self.fallback.to_dict(),
-                "calibration": self.calibration}
+                "calibration": self.calibration, "set_up_factor": self.set_up_factor}
 
     @classmethod
     def from_dict(cls, document, method, path="<bound>", fallback_method=None):
@@ -219,11 +222,16 @@ class PositionBound:
             numbers = [float(document[k]) for k in ("coverage", "residual_mm", "inside_factor")]
             if not all(np.isfinite(numbers)) or min(numbers) < 0:
                 raise ValueError("coverage, residual_mm and inside_factor must be finite and >= 0")
+            # Files written before re-registered models had bounds carry no set-up factor.
+            set_up_factor = float(document.get("set_up_factor", 1.0))
+            if not np.isfinite(set_up_factor) or set_up_factor < 1.0:
+                raise ValueError("set_up_factor must be a finite number >= 1")
             fallback = document.get("fallback")
             bound = cls(method=method, coverage=numbers[0], residual_mm=numbers[1], inside_factor=numbers[2],
                         growth_per_rad=None if growth is None else float(growth),
                         sigma_growth_per_rad=None if sigma_growth is None else float(sigma_growth), posterior=posterior,
-                        training_joints=training, calibration=dict(document.get("calibration") or {}))
+                        training_joints=training, calibration=dict(document.get("calibration") or {}),
+                        set_up_factor=set_up_factor)
             if fallback is not None:
                 bound = replace(bound, fallback=cls.from_dict(fallback, fallback_method or method, path))
             return bound
