@@ -1,6 +1,7 @@
 """Re-registering a model of ``calibrate --method auto`` (issue 24 part 3): the chosen model and
 the fallback that answers outside its training domain move together, by one change of frames
 identified from the poses each answers for.  Simulated UR5s whose tracker move is known."""
+import copy
 import dataclasses
 import warnings
 
@@ -87,3 +88,50 @@ def test_the_command_line_re_registers_an_auto_model_and_keeps_its_fallback(pair
     shown = runner.invoke(app, ["evaluate", str(tmp_path / "moved.json"), str(tmp_path / "test.csv"), "--json"])
     assert shown.exit_code == 0, shown.output
     assert "answered by kinematic full+compliance" in shown.output
+
+
+def test_the_new_poses_choose_what_answers_outside_between_the_fallback_and_its_alternative(pair):
+    # The new set-up lost the heavy tool: the old bending under gravity is gone, and a
+    # compliance identified with it no longer holds.  The auto model keeps the rigid
+    # calibration as its fallback's alternative; the 25 new poses decide which answers.
+    chain, truth, _, train, model, fallback, _, _ = pair
+    rigid = make_method("kinematic", parameters="full").fit(chain, train)
+    # The module fixture's model is shared: work on copies.
+    with_alternative = copy.copy(model)
+    with_alternative.outside_alternative_ = ("kinematic full", rigid.compensator_)
+    deviations = dict(truth.deviations)
+    for name, value in MOVE.items():
+        deviations[name] = deviations.get(name, 0.0) + value
+    stiff = dataclasses.replace(truth.compliance, stiffness=truth.compliance.stiffness * 1e6)
+    new_truth = dataclasses.replace(truth, deviations=deviations, compliance=stiff)
+    new = new_truth.observations(uniform_joints(chain, 425, np.random.default_rng(9)), np.random.default_rng(10))
+    poses, test = new.subset(np.arange(25)), new.subset(np.arange(25, 425))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        chosen = reregister(with_alternative, poses, robot=chain)
+        each = {}
+        for label, compensator in (("kinematic full+compliance", fallback.compensator_),
+                                   ("kinematic full", rigid.compensator_)):
+            alone = copy.copy(model)
+            alone.compensator_ = dataclasses.replace(model.compensator_, outside=compensator, label=label)
+            each[label] = error_stats(test.positions - reregister(alone, poses, robot=chain).predict(test.joints))
+    choice = chosen.reregistration_.outside_choice
+    better = min(each, key=lambda label: each[label]["mean_mm"])
+    assert choice["answers_outside"] == better == chosen.compensator_.label
+    assert chosen.outside_alternative_[0] == choice["alternative"] != better
+    assert error_stats(test.positions - chosen.predict(test.joints))["mean_mm"] <= each[better]["mean_mm"] * 1.001
+    assert each["kinematic full+compliance"]["mean_mm"] != pytest.approx(each["kinematic full"]["mean_mm"], rel=0.05)
+
+
+def test_the_fallbacks_alternative_survives_the_model_file(pair, tmp_path):
+    chain, _, _, train, model, _, _, _ = pair
+    rigid = make_method("kinematic", parameters="full").fit(chain, train)
+    with_alternative = copy.copy(model)
+    with_alternative.outside_alternative_ = ("kinematic full", rigid.compensator_)
+    save_model(with_alternative.to_model_file(chain), tmp_path / "auto.json")
+    from robocal.interfaces.jobs import load_fitted
+
+    _, loaded = load_fitted(tmp_path / "auto.json")
+    label, compensator = loaded.outside_alternative_
+    assert label == "kinematic full"
+    np.testing.assert_allclose(compensator.predict_positions(train.joints), rigid.predict(train.joints), atol=1e-9)

@@ -108,3 +108,28 @@ def test_the_bound_of_a_reregistered_model_file_reaches_evaluate(tmp_path):
     evaluated = json.loads(run_ok("evaluate", tmp_path / "moved.json", tmp_path / "test.csv", "--json").output)
     assert evaluated["bound95"]["poses"] == 100
     assert 0.85 <= evaluated["bound95"]["within_share"] <= 1.0
+
+
+def test_an_auto_model_whose_new_poses_prefer_the_alternative_is_bounded_by_the_alternatives_bound():
+    import copy
+
+    from simulated_models import ur5_auto_model
+
+    chain, truth, _, train, model, _ = ur5_auto_model()
+    rigid = make_method("kinematic", parameters="full").fit(chain, train)
+    model = copy.copy(model)
+    model.outside_alternative_ = ("kinematic full", rigid.compensator_)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model.bound_ = fit_bound(model, chain, train)
+    assert model.bound_.fallback.calibration["label"] == "kinematic full+compliance"
+    assert model.bound_.alternative.calibration["label"] == "kinematic full"
+    # The new set-up lost the heavy tool: the rigid calibration carries to it better.
+    stiff = dataclasses.replace(truth.compliance, stiffness=truth.compliance.stiffness * 1e6)
+    poses, test = new_set_up(chain, dataclasses.replace(truth, compliance=stiff), MOVE, seed=9)
+    moved, bound = moved_with_bound(chain, model, poses)
+    assert moved.compensator_.label == "kinematic full"
+    assert bound.fallback.calibration["label"] == "kinematic full"
+    assert bound.alternative.calibration["label"] == "kinematic full+compliance"
+    covered, width = coverage(bound, moved, test)
+    assert 0.85 <= covered <= 1.0 and width <= 3.0

@@ -17,7 +17,9 @@ Layout (schema 1; schema 2 when it has ``outside_domain``)::
 
 ``outside_domain`` (``calibrate --method auto``, :mod:`robocal.methods.fallback`) holds a
 parametric calibration — ``label``, ``kinematics``, ``reference`` and ``joint_compliance``
-as above — that answers for configurations outside the domain.  A file that has it is
+as above — that answers for configurations outside the domain, and optionally, in the same
+form, its ``alternative``: the other parametric model auto chose between, which a
+re-registration may take instead.  A file that has it is
 written as schema 2, so that a robocal that would ignore it refuses the file instead.
 
 Robot documents are the robot-TOML structure (mm, deg) as JSON.  Loading validates all of it
@@ -71,6 +73,9 @@ class ModelFile:
     domain: dict | None = None
     # What answers beyond the domain: (label, kinematics Chain, reference Chain), or None.
     outside: tuple | None = None
+    # The other parametric model auto could have answered with there (the same form), which
+    # a re-registration's new poses may prefer (robocal.methods.reregistration), or None.
+    outside_alternative: tuple | None = None
     # The 95 % bound on the position error (robocal.methods.bound.PositionBound.to_dict), or
     # None in files written before robocal computed one (and for ball-in-socket data).
     bound: dict | None = None
@@ -99,13 +104,19 @@ class ModelFile:
         if self.bound is not None:
             doc["bound"] = self.bound
         if self.outside is not None:
-            label, chain, reference = self.outside
-            doc["outside_domain"] = {"label": label, "kinematics": chain_to_dict(chain),
-                                     "reference": chain_to_dict(reference)}
-            if isinstance(chain, CompliantChain):
-                doc["outside_domain"]["joint_compliance"] = chain.compliance_document()
+            doc["outside_domain"] = _parametric_document(*self.outside)
+            if self.outside_alternative is not None:
+                doc["outside_domain"]["alternative"] = _parametric_document(*self.outside_alternative)
         doc["checksum"] = hashlib.sha256(_canonical(doc).encode()).hexdigest()
         return doc
+
+
+def _parametric_document(label, chain, reference):
+    """The ``outside_domain`` entry (or its ``alternative``) of a parametric model."""
+    document = {"label": label, "kinematics": chain_to_dict(chain), "reference": chain_to_dict(reference)}
+    if isinstance(chain, CompliantChain):
+        document["joint_compliance"] = chain.compliance_document()
+    return document
 
 
 def save_model(model: ModelFile, path):
@@ -184,22 +195,29 @@ def load_model(path, robot=None) -> ModelFile:
     bound = doc.get("bound")
     if bound is not None and not isinstance(bound, dict):
         raise FileFormatError(f"{path}: 'bound' has the wrong type; regenerate the file")
-    outside = None
+    outside = alternative = None
     if "outside_domain" in doc:
         entry = _require(doc, "outside_domain", dict, path)
-        where = "'outside_domain'"
-        label = _require(entry, "label", str, path, where)
-        chain = chain_from_dict(_require(entry, "kinematics", dict, path, where), f"{path} (outside_domain)")
-        outside_reference = chain_from_dict(_require(entry, "reference", dict, path, where),
-                                            f"{path} (outside_domain reference)")
-        if "joint_compliance" in entry:
-            chain = CompliantChain.from_document(chain, _require(entry, "joint_compliance", dict, path, where), path)
-        if chain.n_joints != nominal.n_joints:
-            raise FileFormatError(f"{path}: the kinematics outside the domain and the robot have different joint "
-                                  "counts")
-        outside = (label, chain, outside_reference)
+        outside = _parametric_entry(entry, "'outside_domain'", nominal, path)
+        if "alternative" in entry:
+            alternative = _parametric_entry(_require(entry, "alternative", dict, path, "'outside_domain'"),
+                                            "'outside_domain.alternative'", nominal, path)
     return ModelFile(
         method=method, nominal=nominal, kinematics=kinematics, error_model=error_model, reference=reference,
         training=doc.get("training") or {}, options=doc.get("options") or {}, domain=domain, outside=outside,
-        bound=bound, created=doc.get("created", ""), software_version=doc.get("software_version", ""),
+        outside_alternative=alternative, bound=bound, created=doc.get("created", ""),
+        software_version=doc.get("software_version", ""),
     )
+
+
+def _parametric_entry(entry, where, nominal, path):
+    """(label, kinematics Chain, reference Chain) of a parametric model stored in ``entry``
+    (``outside_domain`` and its ``alternative``)."""
+    label = _require(entry, "label", str, path, where)
+    chain = chain_from_dict(_require(entry, "kinematics", dict, path, where), f"{path} ({where})")
+    reference = chain_from_dict(_require(entry, "reference", dict, path, where), f"{path} ({where} reference)")
+    if "joint_compliance" in entry:
+        chain = CompliantChain.from_document(chain, _require(entry, "joint_compliance", dict, path, where), path)
+    if chain.n_joints != nominal.n_joints:
+        raise FileFormatError(f"{path}: the kinematics of {where} and the robot have different joint counts")
+    return label, chain, reference

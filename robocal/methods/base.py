@@ -168,15 +168,19 @@ class Method:
         entries about the data (file, number of poses) to the record."""
         self._check_fitted()
         compensator = self.compensator_
-        outside = None
+        outside = alternative = None
         if isinstance(compensator, DomainFallback):
             outside = (compensator.label, compensator.outside.chain, compensator.outside.reference)
             compensator = compensator.inside
+            other = getattr(self, "outside_alternative_", None)
+            if other is not None:
+                alternative = (other[0], other[1].chain, other[1].reference)
         # A re-registered error model is written as the method writes its own, wrapped with
         # the frame it was moved by (robocal.methods.reregistration).
         document = (reframed_document(self) if isinstance(compensator.error_model, ReframedErrorModel)
                     else self.error_model_document())
         return ModelFile(method=self.name, nominal=nominal, kinematics=compensator.chain, outside=outside,
+                         outside_alternative=alternative,
                          reference=self.reference_, error_model=document,
                          training={**(training or {}), **self.record_.to_dict()}, options=self.get_settings(),
                          domain=None if getattr(self, "domain_", None) is None else self.domain_.to_dict())
@@ -205,6 +209,10 @@ class Method:
         method.domain_ = None if model.domain is None else Domain.from_dict(model.domain, model.nominal, path)
         if model.outside is not None:
             method.compensator_ = from_fallback_document(method.compensator_, model.outside, method.domain_, path)
+            if model.outside_alternative is not None:
+                label, chain, reference = model.outside_alternative
+                method.outside_alternative_ = (label, Compensator(chain, None, nominal=chain.rigid,
+                                                                  controller=model.nominal, reference=reference))
         return method
 
     # ------------------------------------------------------------------ report

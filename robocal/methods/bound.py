@@ -147,6 +147,9 @@ class PositionBound:
     training_joints: np.ndarray = field(repr=False)
     fallback: PositionBound | None = None
     calibration: dict = field(default_factory=dict)
+    # The bound of the fallback's alternative (an auto model's other parametric candidate,
+    # which a re-registration may make the fallback: robocal.methods.moved_bound), or None.
+    alternative: PositionBound | None = None
     # A re-registered model's bound (reregistered_bound): how much wider the new set-up's
     # held-out poses showed the original's must be (>= 1; 1 for a model fitted where it answers).
     set_up_factor: float = 1.0
@@ -200,12 +203,14 @@ class PositionBound:
                     "names": list(self.posterior[0]), "covariance_mm_rad": np.asarray(self.posterior[1]).tolist()},
                 "training_joints_rad": np.asarray(self.training_joints).tolist(),
                 "fallback": None if self.fallback is None else self.fallback.to_dict(),
+                "alternative": None if self.alternative is None else self.alternative.to_dict(),
                 "calibration": self.calibration, "set_up_factor": self.set_up_factor}
 
     @classmethod
-    def from_dict(cls, document, method, path="<bound>", fallback_method=None):
+    def from_dict(cls, document, method, path="<bound>", fallback_method=None, alternative_method=None):
         """The bound of ``method`` (fitted) that :meth:`to_dict` wrote; FileFormatError when the
-        entry is damaged.  ``fallback_method``: what answers outside the domain, if anything."""
+        entry is damaged.  ``fallback_method``: what answers outside the domain, if anything;
+        ``alternative_method``: the fallback's alternative."""
         try:
             posterior = document["posterior"]
             if posterior is not None:
@@ -234,6 +239,9 @@ class PositionBound:
                         set_up_factor=set_up_factor)
             if fallback is not None:
                 bound = replace(bound, fallback=cls.from_dict(fallback, fallback_method or method, path))
+            alternative = document.get("alternative")
+            if alternative is not None and alternative_method is not None:
+                bound = replace(bound, alternative=cls.from_dict(alternative, alternative_method, path))
             return bound
         except (KeyError, TypeError, ValueError) as exc:
             raise FileFormatError(f"{path}: the 95 % bound is damaged ({exc}); regenerate the file with "
@@ -419,16 +427,17 @@ def _kept(joints, seed):
     return kept
 
 
-def _fallback_method(method, chain, observations):
+def _fallback_method(method, chain, observations, label=None):
     """The fitted parametric calibration a domain fallback answers with outside (``wrap``
-    labels it "kinematic <parameter set>"), refitted on ``observations``; None otherwise."""
+    labels it "kinematic <parameter set>"; ``label``: another of that form, its
+    alternative), refitted on ``observations``; None otherwise."""
     from .fallback import DomainFallback
     from .kinematic import KinematicMethod
 
     compensator = method.compensator_
     if not isinstance(compensator, DomainFallback):
         return None
-    label = compensator.label
+    label = label or compensator.label
     if not label.startswith("kinematic "):
         raise InputError(f"the 95 % bound knows no fallback {label!r}")
     fallback = KinematicMethod(parameters=label.split(" ", 1)[1])
@@ -489,18 +498,33 @@ def fit_bound(method, chain, observations, *, seed=0):
                              calibration_posterior(fallback.calibration_, observations.joints, observations.positions),
                              seed)
         # No fallback bound (its folds could not be fitted): outside, the bound is unknown (NaN).
-        bound = replace(bound, fallback=None if outside is None else replace(outside, method=_FallbackView(method)),
+        bound = replace(bound, fallback=None if outside is None else _labelled(outside, method, None),
                         growth_per_rad=None, sigma_growth_per_rad=None)
+        other = getattr(method, "outside_alternative_", None)
+        if other is not None:
+            refitted = _fallback_method(method, chain, observations, other[0])
+            alternative = _calibrate(refitted, chain, observations, calibration_posterior(
+                refitted.calibration_, observations.joints, observations.positions), seed)
+            if alternative is not None:
+                bound = replace(bound, alternative=_labelled(alternative, method, other))
     return bound
+
+
+def _labelled(bound, method, alternative):
+    """A fallback's bound (``alternative``: (label, Compensator) of the fallback's
+    alternative, or None for the fallback itself), seen through :class:`_FallbackView` and
+    labelled with what it bounds."""
+    label = method.compensator_.label if alternative is None else alternative[0]
+    view = _FallbackView(method, None if alternative is None else alternative[1])
+    return replace(bound, method=view, calibration={**bound.calibration, "label": label})
 
 
 class _FallbackView:
     """What answers outside an auto model's domain, as its bound sees it: the fallback's
     chain and no error model; its domain is the chosen model's."""
 
-    def __init__(self, method):
-        compensator = method.compensator_
-        self.compensator_ = compensator.outside
+    def __init__(self, method, compensator=None):
+        self.compensator_ = method.compensator_.outside if compensator is None else compensator
         self.domain_ = method.domain_
         self.name = "kinematic"
 
@@ -513,12 +537,16 @@ def bound_of_model(model, method, path):
     stores for its fitted ``method``, or None when the file has none."""
     if model.bound is None:
         return None
-    fallback_method = None
+    fallback_method = alternative_method = None
     from .fallback import DomainFallback
 
     if isinstance(method.compensator_, DomainFallback):
         fallback_method = _FallbackView(method)
-    return PositionBound.from_dict(model.bound, method, path, fallback_method=fallback_method)
+        other = getattr(method, "outside_alternative_", None)
+        if other is not None:
+            alternative_method = _FallbackView(method, other[1])
+    return PositionBound.from_dict(model.bound, method, path, fallback_method=fallback_method,
+                                   alternative_method=alternative_method)
 
 
 def bound95(method, joints):

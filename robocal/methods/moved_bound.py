@@ -110,12 +110,19 @@ def reregistered_bound(bound, fitted, moved, observations, parameters="frames", 
     from .bound import _FallbackView
 
     frames = moved.frames_posterior_
-    fallback = bound.fallback
+    fallback, alternative = bound.fallback, bound.alternative
+    label = getattr(moved.compensator_, "label", None)
+    if alternative is not None and alternative.calibration.get("label") == label:
+        # The new poses preferred the alternative (reregister): its bound answers outside now.
+        fallback, alternative = alternative, fallback
+    other = getattr(moved, "outside_alternative_", None)
     if fallback is not None:
-        fallback = replace(fallback, method=_FallbackView(moved),
-                           posterior=_with_frames(fallback.posterior, frames))
+        fallback = replace(fallback, method=_FallbackView(moved), posterior=_with_frames(fallback.posterior, frames))
+    if alternative is not None and other is not None:
+        alternative = replace(alternative, method=_FallbackView(moved, other[1]),
+                              posterior=_with_frames(alternative.posterior, frames))
     out = replace(bound, method=moved, posterior=_with_frames(bound.posterior, frames), fallback=fallback,
-                  set_up_factor=1.0)
+                  alternative=alternative if other is not None else None, set_up_factor=1.0)
     index, error = _held_out_errors(fitted, observations, parameters, robot, seed)
     record = dict(out.calibration)
     if not len(index):

@@ -113,6 +113,9 @@ class ReregistrationRecord:
     iterations: int
     converged: bool
     warnings: tuple = field(default=())
+    # An auto model's choice of what answers outside its domain on the new set-up
+    # (reregister): {answers_outside, alternative, poses, rms_mm: {label: mm or None}}.
+    outside_choice: dict | None = None
 
     def to_dict(self):
         return {"parameters": self.parameters, "poses": self.poses, "rows": list(self.rows),
@@ -123,7 +126,8 @@ class ReregistrationRecord:
                 "identifiability": self.identifiability.to_dict(), "residual_before": self.residual_before,
                 "residual_after": self.residual_after, "residual_reference": self.residual_reference,
                 "training_rms_mm": self.training_rms_mm, "iterations": self.iterations,
-                "converged": self.converged, "warnings": list(self.warnings)}
+                "converged": self.converged, "warnings": list(self.warnings),
+                **({} if self.outside_choice is None else {"outside_choice": self.outside_choice})}
 
     @classmethod
     def from_dict(cls, doc):
@@ -147,7 +151,8 @@ class ReregistrationRecord:
                 residual_before=dict(doc["residual_before"]), residual_after=dict(doc["residual_after"]),
                 residual_reference=dict(doc["residual_reference"]),
                 training_rms_mm=None if rms is None else float(rms), iterations=int(doc["iterations"]),
-                converged=bool(doc["converged"]), warnings=tuple(str(w) for w in doc.get("warnings", ())))
+                converged=bool(doc["converged"]), warnings=tuple(str(w) for w in doc.get("warnings", ())),
+                outside_choice=None if doc.get("outside_choice") is None else dict(doc["outside_choice"]))
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise FileFormatError(f"the re-registration record is damaged ({type(exc).__name__}: {exc}); "
                                   "regenerate the model file") from None
@@ -278,6 +283,14 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
     """The fitted method carried to the set-up of ``observations``: its frames identified
     again from them, everything else kept.
 
+    A model of ``calibrate --method auto`` that keeps an alternative to its fallback (the
+    other of the rigid and the compliant kinematic calibrations, ``outside_alternative_``)
+    is re-registered with each; the one whose re-registered model misses the new poses it
+    answers for least answers outside the domain, the other stays the alternative.  Both
+    refit the same frames on the same poses, so their residuals there compare fairly: the
+    new set-up is the only evidence of what carries to it (a compliance identified on one
+    set-up absorbs what was particular to it: ipa UR10 series B's does not carry to A).
+
     Parameters
     ----------
     fitted : Method
@@ -304,6 +317,48 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
     check of :mod:`robocal.methods.plausibility`); warns (RobocalWarning) for a tool change beyond a tenth of the reach,
     joint offsets moved by more than 10 deg, and a residual far above the model's training one.
     """
+    alternative = getattr(fitted, "outside_alternative_", None)
+    if alternative is None or not isinstance(fitted.compensator_, DomainFallback):
+        return _reregister(fitted, observations, parameters, robot)
+    fallback = fitted.compensator_
+    swapped = copy.copy(fitted)
+    swapped.compensator_ = dataclasses.replace(fallback, outside=alternative[1], label=alternative[0])
+    pair, said = [], []
+    for model in (fitted, swapped):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            pair.append(_reregister(model, observations, parameters, robot))
+        said.append(caught)
+    misses = [_outside_rms(model, observations) for model in pair]
+    # Keep the fallback unless the new poses it answers for show the alternative better.
+    pick = 1 if misses[0] is not None and misses[1] < misses[0] else 0
+    for note in said[pick]:
+        # The chosen pair's warnings only, once each.
+        warnings.warn_explicit(note.message, note.category, note.filename, note.lineno)
+    chosen, other = pair[pick], pair[1 - pick]
+    chosen.outside_alternative_ = (other.compensator_.label, other.compensator_.outside)
+    labels = (fallback.label, alternative[0])
+    choice = {"answers_outside": labels[pick], "alternative": labels[1 - pick],
+              "poses": 0 if misses[0] is None else int(np.count_nonzero(
+                  fitted.compensator_.outside_mask(observations.joints))),
+              "rms_mm": {label: miss for label, miss in zip(labels, misses)}}
+    chosen.reregistration_ = dataclasses.replace(chosen.reregistration_, outside_choice=choice)
+    chosen.record_ = fitted.record_.replace(reregistration=chosen.reregistration_.to_dict())
+    return chosen
+
+
+def _outside_rms(moved, observations):
+    """RMS (mm) of the re-registered ``moved`` model's error on the poses of
+    ``observations`` its fallback answers for, or None when it answers for none."""
+    outside = moved.compensator_.outside_mask(observations.joints)
+    if not outside.any():
+        return None
+    error = observations.positions[outside] - moved.predict(observations.joints[outside])
+    return float(np.sqrt(np.mean(np.sum(error ** 2, axis=1))))
+
+
+def _reregister(fitted, observations, parameters, robot):
+    """:func:`reregister` of one model (with its fallback, if it has one)."""
     compensator = _check_model(fitted, robot)
     FRAME_PARAMETERS.check(parameters)
     q, positions = _check_data(observations, compensator.chain)

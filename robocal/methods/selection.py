@@ -44,8 +44,9 @@ _held_out_errors = held_out_errors
 _score_all = score_all
 __all__ = ["BRANCH_MIN_SHARE", "FOLDS", "MIN_TRAINING_POSES", "NOMINAL", "PARAMETER_SETS", "TIME_TAIL", "Candidate",
            "Comparison", "Score", "Split", "_Nominal", "_Refits", "_groups", "branch_split", "candidates", "choose",
-           "cluster_split", "compare", "joint_features", "leave_one_out", "outside_choice", "placement_split",
-           "random_split", "recommend", "repeated_split", "score", "score_task", "splits", "time_split"]
+           "cluster_split", "compare", "joint_features", "leave_one_out", "outside_alternative", "outside_choice",
+           "placement_split", "random_split", "recommend", "repeated_split", "score", "score_task", "splits",
+           "time_split"]
 
 # calibrate --method auto: the meta-method that fits the model compare recommends.
 AUTO = "auto"
@@ -386,4 +387,22 @@ def choose(chain, observations, *, folds=None, seed=0, network=None, on_fit=None
     if comparison.outside is not None:
         fallback = unfitted(comparison.outside).fit(chain, observations)
         wrap(fitted, fallback, comparison.outside.label)
+        other = outside_alternative(comparison)
+        if other is not None:
+            # Kept for a re-registration, whose new poses may show it carries to a new set-up
+            # better than the fallback (robocal.methods.reregistration).
+            fitted.outside_alternative_ = (other.label, unfitted(other).fit(chain, observations).compensator_)
     return fitted, comparison
+
+
+def outside_alternative(comparison):
+    """The other of the two kinematic candidates :func:`outside_choice` chose between (the
+    rigid one when it chose the compliant one, and back), or None: what could answer outside
+    the domain instead of the fallback."""
+    outside = comparison.outside
+    pair = ("full", "full+compliance")
+    if outside is None or outside.settings.get("parameters") not in pair:
+        return None
+    wanted = pair[1 - pair.index(outside.settings["parameters"])]
+    return next((c for c in comparison.candidates if c.method == "kinematic"
+                 and c.settings.get("parameters") == wanted and c.label != comparison.recommended.label), None)
