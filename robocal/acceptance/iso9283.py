@@ -23,7 +23,7 @@ pose near ±180 deg is not split in two.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -238,6 +238,27 @@ def characteristics(campaign, *, match_mm=DEFAULT_MATCH_MM, positions=None):
             distance = distance_characteristics(DISTANCE_POSES, campaign.commanded[pick[0]],
                                                 campaign.commanded[pick[1]], attained[pick[0]], attained[pick[1]])
     return Iso9283Result(campaign.path, tuple(poses), distance, matched)
+
+
+# What the predicted figures of the compensated robot are, said wherever they are shown.
+PREDICTED_NOTE = ("predicted, not measured: each visit's measured position less the model's predicted systematic "
+                  "error at its joint command (where the model says the TCP goes less where the controller's nominal "
+                  "robot puts it: what compensation would have removed); RP is unchanged by "
+                  "construction where a pose's commands repeat (the prediction is then one vector per pose), "
+                  "and orientations are not predicted")
+
+
+def predicted_compensated(campaign, systematic, *, match_mm=DEFAULT_MATCH_MM):
+    """:class:`Iso9283Result` the compensated robot is predicted to reach on ``campaign``:
+    the attained positions less ``systematic`` (N, 3) mm, a model's predicted systematic
+    error at each visit's joint command in the campaign's frame (:data:`PREDICTED_NOTE`).
+    Position figures only: the orientation ones are None."""
+    systematic = np.asarray(systematic, dtype=float)
+    if systematic.shape != campaign.attained.shape:
+        raise InputError(f"the systematic error must be one (x, y, z) per visit, {campaign.attained.shape}, got "
+                         f"{systematic.shape}")
+    positions_only = replace(campaign, commanded_angles=None, attained_angles=None)
+    return characteristics(positions_only, match_mm=match_mm, positions=campaign.attained - systematic)
 
 
 # Cube edges tried by plan_campaign, as shares of the robot's reach, largest first: the
