@@ -130,3 +130,13 @@ def refusal_folder(campaign, tmp_path_factory):
 def test_iso9283_model_and_report_refuse_in_one_line(args, says, refusal_folder, tmp_path, monkeypatch):
     before = copy_inputs(refusal_folder, tmp_path, monkeypatch)
     assert_refused(args.split(), says, tmp_path, before)
+
+
+def test_the_model_report_carries_the_iso_page_of_a_campaign(campaign, tmp_path):
+    root, *_ = campaign
+    printed = json.loads(run_ok("iso9283", root / "measured.csv", "--model", root / "model.json", "--json").output)
+    run_ok("report", root / "model.json", root / "meas.csv", "--out", tmp_path / "r.html", "--iso",
+           root / "measured.csv")
+    text = (tmp_path / "r.html").read_text()
+    assert "ISO 9283 pose characteristics</h2>" in text and "Test conditions and instrument" in text
+    assert all(f"{p['AP_mm']:.4f}" in text for p in printed["compensated"]["poses"])

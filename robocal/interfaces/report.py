@@ -306,14 +306,14 @@ def _accuracy_rows(record, stats, held_out):
     return rows + [_stats_row(f"{where}, nominal", stats["nominal"]), _stats_row(f"{where}, calibrated", stats)]
 
 
-def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyond_limits=False):
-    """Write the HTML report (and the PDF when ``pdf`` is a path); returns what was written
-    and the numbers it shows."""
+def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyond_limits=False, iso=None):
+    """Write the HTML report (and the PDF when ``pdf`` is a path), with the ISO page of the
+    campaign file ``iso`` when given; returns what was written and the numbers it shows."""
     if not str(out).lower().endswith((".html", ".htm")):
         raise InputError(f"the report is HTML: give --out a .html file name, got {out}")
     if pdf is not None and not str(pdf).lower().endswith(".pdf"):
         raise InputError(f"--pdf needs a .pdf file name, got {pdf}")
-    check_outputs([out, pdf], [model_path, measurements, validation])
+    check_outputs([out, pdf], [model_path, measurements, validation, iso])
     model, fitted = load_fitted(model_path)
     cv = _read_validation(validation) if validation else None
     if cv is not None:
@@ -333,6 +333,10 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyo
             else _iso_section(scores.iso["nominal"], scores.iso["calibrated"]),
             _calibration_section(fitted.record_.calibration, fitted.compensator_.chain),
             _comparison_section(model.training.get("comparison"))]
+    if iso is not None:
+        from .report_iso import model_iso_section
+
+        body.append(model_iso_section(iso, model_path))
     for title, caption, fig in figures:
         body.append(f"<h2>{html.escape(title)}</h2><p class=note>{html.escape(caption)}</p>"
                     f"<img alt=\"{html.escape(title)}\" src=\"data:image/png;base64,{_png(fig)}\">")

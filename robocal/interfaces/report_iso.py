@@ -104,6 +104,16 @@ def iso_section(campaign, result, *, instrument=None, conditions=None):
     return "".join(parts)
 
 
+def model_iso_section(campaign_path, model_path):
+    """The ISO page of the campaign file ``campaign_path`` with the predicted figures of the
+    robot compensated by ``model_path``, as a section of ``robocal report``."""
+    from ..io.iso_campaign import read_iso_campaign
+    from .metrology_jobs import iso9283_job
+
+    result = iso9283_job(campaign_path, model=model_path)
+    return iso_section(read_iso_campaign(campaign_path), result)
+
+
 def write_iso_page(path, campaign, result, *, instrument=None, conditions=None):
     """Write the ISO page as one HTML file (atomically) and return its path."""
     from .report import STYLE

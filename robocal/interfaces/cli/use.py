@@ -121,6 +121,8 @@ def report(
     validation: str = typer.Option(None, "--validation",
                                    help="JSON of 'robocal validate --json': adds cross-validation and the "
                                         "learning curve."),
+    iso: str = typer.Option(None, "--iso", help="An ISO 9283 campaign CSV: adds its ISO page (measured and, "
+                                                "predicted, compensated by this model)."),
     beyond_limits: bool = BEYOND_LIMITS,
     as_json: bool = JSON,
 ):
@@ -134,7 +136,8 @@ def report(
     """
     from ..report import report_job
 
-    result = report_job(model, measurements, out_file, validation=validation, pdf=pdf, beyond_limits=beyond_limits)
+    result = report_job(model, measurements, out_file, validation=validation, pdf=pdf, beyond_limits=beyond_limits,
+                        iso=iso)
     print_result(result, as_json, f"report -> {out_file}")
 
 
