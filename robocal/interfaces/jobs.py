@@ -271,10 +271,12 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
 EXPORT_FORMATS = ("toml", "urdf")
 
 
-def export_job(model_path, out, *, fmt="toml", convention=None):
+def export_job(model_path, out, *, fmt="toml", convention=None, original=None):
     """The calibrated kinematics of a model file as a robot TOML or a URDF, for a controller
     that accepts new parameters (direct compensation) or for ROS; ``convention`` (dh, mdh,
-    poe) converts it exactly first (a calibrated model may have no exact DH form)."""
+    poe) converts it exactly first (a calibrated model may have no exact DH form); ``original``
+    (a URDF, with fmt urdf) is the robot's own file, rewritten only where the calibration
+    changed it (robocal.io.urdf_update)."""
     from ..io.robot_file import write_robot
     from ..io.urdf import write_urdf
     from ..kinematics import to_dh, to_mdh, to_poe
@@ -284,7 +286,7 @@ def export_job(model_path, out, *, fmt="toml", convention=None):
     converters = {"dh": to_dh, "mdh": to_mdh, "poe": to_poe}
     if convention is not None and convention not in converters:
         raise InputError(f"convention must be one of dh, mdh, poe, got {convention!r}")
-    check_outputs([out], [model_path])
+    check_outputs([out], [model_path, original])
     model = load_model(model_path)
     rigid = model.kinematics.rigid
     chain = rigid if convention is None else converters[convention](rigid)
@@ -299,6 +301,11 @@ def export_job(model_path, out, *, fmt="toml", convention=None):
                    "[base] is the measurement frame -> robot base.")
     if fmt == "toml":
         write_robot(chain, out, description=description)
+    elif original is not None:
+        from ..io.urdf_update import write_calibrated_urdf
+
+        return {"model": str(model_path), "format": fmt, "out": str(out), "robot": chain.name, "convention":
+                chain.convention, "left_out": left_out, **write_calibrated_urdf(original, model.nominal, rigid, out)}
     else:
         if not np.array_equal(np.abs(chain.joint_map), np.eye(chain.n_joints)):
             left_out.append("the joint map (a coupling, or calibrated joint gains): the URDF's joint values are "

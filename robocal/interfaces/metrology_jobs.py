@@ -78,3 +78,11 @@ def _compensated(campaign, model_path, match_mm):
     return {"predicted": True, "model": str(model_path), "method": model.method, "note": PREDICTED_NOTE,
             **{k: v for k, v in predicted.to_dict().items() if k != "file"}}
 
+
+def model_iso_section(campaign_path, model_path):
+    """The ISO page of the campaign file ``campaign_path`` with the predicted figures of the
+    robot compensated by ``model_path``, as a section of ``robocal report``."""
+    from .report_iso import iso_section
+
+    result = iso9283_job(campaign_path, model=model_path)
+    return iso_section(read_iso_campaign(campaign_path), result)

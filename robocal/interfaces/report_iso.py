@@ -11,6 +11,7 @@ import numpy as np
 
 from .. import __version__
 from ..io.atomic import write_text_atomic
+from .html_style import STYLE
 
 POSITION = (("AP", "AP_mm"), ("APx", "APx_mm"), ("APy", "APy_mm"), ("APz", "APz_mm"), ("RP", "RP_mm"))
 ORIENTATION = (("APa", "APa_deg"), ("APb", "APb_deg"), ("APc", "APc_deg"), ("RPa", "RPa_deg"), ("RPb", "RPb_deg"),
@@ -104,20 +105,8 @@ def iso_section(campaign, result, *, instrument=None, conditions=None):
     return "".join(parts)
 
 
-def model_iso_section(campaign_path, model_path):
-    """The ISO page of the campaign file ``campaign_path`` with the predicted figures of the
-    robot compensated by ``model_path``, as a section of ``robocal report``."""
-    from ..io.iso_campaign import read_iso_campaign
-    from .metrology_jobs import iso9283_job
-
-    result = iso9283_job(campaign_path, model=model_path)
-    return iso_section(read_iso_campaign(campaign_path), result)
-
-
 def write_iso_page(path, campaign, result, *, instrument=None, conditions=None):
     """Write the ISO page as one HTML file (atomically) and return its path."""
-    from .report import STYLE
-
     title = f"ISO 9283 acceptance: {campaign.path}"
     body = (f"<h1>{html.escape(title)}</h1><p class=note>robocal {html.escape(__version__)}</p>"
             + iso_section(campaign, result, instrument=instrument, conditions=conditions))

@@ -149,6 +149,8 @@ def export(
     out_file: str = out_option("Robot file to write (.toml or .urdf)."),
     convention: str = typer.Option(None, help="Convert first, exactly (default: as calibrated).",
                                    **parsed(Choice(CONVENTIONS))),
+    original: str = typer.Option(None, "--urdf", help="With --format urdf: the robot's own URDF (the one calibrated "
+                                                      "from); only what the calibration changed is rewritten."),
     as_json: bool = JSON,
 ):
     """Calibrated kinematics as a robot TOML or URDF (direct compensation, or ROS).
@@ -169,4 +171,8 @@ def export(
         raise InputError(f"--format {fmt} writes a {OUTPUT_KINDS['.' + fmt]} file, but --out {out_file} names a "
                          f"{OUTPUT_KINDS['.' + suffix]} file: name it {Path(out_file).with_suffix('.' + fmt)} "
                          f"or drop --format")
-    print_exported(export_job(model, out_file, fmt=fmt, convention=convention), out_file, as_json)
+    if original is not None and (fmt != "urdf" or convention is not None):
+        raise InputError("--urdf rewrites the robot's own URDF: give --format urdf (or an --out ending in .urdf) "
+                         "and no --convention")
+    print_exported(export_job(model, out_file, fmt=fmt, convention=convention, original=original), out_file,
+                   as_json)
