@@ -51,7 +51,7 @@ def campaign(tmp_path_factory):
 
 def test_compensated_figures_equal_an_independent_computation_to_1e9(campaign):
     root, rows, joints, attained = campaign
-    printed = json.loads(run_ok("iso9283", root / "measured.csv", "--model", root / "model.json", "--json").output)
+    printed = json.loads(run_ok("iso9283", root / "measured.csv", "--model", root / "model.json", "--json").stdout)
     compensated = printed["compensated"]
     assert compensated["predicted"] is True and "predicted, not measured" in compensated["note"]
     model, fitted = load_fitted(root / "model.json")
@@ -80,7 +80,7 @@ def test_the_iso_page_shows_conditions_instrument_and_both_sets_of_figures(campa
     page = tmp_path / "iso.html"
     printed = json.loads(run_ok("iso9283", root / "measured.csv", "--model", root / "model.json", "--report", page,
                                 "--instrument", "Leica AT960 & SMR", "--conditions", "100 % load, 20 degC",
-                                "--json").output)
+                                "--json").stdout)
     text = page.read_text()
     assert printed["report"] == str(page)
     assert "Leica AT960 &amp; SMR" in text and "100 % load, 20 degC" in text
@@ -134,7 +134,7 @@ def test_iso9283_model_and_report_refuse_in_one_line(args, says, refusal_folder,
 
 def test_the_model_report_carries_the_iso_page_of_a_campaign(campaign, tmp_path):
     root, *_ = campaign
-    printed = json.loads(run_ok("iso9283", root / "measured.csv", "--model", root / "model.json", "--json").output)
+    printed = json.loads(run_ok("iso9283", root / "measured.csv", "--model", root / "model.json", "--json").stdout)
     run_ok("report", root / "model.json", root / "meas.csv", "--out", tmp_path / "r.html", "--iso",
            root / "measured.csv")
     text = (tmp_path / "r.html").read_text()

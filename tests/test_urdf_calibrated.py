@@ -26,7 +26,7 @@ def exported(tmp_path_factory):
     run_ok("simulate", PANDA, "--tip", "panda_link8", "--n", "80", "--seed", "2", "--out", root / "meas.csv")
     run_ok("calibrate", PANDA, root / "meas.csv", "--tip", "panda_link8", "--out", root / "model.json")
     report = json.loads(run_ok("export", root / "model.json", "--format", "urdf", "--urdf", PANDA, "--out",
-                               root / "cal.urdf", "--json").output)
+                               root / "cal.urdf", "--json").stdout)
     return root, report
 
 
@@ -65,7 +65,7 @@ def test_the_exported_urdf_reimports_to_the_calibrated_kinematics_and_the_same_e
     rows = list(csv.DictReader(open(root / "meas.csv", newline="")))
     joints = np.radians([[float(r[f"q{k}"]) for k in range(1, 8)] for r in rows])
     measured = np.array([[float(r[a]) for a in "xyz"] for r in rows])
-    evaluated = json.loads(run_ok("evaluate", root / "model.json", root / "meas.csv", "--json").output)
+    evaluated = json.loads(run_ok("evaluate", root / "model.json", root / "meas.csv", "--json").stdout)
     stats = evaluated.get("residual_after", evaluated)
     errors = np.linalg.norm(chain.fk_positions(joints) - measured, axis=1)
     assert abs(errors.mean() - stats["mean_mm"]) < 1e-6 and abs(errors.max() - stats["max_mm"]) < 1e-6

@@ -268,7 +268,7 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
     return answer
 
 
-EXPORT_FORMATS = ("toml", "urdf")
+EXPORT_FORMATS = ("toml", "urdf", "ur-yaml")
 
 
 def export_job(model_path, out, *, fmt="toml", convention=None, original=None):
@@ -301,6 +301,10 @@ def export_job(model_path, out, *, fmt="toml", convention=None, original=None):
                    "[base] is the measurement frame -> robot base.")
     if fmt == "toml":
         write_robot(chain, out, description=description)
+    elif fmt == "ur-yaml":
+        from ..io.ur_yaml import write_ur_yaml
+
+        left_out += write_ur_yaml(out, model.nominal, chain)
     elif original is not None:
         from ..io.urdf_update import write_calibrated_urdf
 

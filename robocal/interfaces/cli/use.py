@@ -144,7 +144,8 @@ def report(
 @verb()
 def export(
     model: str = MODEL,
-    fmt: str = typer.Option(None, "--format", help="toml (robot file) or urdf (default: as --out ends, else toml).",
+    fmt: str = typer.Option(None, "--format", help="toml (robot file), urdf, or ur-yaml (UR's ROS 2 kinematics file) "
+                                                   "(default: as --out ends, else toml).",
                             **parsed(Choice(EXPORT_FORMATS))),
     out_file: str = out_option("Robot file to write (.toml or .urdf)."),
     convention: str = typer.Option(None, help="Convert first, exactly (default: as calibrated).",
@@ -166,11 +167,12 @@ def export(
                          f"{OUTPUT_KINDS['.' + suffix]} file: name it {Path(out_file).with_suffix('.toml')} or "
                          f"{Path(out_file).with_suffix('.urdf')}")
     if fmt is None:
-        fmt = suffix if suffix in EXPORT_FORMATS else "toml"
+        fmt = "ur-yaml" if suffix in ("yaml", "yml") else suffix if suffix in EXPORT_FORMATS else "toml"
     elif "." + suffix in OUTPUT_KINDS and suffix != fmt:
-        raise InputError(f"--format {fmt} writes a {OUTPUT_KINDS['.' + fmt]} file, but --out {out_file} names a "
-                         f"{OUTPUT_KINDS['.' + suffix]} file: name it {Path(out_file).with_suffix('.' + fmt)} "
-                         f"or drop --format")
+        wanted = ".yaml" if fmt == "ur-yaml" else "." + fmt
+        raise InputError(f"--format {fmt} writes a {OUTPUT_KINDS.get(wanted, 'UR kinematics YAML')} file, but --out "
+                         f"{out_file} names a {OUTPUT_KINDS['.' + suffix]} file: name it "
+                         f"{Path(out_file).with_suffix(wanted)} or drop --format")
     if original is not None and (fmt != "urdf" or convention is not None):
         raise InputError("--urdf rewrites the robot's own URDF: give --format urdf (or an --out ending in .urdf) "
                          "and no --convention")
