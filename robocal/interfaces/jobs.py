@@ -434,6 +434,7 @@ DATASETS = {
     "ur5-tsinghua": ("ur5_tsinghua", {}),
     "ipa-ur10-a": ("ipa_ur10", {"series": "A"}),
     "ipa-ur10-b": ("ipa_ur10", {"series": "B"}),
+    "ipa-ur10-d": ("ipa_ur10", {"series": "D"}),
     "mukca-panda-1": ("mukca", {"unit": "panda_1"}),
     "mukca-panda-2": ("mukca", {"unit": "panda_2"}),
     "mukca-panda-3": ("mukca", {"unit": "panda_3"}),
@@ -460,6 +461,10 @@ def dataset_job(name, prefix, *, split=None, seed=0):
     if fixture:
         write_fixture(f"{prefix}_fixture.toml", fixture[0])
         written["fixture"] = f"{prefix}_fixture.toml"
+    if name == "ipa-ur10-d":  # the ISO cubes: also the ISO 9283 campaign, in the robot's base frame
+        from ..io.ipa_iso import write_series_d_campaign
+
+        written.update(write_series_d_campaign(f"{prefix}_iso.csv"))
     if split is None:
         write_measurements(f"{prefix}.csv", data)
         written["measurements"] = f"{prefix}.csv"

@@ -118,6 +118,10 @@ def iso9283(
         print_json(result)
         return
     print_iso9283(result)
+    if result["visited_once"]:
+        once = result["visited_once"]
+        say("note", "cyan", f"{len(once)} commanded pose{'s' if len(once) > 1 else ''} visited once (no repeatability) "
+                            f"left out: {', '.join(once[:10])}{' ...' if len(once) > 10 else ''}")
     compensated = result.get("compensated")
     if compensated is not None:
         say("note", "cyan", f"compensated by {model}: {compensated['note']}")
