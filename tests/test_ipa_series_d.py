@@ -14,16 +14,21 @@ from robocal.io.ipa_iso import series_d_campaign
 
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory):
+    """The packaged series D exported (series D is shipped from its source, not among the
+    originals $ROBOCAL_SHARED_DATA may name)."""
     root = tmp_path_factory.mktemp("series_d")
-    report = json.loads(run_ok("dataset", "ipa-ur10-d", "--out", root / "d", "--json").stdout)
-    return root, report
+    with pytest.MonkeyPatch.context() as patch:
+        patch.delenv("ROBOCAL_SHARED_DATA", raising=False)
+        report = json.loads(run_ok("dataset", "ipa-ur10-d", "--out", root / "d", "--json").stdout)
+        yield root, report
 
 
 def _pairwise(points):
     return np.linalg.norm(points[:, None, :] - points[None, :, :], axis=2)
 
 
-def test_the_campaign_is_the_tracker_data_moved_rigidly_into_the_base_frame(exported):
+def test_the_campaign_is_the_tracker_data_moved_rigidly_into_the_base_frame(exported, monkeypatch):
+    monkeypatch.delenv("ROBOCAL_SHARED_DATA", raising=False)
     root, report = exported
     assert report["poses"] == 632 and report["iso_campaign"].endswith("d_iso.csv")
     rows = list(csv.DictReader(open(root / "d_iso.csv", newline="")))
@@ -36,7 +41,8 @@ def test_the_campaign_is_the_tracker_data_moved_rigidly_into_the_base_frame(expo
     assert 0.3 < report["registration_rms_mm"] < 1.5
 
 
-def test_iso9283_figures_of_series_d_equal_the_formulas(exported):
+def test_iso9283_figures_of_series_d_equal_the_formulas(exported, monkeypatch):
+    monkeypatch.delenv("ROBOCAL_SHARED_DATA", raising=False)
     root, _ = exported
     figures = json.loads(run_ok("iso9283", root / "d_iso.csv", "--json").stdout)
     campaign = series_d_campaign()["columns"]
