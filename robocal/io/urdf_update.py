@@ -71,7 +71,8 @@ def write_calibrated_urdf(original, nominal, calibrated, out):
         f" Calibrated by robocal: the origins of {', '.join(changed) or 'no joint'} rewritten for the calibrated "
         f"{calibrated.name!r}; {', '.join(added) or 'no link'} added. Everything else is the original file. "))
     robot[0].tail = "\n  "
-    write_text_atomic(out, '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n")
+    write_text_atomic(out, '<?xml version="1.0"?>\n' + _prolog(original) + ET.tostring(robot, encoding="unicode")
+                      + "\n")
     return {"original": str(original), "root": root, "tip": tip, "changed_joints": changed, "added_links": added}
 
 
@@ -81,6 +82,16 @@ def _parse_keeping_comments(path):
     parser = ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))
     parser.feed(read_bytes(path, "URDF file", "settings"))
     return parser.close()
+
+
+def _prolog(path):
+    """The comments before the ``<robot>`` element (a xacro banner), as written."""
+    text = read_bytes(path, "URDF file", "settings").decode("utf-8", errors="replace")
+    start = text.find("<robot")
+    head = text[:max(start, 0)]
+    if head.lstrip().startswith("<?xml"):
+        head = head[head.find("?>") + 2:]
+    return head.lstrip("\n")
 
 
 def _cumulative(origins):
