@@ -88,6 +88,7 @@ def test_the_iso_page_shows_conditions_instrument_and_both_sets_of_figures(campa
     first = printed["poses"][0]
     assert f"{first['AP_mm']:.4f}" in text and f"{printed['compensated']['poses'][0]['AP_mm']:.4f}" in text
     assert "Before: measured" in text and "predicted" in text
+    assert "poses visited once (no repeatability: left out)</td><td class=\"num\">0<" in text
 
 
 def test_the_iso_page_without_a_model_says_how_to_get_the_after_figures(campaign, tmp_path):

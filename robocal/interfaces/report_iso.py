@@ -39,6 +39,7 @@ def test_conditions(campaign, result):
             ("commanded poses", f"{len(poses)} ({', '.join(p['pose'] for p in poses)})"),
             ("cycles (visits per pose)", str(cycles) + ("" if cycles >= 30 else " (the standard asks for 30)")),
             ("visits matched by", result["matched_by"]),
+            ("poses visited once (no repeatability: left out)", str(len(result.get("visited_once", ())))),
             ("commanded positions span (mm)", " x ".join(f"{v:.1f}" for v in high - low)),
             ("largest spread of one pose's commands (mm)",
              f"{max(p['command_spread_mm'] for p in poses):.4f}")]
