@@ -95,7 +95,18 @@ def test_the_iso_page_without_a_model_says_how_to_get_the_after_figures(campaign
     root, *_ = campaign
     run_ok("iso9283", root / "measured.csv", "--report", tmp_path / "iso.html")
     text = (tmp_path / "iso.html").read_text()
-    assert "give --model MODEL.json" in text and "not stated (give --instrument)" in text
+    assert "give --model MODEL.json" in text and "not stated (give --instrument" in text
+
+
+def test_the_iso_page_names_the_instrument_column_when_no_option_is_given(campaign, tmp_path):
+    root, *_ = campaign
+    rows = list(csv.DictReader(open(root / "measured.csv", newline="")))
+    with open(tmp_path / "with_instrument.csv", "w", newline="") as stream:
+        writer = csv.DictWriter(stream, fieldnames=list(rows[0]) + ["instrument"])
+        writer.writeheader()
+        writer.writerows({**row, "instrument": "AT960 #1"} for row in rows)
+    run_ok("iso9283", tmp_path / "with_instrument.csv", "--report", tmp_path / "iso.html")
+    assert "AT960 #1 (the campaign&#x27;s instrument column)" in (tmp_path / "iso.html").read_text()
 
 
 @pytest.fixture(scope="module")

@@ -85,7 +85,9 @@ def _before_after(result):
 def iso_section(campaign, result, *, instrument=None, conditions=None):
     """The ISO page's HTML (no document around it): test conditions, instrument, the
     measured figures and, when ``result`` has them, the compensated robot's predicted ones."""
-    stated = [("instrument", instrument or "not stated (give --instrument)"),
+    if instrument is None and campaign.instrument:
+        instrument = "; ".join(campaign.instrument) + " (the campaign's instrument column)"
+    stated = [("instrument", instrument or "not stated (give --instrument, or an instrument column)"),
               ("conditions stated by the tester", conditions or "not stated (give --conditions: load, speed, "
                                                                 "temperature, warm-up)")]
     parts = ["<h2>ISO 9283 pose characteristics</h2>",

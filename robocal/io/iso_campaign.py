@@ -5,7 +5,8 @@ their commanded position), ``cycle`` (optional), ``x_cmd, y_cmd, z_cmd`` (mm) an
 measured ``x, y, z`` (mm); optionally ``rx_cmd, ry_cmd, rz_cmd`` with ``rx, ry, rz`` (deg)
 for the orientation characteristics; optionally the joint command ``q1..qN`` (deg, mm for
 prismatic joints, or unit-tagged such as ``q2[rad]``), which ``iso9283 --model`` needs to
-predict the compensated robot.  Other columns are kept and ignored.  ``robocal iso9283
+predict the compensated robot; optionally ``instrument`` (text: what measured the visit), which
+the ISO page names.  Other columns are kept and ignored.  ``robocal iso9283
 plan`` writes the same columns (with the joint command) without the measured ones.
 """
 from __future__ import annotations
@@ -28,7 +29,7 @@ class IsoCampaign:
     """Visits of an ISO 9283 campaign as in the file: ``commanded``/``attained`` (N, 3) mm,
     the angles (N, 3) deg or None, ``pose`` (N,) names or None, ``cycle`` (N,) or None,
     ``rows`` (N,) file lines, ``joints`` (N, n) the commanded q1..qn in file units (deg, mm)
-    or None."""
+    or None, ``instrument`` the distinct texts of an instrument column (in order) or None."""
 
     path: str
     commanded: np.ndarray
@@ -39,6 +40,7 @@ class IsoCampaign:
     cycle: np.ndarray | None
     rows: np.ndarray
     joints: np.ndarray | None = None
+    instrument: tuple | None = None
 
 
 def read_iso_campaign(path) -> IsoCampaign:
@@ -69,7 +71,8 @@ def read_iso_campaign(path) -> IsoCampaign:
         commanded_angles=table.numbers(COMMANDED_ANGLES) if angles else None,
         attained_angles=table.numbers(ATTAINED_ANGLES) if angles else None,
         pose=table.texts("pose") if "pose" in table.header else None,
-        cycle=cycle, rows=table.lines, joints=_joint_command(table))
+        cycle=cycle, rows=table.lines, joints=_joint_command(table),
+        instrument=tuple(dict.fromkeys(table.texts("instrument"))) if "instrument" in table.header else None)
 
 
 def _joint_command(table):
