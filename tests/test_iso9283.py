@@ -126,3 +126,20 @@ def test_the_plan_is_reachable_on_one_branch_above_the_mounting_plane(plan):
     chain = builtin("ur5")
     assert np.allclose(chain.replace(base=np.eye(4)).fk_positions(plan.joints), plan.positions, atol=1e-6)
     assert plan.positions[:, 2].min() > 0 and plan.edge_mm > 100
+
+
+def test_poses_visited_once_are_left_out_and_listed(tmp_path):
+    rows = [("P1", 0.0, 0.01), ("P1", 0.0, 0.02), ("P1", 0.0, 0.0), ("Q", 100.0, 0.1)]
+    with open(tmp_path / "iso.csv", "w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(["pose", "x_cmd", "y_cmd", "z_cmd", "x", "y", "z"])
+        writer.writerows([name, x, 0, 0, x + dx, 0, 0] for name, x, dx in rows)
+    result = characteristics(read_iso_campaign(tmp_path / "iso.csv"))
+    assert [p.pose for p in result.poses] == ["P1"] and result.visited_once == ("Q",)
+    assert result.to_dict()["visited_once"] == ["Q"]
+    with open(tmp_path / "once.csv", "w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(["x_cmd", "y_cmd", "z_cmd", "x", "y", "z"])
+        writer.writerows([[0, 0, 0, 0, 0, 0], [100, 0, 0, 100, 0, 0]])
+    with pytest.raises(InputError, match="every commanded pose is visited once"):
+        characteristics(read_iso_campaign(tmp_path / "once.csv"))

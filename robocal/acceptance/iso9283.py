@@ -23,7 +23,7 @@ pose near ±180 deg is not split in two.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -200,16 +200,19 @@ DISTANCE_POSES = ("P2", "P4")
 class Iso9283Result:
     """The ISO 9283 figures of a campaign: ``poses`` (:class:`PoseCharacteristics`, in order
     of first visit), ``distance`` (:class:`DistanceCharacteristics` or None when the
-    campaign has no P2 and P4), how visits were matched (``matched_by``) and the file."""
+    campaign has no P2 and P4), how visits were matched (``matched_by``), the file, and the
+    poses ``visited_once`` (no repeatability: left out of the figures)."""
 
     path: str
     poses: tuple
     distance: DistanceCharacteristics | None
     matched_by: str
+    visited_once: tuple = ()
 
     def to_dict(self):
         return {"file": self.path, "matched_by": self.matched_by, "poses": [p.to_dict() for p in self.poses],
-                "distance": None if self.distance is None else self.distance.to_dict()}
+                "distance": None if self.distance is None else self.distance.to_dict(),
+                "visited_once": list(self.visited_once)}
 
 
 def characteristics(campaign, *, match_mm=DEFAULT_MATCH_MM, positions=None):
@@ -219,9 +222,17 @@ def characteristics(campaign, *, match_mm=DEFAULT_MATCH_MM, positions=None):
     labels, names = group_visits(campaign.commanded, campaign.pose, match_mm)
     matched = "the pose column" if campaign.pose is not None else f"commanded position within {match_mm:g} mm"
     with_angles = campaign.commanded_angles is not None
+    counts = np.bincount(labels, minlength=len(names))
+    once = tuple(name for name, count in zip(names, counts) if count < 2)
+    if len(once) == len(names):
+        raise InputError(f"{campaign.path}: every commanded pose is visited once: ISO 9283 repeatability needs each "
+                         "pose visited in at least two cycles (30 by the standard); give a pose column, or a larger "
+                         "--match-mm if the commands wander")
     poses = []
     for k, name in enumerate(names):
         rows = labels == k
+        if counts[k] < 2:
+            continue  # a pose visited once has no repeatability: listed in visited_once
         poses.append(pose_characteristics(
             name, campaign.commanded[rows], attained[rows],
             campaign.commanded_angles[rows] if with_angles else None,
@@ -237,7 +248,28 @@ def characteristics(campaign, *, match_mm=DEFAULT_MATCH_MM, positions=None):
         if len(common) >= 2:
             distance = distance_characteristics(DISTANCE_POSES, campaign.commanded[pick[0]],
                                                 campaign.commanded[pick[1]], attained[pick[0]], attained[pick[1]])
-    return Iso9283Result(campaign.path, tuple(poses), distance, matched)
+    return Iso9283Result(campaign.path, tuple(poses), distance, matched, once)
+
+
+# What the predicted figures of the compensated robot are, said wherever they are shown.
+PREDICTED_NOTE = ("predicted, not measured: each visit's measured position less the model's predicted systematic "
+                  "error at its joint command (where the model says the TCP goes less where the controller's nominal "
+                  "robot puts it: what compensation would have removed); RP is unchanged by "
+                  "construction where a pose's commands repeat (the prediction is then one vector per pose), "
+                  "and orientations are not predicted")
+
+
+def predicted_compensated(campaign, systematic, *, match_mm=DEFAULT_MATCH_MM):
+    """:class:`Iso9283Result` the compensated robot is predicted to reach on ``campaign``:
+    the attained positions less ``systematic`` (N, 3) mm, a model's predicted systematic
+    error at each visit's joint command in the campaign's frame (:data:`PREDICTED_NOTE`).
+    Position figures only: the orientation ones are None."""
+    systematic = np.asarray(systematic, dtype=float)
+    if systematic.shape != campaign.attained.shape:
+        raise InputError(f"the systematic error must be one (x, y, z) per visit, {campaign.attained.shape}, got "
+                         f"{systematic.shape}")
+    positions_only = replace(campaign, commanded_angles=None, attained_angles=None)
+    return characteristics(positions_only, match_mm=match_mm, positions=campaign.attained - systematic)
 
 
 # Cube edges tried by plan_campaign, as shares of the robot's reach, largest first: the

@@ -24,10 +24,15 @@ def plan_job(robot, out, *, centre=None, edge=None, rpy=None, cycles=CYCLES, roo
             "cycles": cycles, "visits": cycles * len(plan.names)}
 
 
-def characteristics_job(measurements, *, match_mm=DEFAULT_MATCH_MM):
-    """The ISO 9283 figures of the campaign file ``measurements`` (JSON-ready)."""
+def check_match_mm(match_mm):
+    """InputError unless ``match_mm`` is a distance > 0 mm."""
     if not np.isfinite(match_mm) or match_mm <= 0:
         from ..errors import InputError
 
         raise InputError(f"--match-mm must be a distance > 0 mm, got {match_mm}")
+
+
+def characteristics_job(measurements, *, match_mm=DEFAULT_MATCH_MM):
+    """The ISO 9283 figures of the campaign file ``measurements`` (JSON-ready)."""
+    check_match_mm(match_mm)
     return characteristics(read_iso_campaign(measurements), match_mm=match_mm).to_dict()

@@ -275,13 +275,15 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
     return answer
 
 
-EXPORT_FORMATS = ("toml", "urdf")
+EXPORT_FORMATS = ("toml", "urdf", "ur-yaml")
 
 
-def export_job(model_path, out, *, fmt="toml", convention=None):
+def export_job(model_path, out, *, fmt="toml", convention=None, original=None):
     """The calibrated kinematics of a model file as a robot TOML or a URDF, for a controller
     that accepts new parameters (direct compensation) or for ROS; ``convention`` (dh, mdh,
-    poe) converts it exactly first (a calibrated model may have no exact DH form)."""
+    poe) converts it exactly first (a calibrated model may have no exact DH form); ``original``
+    (a URDF, with fmt urdf) is the robot's own file, rewritten only where the calibration
+    changed it (robocal.io.urdf_update)."""
     from ..io.robot_file import write_robot
     from ..io.urdf import write_urdf
     from ..kinematics import to_dh, to_mdh, to_poe
@@ -291,7 +293,7 @@ def export_job(model_path, out, *, fmt="toml", convention=None):
     converters = {"dh": to_dh, "mdh": to_mdh, "poe": to_poe}
     if convention is not None and convention not in converters:
         raise InputError(f"convention must be one of dh, mdh, poe, got {convention!r}")
-    check_outputs([out], [model_path])
+    check_outputs([out], [model_path, original])
     model = load_model(model_path)
     rigid = model.kinematics.rigid
     chain = rigid if convention is None else converters[convention](rigid)
@@ -306,6 +308,15 @@ def export_job(model_path, out, *, fmt="toml", convention=None):
                    "[base] is the measurement frame -> robot base.")
     if fmt == "toml":
         write_robot(chain, out, description=description)
+    elif fmt == "ur-yaml":
+        from ..io.ur_yaml import write_ur_yaml
+
+        left_out += write_ur_yaml(out, model.nominal, chain)
+    elif original is not None:
+        from ..io.urdf_update import write_calibrated_urdf
+
+        return {"model": str(model_path), "format": fmt, "out": str(out), "robot": chain.name, "convention":
+                chain.convention, "left_out": left_out, **write_calibrated_urdf(original, model.nominal, rigid, out)}
     else:
         if not np.array_equal(np.abs(chain.joint_map), np.eye(chain.n_joints)):
             left_out.append("the joint map (a coupling, or calibrated joint gains): the URDF's joint values are "
@@ -430,6 +441,7 @@ DATASETS = {
     "ur5-tsinghua": ("ur5_tsinghua", {}),
     "ipa-ur10-a": ("ipa_ur10", {"series": "A"}),
     "ipa-ur10-b": ("ipa_ur10", {"series": "B"}),
+    "ipa-ur10-d": ("ipa_ur10", {"series": "D"}),
     "mukca-panda-1": ("mukca", {"unit": "panda_1"}),
     "mukca-panda-2": ("mukca", {"unit": "panda_2"}),
     "mukca-panda-3": ("mukca", {"unit": "panda_3"}),
@@ -456,6 +468,10 @@ def dataset_job(name, prefix, *, split=None, seed=0):
     if fixture:
         write_fixture(f"{prefix}_fixture.toml", fixture[0])
         written["fixture"] = f"{prefix}_fixture.toml"
+    if name == "ipa-ur10-d":  # the ISO cubes: also the ISO 9283 campaign, in the robot's base frame
+        from ..io.ipa_iso import write_series_d_campaign
+
+        written.update(write_series_d_campaign(f"{prefix}_iso.csv"))
     if split is None:
         write_measurements(f"{prefix}.csv", data)
         written["measurements"] = f"{prefix}.csv"

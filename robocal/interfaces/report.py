@@ -19,6 +19,7 @@ from ..estimation.metrics import iso9283_position
 from ..io.fingerprint import seen_observations
 from ..io.atomic import check_outputs, write_bytes_atomic, write_text_atomic
 from . import plots
+from .html_style import STYLE
 from ..io.observations import read_observations
 from ..methods.evaluation import position_scores, socket_residuals, socket_scores, with_fixture
 from .jobs import load_fitted
@@ -33,15 +34,6 @@ DIAGNOSTIC_PLOTS = {
 STATS = (("n", "poses", "{:d}"), ("mean_mm", "mean", "{:.4f}"), ("rms_mm", "RMS", "{:.4f}"),
          ("max_mm", "max", "{:.4f}"), ("p95_mm", "95 %", "{:.4f}"), ("x_mean_mm", "|x| mean", "{:.4f}"),
          ("y_mean_mm", "|y| mean", "{:.4f}"), ("z_mean_mm", "|z| mean", "{:.4f}"))
-
-STYLE = """
-body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
-h1 { font-size: 1.6em; margin-bottom: 0.1em; } h2 { border-bottom: 1px solid #ccc; margin-top: 1.6em; }
-table { border-collapse: collapse; margin: 0.6em 0; } td, th { padding: 0.2em 0.7em; border: 1px solid #ddd; }
-th { background: #f3f3f3; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
-.note { color: #555; font-size: 0.92em; } img { max-width: 100%; }
-"""
-
 
 def _table(header, rows, numeric_from=1):
     """An HTML table; ``header`` None for a two-column key/value table."""
@@ -306,14 +298,14 @@ def _accuracy_rows(record, stats, held_out):
     return rows + [_stats_row(f"{where}, nominal", stats["nominal"]), _stats_row(f"{where}, calibrated", stats)]
 
 
-def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyond_limits=False):
-    """Write the HTML report (and the PDF when ``pdf`` is a path); returns what was written
-    and the numbers it shows."""
+def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyond_limits=False, iso=None):
+    """Write the HTML report (and the PDF when ``pdf`` is a path), with the ISO page of the
+    campaign file ``iso`` when given; returns what was written and the numbers it shows."""
     if not str(out).lower().endswith((".html", ".htm")):
         raise InputError(f"the report is HTML: give --out a .html file name, got {out}")
     if pdf is not None and not str(pdf).lower().endswith(".pdf"):
         raise InputError(f"--pdf needs a .pdf file name, got {pdf}")
-    check_outputs([out, pdf], [model_path, measurements, validation])
+    check_outputs([out, pdf], [model_path, measurements, validation, iso])
     model, fitted = load_fitted(model_path)
     cv = _read_validation(validation) if validation else None
     if cv is not None:
@@ -333,6 +325,10 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyo
             else _iso_section(scores.iso["nominal"], scores.iso["calibrated"]),
             _calibration_section(fitted.record_.calibration, fitted.compensator_.chain),
             _comparison_section(model.training.get("comparison"))]
+    if iso is not None:
+        from .metrology_jobs import model_iso_section
+
+        body.append(model_iso_section(iso, model_path))
     for title, caption, fig in figures:
         body.append(f"<h2>{html.escape(title)}</h2><p class=note>{html.escape(caption)}</p>"
                     f"<img alt=\"{html.escape(title)}\" src=\"data:image/png;base64,{_png(fig)}\">")

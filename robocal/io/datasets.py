@@ -105,18 +105,22 @@ def ur5_tsinghua(root=None):
 
 
 def ipa_ur10(series="B", root=None):
-    """UR10 with a Leica tracker and 6-DoF probe (ipa): Series 'A' (grid, 11,911 poses) or
-    'B' (joint configurations, 1,495 poses, with per-reading standard deviations).
+    """UR10 with a Leica tracker and 6-DoF probe (ipa): Series 'A' (grid, 11,911 poses),
+    'B' (joint configurations, 1,495 poses, with per-reading standard deviations) or 'D'
+    (ISO cubes, 632 visits, with standard deviations; :mod:`robocal.io.ipa_iso` makes an ISO
+    9283 campaign of it).
 
     Positions and orientations are in the tracker frame; base (tracker <- robot) and tool
     (flange -> probe) are not given.  The chain's tool starts at the probe offset the
-    dataset README quotes, (0, 0.3, 93) mm, for registration to refine.
+    dataset README quotes, (0, 0.3, 93) mm, for registration to refine; for series D at the
+    TCP its commanded poses are of, 109 mm along the flange z axis.
     Returns (chain, measurements) with orientations as robocal rpy (deg).
     """
     series = str(series).upper()
-    files = {"A": "Series_A/measurements_grid.csv", "B": "Series_B/measurements_joint_configurations.csv"}
+    files = {"A": "Series_A/measurements_grid.csv", "B": "Series_B/measurements_joint_configurations.csv",
+             "D": "Series_D/measurements_iso_cubes.csv"}
     if series not in files:
-        raise InputError(f"ipa UR10 series must be 'A' or 'B', got {series!r}")
+        raise InputError(f"ipa UR10 series must be 'A', 'B' or 'D', got {series!r}")
     path = _data_file(_source(root), "ipa_ur10/" + files[series])
     header, rows = _read_rows(path, ";")
     joint_names = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
@@ -127,12 +131,12 @@ def ipa_ur10(series="B", root=None):
     # The tracker reports intrinsic X-Y-Z Euler angles; robocal's rpy is fixed-axis x, y, z.
     rpy = np.degrees(matrix_to_rpy(Rotation.from_euler("XYZ", euler, degrees=True).as_matrix()))
     sigmas = None
-    if series == "B":
+    if series in ("B", "D"):
         sigmas = _columns(path, header, rows, ["measurement_std_x", "measurement_std_y", "measurement_std_z"],
                           decimal_comma=True)
         sigmas = np.maximum(sigmas, 1e-4)  # a reported 0 would mean infinite weight
-    chain = builtin("ur10").replace(name=f"UR10 (ipa series {series})",
-                                    tool=compose_pose([0.0, 0.3, 93.0], np.zeros(3)))
+    probe = [0.0, 0.0, 109.0] if series == "D" else [0.0, 0.3, 93.0]
+    chain = builtin("ur10").replace(name=f"UR10 (ipa series {series})", tool=compose_pose(probe, np.zeros(3)))
     # The acquisition time (YYYYMMDDhhmmss) orders the rows for a split that holds out the
     # last poses measured.  Series B's were rounded to 6 digits by a spreadsheet (2,02011E+13):
     # its rows are in acquisition order, but its stamps say nothing and are left out.

@@ -3,8 +3,11 @@
 Columns: ``pose`` (optional: the commanded pose's name; without it visits are grouped by
 their commanded position), ``cycle`` (optional), ``x_cmd, y_cmd, z_cmd`` (mm) and the
 measured ``x, y, z`` (mm); optionally ``rx_cmd, ry_cmd, rz_cmd`` with ``rx, ry, rz`` (deg)
-for the orientation characteristics.  Other columns are kept and ignored.  ``robocal
-iso9283 plan`` writes the same columns without the measured ones.
+for the orientation characteristics; optionally the joint command ``q1..qN`` (deg, mm for
+prismatic joints, or unit-tagged such as ``q2[rad]``), which ``iso9283 --model`` needs to
+predict the compensated robot; optionally ``instrument`` (text: what measured the visit), which
+the ISO page names.  Other columns are kept and ignored.  ``robocal iso9283
+plan`` writes the same columns (with the joint command) without the measured ones.
 """
 from __future__ import annotations
 
@@ -25,7 +28,8 @@ ATTAINED_ANGLES = ("rx", "ry", "rz")
 class IsoCampaign:
     """Visits of an ISO 9283 campaign as in the file: ``commanded``/``attained`` (N, 3) mm,
     the angles (N, 3) deg or None, ``pose`` (N,) names or None, ``cycle`` (N,) or None,
-    ``rows`` (N,) file lines."""
+    ``rows`` (N,) file lines, ``joints`` (N, n) the commanded q1..qn in file units (deg, mm)
+    or None, ``instrument`` the distinct texts of an instrument column (in order) or None."""
 
     path: str
     commanded: np.ndarray
@@ -35,6 +39,8 @@ class IsoCampaign:
     pose: np.ndarray | None
     cycle: np.ndarray | None
     rows: np.ndarray
+    joints: np.ndarray | None = None
+    instrument: tuple | None = None
 
 
 def read_iso_campaign(path) -> IsoCampaign:
@@ -65,7 +71,17 @@ def read_iso_campaign(path) -> IsoCampaign:
         commanded_angles=table.numbers(COMMANDED_ANGLES) if angles else None,
         attained_angles=table.numbers(ATTAINED_ANGLES) if angles else None,
         pose=table.texts("pose") if "pose" in table.header else None,
-        cycle=cycle, rows=table.lines)
+        cycle=cycle, rows=table.lines, joints=_joint_command(table),
+        instrument=tuple(dict.fromkeys(table.texts("instrument"))) if "instrument" in table.header else None)
+
+
+def _joint_command(table):
+    """The commanded q1..qn (N, n) in deg (mm for prismatic joints), the consecutive joint
+    columns from q1 on, or None without a q1 column."""
+    names = []
+    while f"q{len(names) + 1}" in table.header:
+        names.append(f"q{len(names) + 1}")
+    return table.numbers(names) if names else None
 
 
 def write_plan(path, plan, chain):

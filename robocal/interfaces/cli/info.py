@@ -55,7 +55,8 @@ def methods():
 
 @verb()
 def dataset(
-    dataset: str = typer.Argument(..., help="ur5-tsinghua, ipa-ur10-a, ipa-ur10-b (laser tracker) or mukca-panda-1/2/3 "
+    dataset: str = typer.Argument(..., help="ur5-tsinghua, ipa-ur10-a, ipa-ur10-b, ipa-ur10-d (laser tracker; d: ISO "
+                                            "cubes, also PREFIX_iso.csv, an ISO 9283 campaign) or mukca-panda-1/2/3 "
                                             "(ball in sockets; split by fixture placement).",
                                  parser=parsed(Choice(DATASETS))["parser"]),
     prefix: str = typer.Option(..., "--out", help="Prefix of the files to write (PREFIX.toml, PREFIX*.csv).",

@@ -72,6 +72,15 @@ def iso9283(
     match_mm: float = typer.Option(2.0, "--match-mm", help="Without a pose column: visits whose commands lie within "
                                                            "this (mm) are of one pose.",
                                    **parsed(Number(at_least=1e-6, at_most=1000))),
+    model: str = typer.Option(None, "--model", help="With a campaign: a model file; the figures the compensated "
+                                                    "robot is predicted to reach, beside the measured ones (needs "
+                                                    "the joint command q1..qN in the campaign)."),
+    report: str = typer.Option(None, "--report", help="With a campaign: write the ISO page (test conditions, "
+                                                      "instrument, before and after) to this .html file."),
+    instrument: str = typer.Option(None, "--instrument", help="With --report: the instrument that measured the "
+                                                              "campaign (e.g. 'Leica AT960, SMR 1.5 in')."),
+    conditions: str = typer.Option(None, "--conditions", help="With --report: the test conditions (load, speed, "
+                                                              "temperature, warm-up)."),
     tip: str = TIP,
     root: str = ROOT,
     as_json: bool = JSON,
@@ -80,11 +89,17 @@ def iso9283(
 
     Plan: robocal iso9283 plan ur10 --out campaign.csv  (P1..P5 on a cube, 30 cycles)
 
-    Figures: robocal iso9283 measured.csv --json
+    Figures: robocal iso9283 measured.csv --json [--model model.json] [--report iso.html]
     """
-    from ...acceptance.job import characteristics_job, plan_job
+    from ...acceptance.job import plan_job
+    from ..metrology_jobs import iso9283_job
 
     if target == "plan":
+        given = [name for name, value in (("--model", model), ("--report", report), ("--instrument", instrument),
+                                          ("--conditions", conditions)) if value is not None]
+        if given:
+            raise InputError(f"{', '.join(given)} concern a measured campaign, not a plan: robocal iso9283 "
+                             "CAMPAIGN.csv --model MODEL.json --report iso.html")
         if robot is None or out_file is None:
             raise InputError("iso9283 plan needs the robot and --out: robocal iso9283 plan ROBOT --out campaign.csv")
         result = plan_job(robot, out_file, centre=centre, edge=edge, rpy=rpy, cycles=cycles, root=root, tip=tip)
@@ -95,8 +110,26 @@ def iso9283(
     if given:
         raise InputError(f"{', '.join(given)} plan a campaign: give 'plan' first (robocal iso9283 plan ROBOT --out "
                          "FILE), or leave them out to compute a measured campaign's figures")
-    result = characteristics_job(target, match_mm=match_mm)
+    if report is None and (instrument is not None or conditions is not None):
+        raise InputError("--instrument and --conditions are written on the ISO page: give --report iso.html too")
+    result = iso9283_job(target, match_mm=match_mm, model=model, report=report, instrument=instrument,
+                         conditions=conditions)
     if as_json:
         print_json(result)
         return
     print_iso9283(result)
+    if result["visited_once"]:
+        once = result["visited_once"]
+        say("note", "cyan", f"{len(once)} commanded pose{'s' if len(once) > 1 else ''} visited once (no repeatability) "
+                            f"left out: {', '.join(once[:10])}{' ...' if len(once) > 10 else ''}")
+    compensated = result.get("compensated")
+    if compensated is not None:
+        say("note", "cyan", f"compensated by {model}: {compensated['note']}")
+        print_iso9283({**compensated, "file": f"compensated, predicted by {model}"})
+        from ..report_iso import largest
+
+        say("note", "cyan", f"largest AP {largest(result, 'AP_mm'):.4f} mm measured -> "
+                            f"{largest(compensated, 'AP_mm'):.4f} mm compensated (predicted); largest RP "
+                            f"{largest(result, 'RP_mm'):.4f} -> {largest(compensated, 'RP_mm'):.4f} mm")
+    if report is not None:
+        say("note", "cyan", f"ISO page -> {report}")

@@ -121,6 +121,8 @@ def report(
     validation: str = typer.Option(None, "--validation",
                                    help="JSON of 'robocal validate --json': adds cross-validation and the "
                                         "learning curve."),
+    iso: str = typer.Option(None, "--iso", help="An ISO 9283 campaign CSV: adds its ISO page (measured and, "
+                                                "predicted, compensated by this model)."),
     beyond_limits: bool = BEYOND_LIMITS,
     as_json: bool = JSON,
 ):
@@ -134,18 +136,22 @@ def report(
     """
     from ..report import report_job
 
-    result = report_job(model, measurements, out_file, validation=validation, pdf=pdf, beyond_limits=beyond_limits)
+    result = report_job(model, measurements, out_file, validation=validation, pdf=pdf, beyond_limits=beyond_limits,
+                        iso=iso)
     print_result(result, as_json, f"report -> {out_file}")
 
 
 @verb()
 def export(
     model: str = MODEL,
-    fmt: str = typer.Option(None, "--format", help="toml (robot file) or urdf (default: as --out ends, else toml).",
+    fmt: str = typer.Option(None, "--format", help="toml (robot file), urdf, or ur-yaml (UR's ROS 2 kinematics file) "
+                                                   "(default: as --out ends, else toml).",
                             **parsed(Choice(EXPORT_FORMATS))),
     out_file: str = out_option("Robot file to write (.toml or .urdf)."),
     convention: str = typer.Option(None, help="Convert first, exactly (default: as calibrated).",
                                    **parsed(Choice(CONVENTIONS))),
+    original: str = typer.Option(None, "--urdf", help="With --format urdf: the robot's own URDF (the one calibrated "
+                                                      "from); only what the calibration changed is rewritten."),
     as_json: bool = JSON,
 ):
     """Calibrated kinematics as a robot TOML or URDF (direct compensation, or ROS).
@@ -161,9 +167,14 @@ def export(
                          f"{OUTPUT_KINDS['.' + suffix]} file: name it {Path(out_file).with_suffix('.toml')} or "
                          f"{Path(out_file).with_suffix('.urdf')}")
     if fmt is None:
-        fmt = suffix if suffix in EXPORT_FORMATS else "toml"
+        fmt = "ur-yaml" if suffix in ("yaml", "yml") else suffix if suffix in EXPORT_FORMATS else "toml"
     elif "." + suffix in OUTPUT_KINDS and suffix != fmt:
-        raise InputError(f"--format {fmt} writes a {OUTPUT_KINDS['.' + fmt]} file, but --out {out_file} names a "
-                         f"{OUTPUT_KINDS['.' + suffix]} file: name it {Path(out_file).with_suffix('.' + fmt)} "
-                         f"or drop --format")
-    print_exported(export_job(model, out_file, fmt=fmt, convention=convention), out_file, as_json)
+        wanted = ".yaml" if fmt == "ur-yaml" else "." + fmt
+        raise InputError(f"--format {fmt} writes a {OUTPUT_KINDS.get(wanted, 'UR kinematics YAML')} file, but --out "
+                         f"{out_file} names a {OUTPUT_KINDS['.' + suffix]} file: name it "
+                         f"{Path(out_file).with_suffix(wanted)} or drop --format")
+    if original is not None and (fmt != "urdf" or convention is not None):
+        raise InputError("--urdf rewrites the robot's own URDF: give --format urdf (or an --out ending in .urdf) "
+                         "and no --convention")
+    print_exported(export_job(model, out_file, fmt=fmt, convention=convention, original=original), out_file,
+                   as_json)
