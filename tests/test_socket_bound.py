@@ -110,3 +110,15 @@ def test_compensate_and_evaluate_give_the_socket_bound(sockets, tmp_path):
     assert within["poses"] == 30 and 0.85 <= within["within_share"] <= 1.0
     assert within["median_bound_mm"] <= 3.0 * within["median_error_mm"]
     assert "invisible" in evaluated["bound_note"]
+
+
+def test_one_placement_is_bounded_from_random_folds_within_its_sockets(sockets):
+    chain, train = sockets["chain"], sockets["train"]
+    one = train.subset(np.flatnonzero(train.placement == "P1"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RobocalWarning)
+        model = make_method("constraint").fit(chain, one)
+        bound = fit_socket_bound(model, chain, one)
+    assert bound.calibration["scores"] == "placements left out and random folds within the sockets"
+    assert bound.calibration["folds"] == 5
+    assert np.all(np.isfinite(bound.predict(one.joints))) and bound.residual_mm > 0

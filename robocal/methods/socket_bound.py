@@ -218,25 +218,28 @@ def fit_socket_bound(method, chain, observations, *, seed=0):
 def socket_bound_scores(fitted, observations):
     """``evaluate``'s ``bound95`` entry on ball-in-socket ``observations`` (with their
     fixture): the share of configurations whose deviation from the mean of the other
-    configurations of their socket and placement (mm) lies within the 95 % bound there,
-    overall and inside / outside the training domain, with the median bound and deviation,
-    and the note of what it bounds; ``bound95`` None (``bound_note`` why) without a bound."""
+    configurations of their socket and placement (mm) lies within the model's 95 % bound of
+    the socket consistency there, overall and inside / outside the training domain, with the
+    median bound and deviation, and ``bound_note`` saying what it bounds.  ``bound95`` None
+    (``bound_note`` why) for a model file without a bound; nothing for a bound on the
+    position error (a model fitted to position data), which socket data cannot check."""
     bound = getattr(fitted, "bound_", None)
     if bound is None:
         return {"bound95": None, "bound_note": NO_BOUND}
-    error = np.linalg.norm(held_out_deviations(fitted.predict(observations.joints), socket_groups(observations)),
-                           axis=1)
+    if bound.calibration.get("kind") != KIND:
+        return {}
+    deviation = held_out_deviations(fitted.predict(observations.joints), socket_groups(observations))
+    error = np.linalg.norm(deviation, axis=1)
     known = np.isfinite(error)
-    q = observations.joints[known]
+    q, error = observations.joints[known], error[known]
     inside = bound.inside_mask(q)
-    within = error[known] <= bound.predict(q, inside=inside)
     values = bound.predict(q, inside=inside)
 
     def share(mask):
         count = int(np.count_nonzero(mask))
-        return {"poses": count, "within_share": float(np.mean(within[mask])) if count else None,
+        return {"poses": count, "within_share": float(np.mean(error[mask] <= values[mask])) if count else None,
                 "median_bound_mm": float(np.median(values[mask])) if count else None,
-                "median_error_mm": float(np.median(error[known][mask])) if count else None}
+                "median_error_mm": float(np.median(error[mask])) if count else None}
 
     summary = {**share(np.ones(len(q), dtype=bool)), "inside": share(inside), "outside": share(~inside)}
     return {"bound95": summary, "bound_note": bound.calibration.get("note", NOTE)}
