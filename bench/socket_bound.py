@@ -18,7 +18,7 @@ mapped onto the true ones by the rigid transform fitted on the training configur
 base frame no constraint sees), and the same at 500 configurations uniform within the joint
 limits (far outside the training domain).
 
-    python bench/socket_bound.py            # about ten minutes on one core
+    python bench/socket_bound.py            # about three minutes on one core
     python bench/socket_bound.py --quick    # panda_1 and one simulated robot
 """
 import os
@@ -87,14 +87,14 @@ def summary(rows, error_key, bound_key="bound"):
 
 def line(label, poses, figures):
     share, ratio, worst = figures
-    print(f"{label:<48} {poses:>6} {share:>8.3f} {ratio:>8.2f} {worst:>8.3f}")
+    print(f"{label:<52} {poses:>6} {share:>8.3f} {ratio:>8.2f} {worst:>8.3f}")
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="panda_1 and one simulated robot")
     args = parser.parse_args()
-    print(f"{'held out, each placement in turn':<48} {'poses':>6} {'within':>8} {'bnd/err':>8} {'worst':>8}")
+    print(f"{'held out, each placement in turn':<52} {'poses':>6} {'within':>8} {'bnd/err':>8} {'worst':>8}")
     for unit in ("panda_1",) if args.quick else ("panda_1", "panda_2", "panda_3"):
         start = time.perf_counter()
         chain, data, fixture = mukca(unit)
@@ -102,7 +102,7 @@ def main():
         rows = placements_left_out(chain, obs)
         line(f"MUKCa {unit}: socket consistency ({len(rows)} placements)", sum(len(r["bound"]) for r in rows),
              summary(rows, "deviation"))
-        print(f"{'':<48} ({time.perf_counter() - start:.0f} s)")
+        print(f"{'':<52} ({time.perf_counter() - start:.0f} s)")
     robot = load_robot("kr150-2")
     for seed in (1,) if args.quick else (1, 2, 3):
         with tempfile.TemporaryDirectory() as folder:
