@@ -17,7 +17,8 @@ from ..io.tables import write_measurements
 from ..methods import DEFAULT_METHOD, fitted_from_model_file, make_method
 from ..methods.evaluation import position_scores, socket_scores, with_fixture
 from ..methods.base import option_of
-from ..methods.bound import NO_BOUND, bound_of_model, fit_bound
+from ..methods.bound import NO_BOUND, bound_of_model
+from ..methods.socket_bound import fit_model_bound
 from ..methods.moved_bound import reregistered_bound
 from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
 from ..methods.reregistration import FRAMES  # noqa: F401  (the command line and fleet files name it here)
@@ -81,7 +82,7 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
     document = fitter.to_model_file(chain, training)
     # The 95 % bound of the fitted model (robocal.methods.bound), computed here only: the fold
     # fits of compare and auto's comparison do not pay for it.
-    fitter.bound_ = fit_bound(fitter, chain, observations)
+    fitter.bound_ = fit_model_bound(fitter, chain, observations)
     document.bound = None if fitter.bound_ is None else fitter.bound_.to_dict()
     save_model(document, out)
     return Calibrated(fitter.name, chain.name, str(out), training, fitter.record_, fitter.compensator_.chain)
@@ -272,6 +273,8 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
         answer["bound_note"] = NO_BOUND
     else:
         answer["bound95_median_mm"] = float(np.nanmedian(bound[reached]))
+        if "note" in fitted.bound_.calibration:  # what a ball-in-socket model's bound bounds
+            answer["bound_note"] = fitted.bound_.calibration["note"]
     return answer
 
 

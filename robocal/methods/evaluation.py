@@ -10,6 +10,7 @@ from ..errors import InputError, RobocalWarning
 from ..estimation.constraint import socket_deviations, socket_errors
 from ..estimation.metrics import error_stats
 from ..io.fixtures import fixture_from_dict
+from .socket_bound import socket_bound_scores
 
 # A calibrated model that still misses by this much is almost certainly the wrong robot,
 # wrong units or a different measurement frame.
@@ -82,7 +83,9 @@ def socket_scores(fitted, observations):
             f"{after['socket_distance'].get('mean_mm', 0.0):.1f} mm) after calibration: is {obs.path or 'the data'} "
             f"from robot '{fitted.reference_.name}', with joint values in degrees, and is the fixture "
             f"'{obs.fixture.name}' the one it was measured on?"), stacklevel=2)
-    return {"metric": SOCKET_METRIC, **after, "nominal": socket_errors(fitted.reference_, *args)}
+    # The share of configurations within the model's 95 % bound of the socket consistency.
+    bound = socket_bound_scores(fitted, obs)
+    return {"metric": SOCKET_METRIC, **after, "nominal": socket_errors(fitted.reference_, *args), **bound}
 
 
 def socket_residuals(fitted, observations):
