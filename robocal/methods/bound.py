@@ -84,8 +84,8 @@ NETWORK_FOLD_GENERATIONS = 60
 # calibration under its priors fits from fewer, but its posterior then says little).
 MIN_REGION_TRAINING = 8
 # What evaluate, compensate and serve say of a model file without a bound.
-NO_BOUND = ("this model file holds no 95 % bound (written before robocal computed one, from too few poses to "
-            "calibrate one, or for ball-in-socket data): regenerate it with 'robocal calibrate' to get bound95_mm")
+NO_BOUND = ("this model file holds no 95 % bound (written before robocal computed one, or from too few poses to "
+            "calibrate one): regenerate it with 'robocal calibrate' to get bound95_mm")
 
 
 def conformal_quantile(scores, coverage=COVERAGE):
