@@ -59,3 +59,31 @@ def test_iso9283_figures_of_series_d_equal_the_formulas(exported, monkeypatch):
     np.testing.assert_allclose([first["AP_mm"], first["RP_mm"]], [ap, rp], rtol=0, atol=1e-9)
     assert len(figures["poses"]) + len(figures["visited_once"]) > 500  # the cubes' other poses
     assert all(p["n"] >= 2 for p in figures["poses"])
+
+
+def test_every_repeated_pose_of_series_d_equals_the_formulas(exported, monkeypatch):
+    # Every pose, not only P1: visits grouped here independently (a row joins the first group
+    # whose first command lies within 2 mm of its own), poses visited once left out.
+    monkeypatch.delenv("ROBOCAL_SHARED_DATA", raising=False)
+    root, _ = exported
+    figures = json.loads(run_ok("iso9283", root / "d_iso.csv", "--json").stdout)
+    campaign = series_d_campaign()["columns"]
+    commanded = np.column_stack([campaign[c] for c in ("x_cmd", "y_cmd", "z_cmd")])
+    attained = np.column_stack([campaign[c] for c in "xyz"])
+    firsts, groups = [], []
+    for row, command in enumerate(commanded):
+        near = [k for k, first in enumerate(firsts) if np.linalg.norm(command - first) <= 2.0]
+        if near:
+            groups[near[0]].append(row)
+        else:
+            firsts.append(command)
+            groups.append([row])
+    expected = []
+    for rows in (g for g in groups if len(g) >= 2):
+        barycentre = attained[rows].mean(axis=0)
+        lengths = np.linalg.norm(attained[rows] - barycentre, axis=1)
+        expected.append((len(rows), np.linalg.norm(barycentre - commanded[rows].mean(axis=0)),
+                         lengths.mean() + 3 * lengths.std(ddof=1)))
+    got = [(p["n"], p["AP_mm"], p["RP_mm"]) for p in figures["poses"]]
+    assert len(got) == len(expected) == 50
+    np.testing.assert_allclose(np.array(sorted(got)), np.array(sorted(expected)), rtol=0, atol=1e-9)
