@@ -70,3 +70,9 @@ def test_the_exported_urdf_keeps_the_joint_names_and_re_imports_to_the_same_robo
     assert again.joint_names == chain.joint_names
     q = chain.random_configurations(50, np.random.default_rng(1))
     np.testing.assert_allclose(again.fk_positions(q), chain.fk_positions(q), atol=1e-9)
+
+
+def test_show_lists_the_joint_names():
+    shown = run_ok("show", URDF, "--tip", "ball_link").output
+    for k in range(1, 8):
+        assert f"{k} panda_joint{k}" in shown

@@ -37,7 +37,10 @@ def robot_tables(chain):
                     _fmt(ang(chain.theta[i])), _fmt(np.degrees(chain.beta[i])))
         sign = "coupled" if coupled else ("-1" if chain.joint_map[i, i] < 0 else "+1")
         mass = (_fmt(chain.masses[i], 3),) if masses else ()
-        table.add_row(str(i + 1), kind[0].upper(), *vals, _fmt(ang(chain.lower[i]), 2),
+        # A joint's name (URDF, or name = in the robot file) beside its number: data files may
+        # name their columns either way.
+        label = str(i + 1) if not chain.joint_names else f"{i + 1} {chain.joint_names[i]}"
+        table.add_row(label, kind[0].upper(), *vals, _fmt(ang(chain.lower[i]), 2),
                       _fmt(ang(chain.upper[i]), 2), sign, *mass)
     frames = Table(title="frames (xyz mm, rpy deg)")
     for c in ("frame", "x", "y", "z", "rx", "ry", "rz"):
