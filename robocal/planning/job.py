@@ -23,6 +23,7 @@ from ..io.atomic import check_outputs
 from ..io.library import load_robot
 from ..io.observations import check_robot_in_mm, read_observations, read_target_poses
 from ..io.poses import read_joints, read_placements, table, write_poses
+from ..io.units import check_typed_units
 from ..kinematics.ik import solve_ik
 from ..spatial import compose_pose, rpy_to_matrix
 from .candidates import DEFAULT_COUNT, MARGIN_DEG, box_candidates, joint_candidates
@@ -107,10 +108,11 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
     above the mounting plane); a user's own ``candidates`` are taken as given."""
     check_outputs([out], [robot, candidates, existing, targets])
     chain = load_robot(robot, root=root, tip=tip)
+    volume = WorkingVolume() if volume is None else volume
+    check_typed_units(chain, box=box, rpy=rpy, hint=hint, tool=tool, tracker=tracker, walls=volume.walls_mm)
     if tool is not None:
         chain = chain.replace(tool=compose_pose(np.asarray(tool, dtype=float), np.zeros(3)))
     check_robot_in_mm(chain)
-    volume = WorkingVolume() if volume is None else volume
     if candidates is not None:
         given = {"--pool": pool != DEFAULT_COUNT or None, "--sampling": sampling != "uniform" or None, "--box": box,
                  "--rpy": rpy, "--hint": hint}
@@ -174,6 +176,7 @@ def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_sock
         raise InputError("a ball-in-socket design needs where the fixture may go: give --placements FILE.csv or "
                          "--region xmin,xmax,ymin,ymax,zmin,zmax (mm), one of them")
     chain = load_robot(robot, root=root, tip=tip)
+    check_typed_units(chain, tool=tool, region=region)
     if tool is not None:
         chain = chain.replace(tool=compose_pose(np.asarray(tool, dtype=float), np.zeros(3)))
     check_robot_in_mm(chain)

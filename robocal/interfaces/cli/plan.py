@@ -132,6 +132,11 @@ def simulate(robot: str = ROBOT, out_file: str = out_option("Measurement CSV to 
     Ball in sockets: robocal simulate kr150-2 --sampling sockets --fixture fix.toml --placements 6
     --per-socket 20 --out sockets.csv
     """
+    if box is not None and sampling in ("lhs", "grid") and fixture is None:  # where --box, --rpy, --hint apply
+        from ...io.library import load_robot
+        from ...io.units import check_typed_units
+
+        check_typed_units(load_robot(robot, root=root, tip=tip), box=box, rpy=rpy, hint=hint)
     result = simulate_job(robot, out_file, n=n, sampling=sampling, errors=errors, noise=noise, seed=seed,
                           truth=truth, orientation=orientation, box=box, rpy=rpy, hint=hint, root=root, tip=tip,
                           fixture=fixture, placements=placements, per_socket=per_socket, joint_noise=joint_noise)
