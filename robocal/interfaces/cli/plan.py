@@ -15,6 +15,10 @@ from .rendering import print_design, print_json, print_result, print_socket_desi
 # simulate --n: beyond this a file is no measurement series anyone makes, and the run would
 # take minutes and gigabytes.
 MOST_SIMULATED_POSES = 1_000_000
+# Fixture placements and configurations per socket: a real ball-in-socket campaign has a few
+# dozen placements (MUKCa: 3 to 9) and tens of configurations per socket, each seated by hand.
+MOST_PLACEMENTS = 1000
+MOST_PER_SOCKET = 10_000
 # --noise: an instrument this noisy (a metre) measures nothing about a robot.
 LARGEST_NOISE_MM = 1000
 # design's choices, as robocal.planning names them (CRITERIA, SOCKET_CRITERIA, ORDERS and the
@@ -49,9 +53,11 @@ SIMULATE = (
     Setting("truth", None, "--truth", "Also write the hidden truth (JSON) here.", Output(".json")),
     Setting("orientation", False, "--orientation", "Also write measured rx, ry, rz.", Flag()),
     Setting("placements", None, "--placements", "sockets: number of fixture placements (default 4).",
-            Number(whole=True, at_least=1)),
+            Number(whole=True, at_least=1, at_most=MOST_PLACEMENTS,
+                   advice="a real campaign places a fixture a few dozen times")),
     Setting("per_socket", None, "--per-socket", "sockets: configurations per socket and placement (default 10).",
-            Number(whole=True, at_least=2)),
+            Number(whole=True, at_least=2, at_most=MOST_PER_SOCKET,
+                   advice="a real campaign seats the ball tens of times per socket")),
     Setting("joint_noise", None, "--joint-noise", "sockets: noise of the joint readings (deg, default 0).",
             Number(at_least=0)),
 )
@@ -113,7 +119,9 @@ DESIGN = (
     Setting("region", None, "--region", "With --fixture, instead of --placements: where the fixture may stand level, "
             "xmin,xmax,ymin,ymax,zmin,zmax in mm (robot base frame).", Numbers(count=6)),
     Setting("per_socket", None, "--per-socket", "With --fixture: configurations per socket (default: --n spread over "
-            "every reachable placement); fewer placements are then chosen.", Number(whole=True, at_least=2)),
+            "every reachable placement); fewer placements are then chosen.",
+            Number(whole=True, at_least=2, at_most=MOST_PER_SOCKET,
+                   advice="a real campaign seats the ball tens of times per socket")),
     Setting("max_tilt", None, "--max-tilt", "With --fixture: the largest angle between the tool axis and the fixture "
             "normal, deg (default 30).", Number(at_least=0, at_most=89)),
 )
