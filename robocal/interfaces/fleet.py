@@ -43,6 +43,7 @@ from .. import parallel
 from ..errors import FileFormatError, InputError, RobocalError, RobocalWarning
 from ..io.csv_writing import csv_text
 from ..io.atomic import write_text_atomic
+from ..io import schema
 from ..io.reading import load_json
 from ..methods import DEFAULT_METHOD, FRAMES, make_method, method_names, settings_by_option
 from ..methods.base import option_of
@@ -108,8 +109,7 @@ def read_fleet(path):
     tables = document.get("robot")
     if not tables:
         raise InputError(f"{path} lists no robots: add a [[robot]] table with name, robot and train for each")
-    if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
-        raise InputError(f"{path}: 'robot' must be [[robot]] tables (double brackets), one per robot")
+    schema.tables(tables, f"{path}: 'robot'", "[[robot]] tables (double brackets), one per robot")
     folder = path.resolve().parent
     robots = [_robot(table, k + 1, path, folder) for k, table in enumerate(tables)]
     seen = {}
@@ -135,17 +135,15 @@ def _robot(table, number, path, folder):
             raise InputError(f"{where}: no {key}; every [[robot]] needs name, robot (a built-in name or a robot "
                              "file) and train (its measurement CSV)")
     for key in REQUIRED_KEYS + ("test", "method", "fixture"):
-        if key in table and (not isinstance(table[key], str) or not table[key].strip()):
-            raise InputError(f"{where}: {key} must be a non-empty text in quotes, got {table[key]!r}")
+        if key in table:
+            schema.text(table[key], f"{where}: {key}")
     name = table["name"]
     if not NAME.match(name) or name.lower() in (SUMMARY_CSV, SUMMARY_HTML):
         raise InputError(f"{where}: name {name!r} is not a plain file name (it names the robot's folder in the "
                          "output): use letters, digits, '.', '_' and '-', starting with a letter or digit, and not "
                          f"{SUMMARY_CSV} or {SUMMARY_HTML}, e.g. 'line1-r07'")
-    options = table.get("options", {})
-    if not isinstance(options, dict):
-        raise InputError(f"{where}: options must be a table of calibrate's options, e.g. "
-                         "options = { parameters = \"full+gains\", seed = 3 }")
+    options = schema.table(table.get("options", {}), f"{where}: options", "a table of calibrate's options, e.g. "
+                           "options = { parameters = \"full+gains\", seed = 3 }")
     method, settings, job_options = _calibrate_options(table.get("method", DEFAULT_METHOD), options, where)
     robot = table["robot"]
     if Path(robot).suffix.lower() in ROBOT_FILE_SUFFIXES:

@@ -18,6 +18,7 @@ import numpy as np
 
 from robocal.errors import FileFormatError, InputError
 from robocal.io.atomic import write_text_atomic
+from robocal.io import schema
 from robocal.io.reading import load_toml
 from robocal.io.units import check_lengths
 
@@ -117,7 +118,8 @@ def read_fixture(path: str | os.PathLike) -> Fixture:
             f"{path} has no [sockets] table{_suggestion(document)}: list the sockets as id = [x, y, z] (mm)"
         )
     try:
-        return Fixture(name=str(document.get("name", Path(path).stem)), sockets=sockets)
+        name = schema.text(document["name"], f"{path}: name") if "name" in document else Path(path).stem
+        return Fixture(name=name, sockets=sockets)
     except InputError as error:
         raise FileFormatError(f"{path}: {error}") from None
 
