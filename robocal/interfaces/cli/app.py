@@ -21,6 +21,7 @@ from typer.core import TyperCommand, TyperGroup
 
 from ... import __version__
 from ...errors import RobocalError, RobocalWarning
+from ...io.atomic import outputs_together
 from .options import Refused
 from .rendering import err, out, say
 
@@ -135,14 +136,18 @@ def verb(*args, **kwargs):
 
 def user_errors(func):
     """Turn RobocalError (and a system's refusal of a file) into one line on stderr and exit
-    status 2; add ``--debug`` to the command (it is also accepted before the command)."""
+    status 2; add ``--debug`` to the command (it is also accepted before the command).  The
+    command's outputs are one unit (:func:`robocal.io.atomic.outputs_together`): a command
+    that fails or is interrupted leaves none of the files or folders it wrote; one that
+    exits with a status of its own (fleet: a robot failed) keeps them."""
 
     @functools.wraps(func)
     def wrapper(*args, debug=False, **kwargs):
         if debug:
             _state["debug"] = True
         try:
-            return func(*args, **kwargs)
+            with outputs_together(keep_on=(typer.Exit,)):
+                return func(*args, **kwargs)
         except RobocalError as exc:
             if _state["debug"]:
                 raise
