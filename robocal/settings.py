@@ -88,7 +88,9 @@ class Choice(Constraint):
 
     @property
     def metavar(self):
-        return "<" + "|".join(self.values) + (f"|FILE{self.or_file}" if self.or_file else "") + ">"
+        # Spaces around the bars: --help wraps a long list of choices between them, never
+        # inside a word (an 80-column terminal gives the metavar column some 25 characters).
+        return "<" + " | ".join(self.values + ((f"FILE{self.or_file}",) if self.or_file else ())) + ">"
 
     def _takes(self, value):
         # Equality for strings only: an array compared with == would give an array.
@@ -261,7 +263,7 @@ class Either(Constraint):
 
     @property
     def metavar(self):
-        return "<" + "|".join(c.metavar.strip("<>") for c in (self.first, self.second)) + ">"
+        return "<" + " | ".join(c.metavar.strip("<>") for c in (self.first, self.second)) + ">"
 
     def _either(self, how, value):
         for constraint in (self.first, self.second):

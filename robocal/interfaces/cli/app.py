@@ -114,7 +114,16 @@ command = functools.partial(app.command, cls=_Command)
 _state = {"debug": False}
 
 
+# The warnings printed so far: the same warning raised again (by every fold of a comparison,
+# every robot of a fleet run here) is printed once.
+_warned = set()
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None):
+    key = (category, str(message))
+    if key in _warned:
+        return
+    _warned.add(key)
     if issubclass(category, RobocalWarning):
         say("warning", "yellow", message)
     else:

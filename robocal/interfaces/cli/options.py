@@ -160,7 +160,8 @@ def _help(entries):
     for setting, names in takers.items():
         default = "" if setting.default is None or isinstance(setting.constraint, Flag) else \
             f" (default {_shown(setting.default)})"
-        parts.append(f"{'/'.join(names)}: {setting.help}{default}.")
+        # Methods joined with spaces: one long word would push --help's columns out of shape.
+        parts.append(f"{', '.join(names)}: {setting.help}{default}.")
     return " ".join(parts)
 
 

@@ -32,8 +32,8 @@ CANDIDATE_SAMPLINGS = ("uniform", "lhs")
 PRESETS = ("none", "typical", "liu2022")
 
 # Where the poses are drawn (simulate --sampling lhs) or the candidates lie (design --box).
-BOX = Setting("box", None, "--box", "A Cartesian box of the robot base frame, xmin,xmax,ymin,ymax,zmin,zmax in mm: "
-              "where simulate --sampling lhs draws the poses, where design's candidates lie.", Numbers(count=6))
+BOX = Setting("box", None, "--box", "A Cartesian box of the robot base frame, xmin, xmax, ymin, ymax, zmin, zmax in "
+              "mm: where simulate --sampling lhs draws the poses, where design's candidates lie.", Numbers(count=6))
 RPY = Setting("rpy", None, "--rpy", "With --box: the TCP orientation rx,ry,rz in deg (default 180,0,0).",
               Numbers(count=3))
 HINT = Setting("hint", None, "--hint", "With --box: a posture q1,...,qn in deg whose IK branch every pose takes.",
@@ -86,7 +86,7 @@ DESIGN = (
     Setting("floor", None, "--floor", "The lowest z (mm, robot base frame) the arm's joints and TCP may take in a "
             "drawn candidate. Default 0: above the mounting plane (a table- or floor-mounted robot); none for a wall "
             "or ceiling mount.", Either(Choice(("none",)), Number(at_least=-1e6, at_most=1e6))),
-    Setting("walls", None, "--walls", "Keep the arm's joints and TCP within xmin,xmax,ymin,ymax (mm, robot base "
+    Setting("walls", None, "--walls", "Keep the arm's joints and TCP within xmin, xmax, ymin, ymax (mm, robot base "
             "frame).", Numbers(count=4)),
     Setting("existing", None, "--existing", "Measurement (or poses) CSV of poses measured before: design the --n "
             "poses that best complement them; with x, y, z their calibration's residual sets the noise unless --noise "
@@ -117,7 +117,7 @@ DESIGN = (
             "rx,ry,rz (deg) of the fixture frame in the robot base frame, and optionally a fixture column naming "
             "them."),
     Setting("region", None, "--region", "With --fixture, instead of --placements: where the fixture may stand level, "
-            "xmin,xmax,ymin,ymax,zmin,zmax in mm (robot base frame).", Numbers(count=6)),
+            "xmin, xmax, ymin, ymax, zmin, zmax in mm (robot base frame).", Numbers(count=6)),
     Setting("per_socket", None, "--per-socket", "With --fixture: configurations per socket (default: --n spread over "
             "every reachable placement); fewer placements are then chosen.",
             Number(whole=True, at_least=2, at_most=MOST_PER_SOCKET,
