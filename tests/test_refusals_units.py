@@ -27,12 +27,19 @@ REFUSED = [
     (f"{DESIGN} --walls -1,1,-1,1", "--walls: largest 1, .* look like metres"),
     (f"{SOCKETS} --region 1,2,-0.5,0.5,0,0.4", "--region: largest 2, .* look like metres"),
     (f"{SOCKETS} --region 1000,2000,-500,500,0,400 --tool 0,0,0.2", "--tool: largest 0.2"),
+    (f"{SOCKETS} --placements where_m.csv", "the x, y, z of where_m.csv: largest 1.8, .* look like metres"),
+    (f"{SOCKETS} --placements where_rad.csv", "the rx, ry, rz of where_rad.csv look like radians"),
 ]
+PLACEMENTS = {"where_m.csv": "x,y,z,rx,ry,rz\n1.5,0,0,0,0,0\n1.8,0.3,0,0,0,90\n",
+              "where_rad.csv": "x,y,z,rx,ry,rz\n1500,0,0,0,0,0\n1800,300,0,0,0,1.5708\n",
+              "where.csv": "x,y,z,rx,ry,rz\n1500,0,0,0,0,0\n1800,300,0,0,0,90\n"}
 
 
 @pytest.mark.parametrize("command, says", REFUSED, ids=[row[0] for row in REFUSED])
 def test_a_number_typed_in_other_units_is_refused_in_one_line(tmp_path, monkeypatch, command, says):
     monkeypatch.chdir(tmp_path)
+    for name, text in PLACEMENTS.items():
+        (tmp_path / name).write_text(text)
     import re
 
     args = command.format(plate=PLATE).split()
@@ -42,7 +49,8 @@ def test_a_number_typed_in_other_units_is_refused_in_one_line(tmp_path, monkeypa
     result = runner.invoke(app, args)
     errors = [line for line in result.output.splitlines() if line.lower().startswith("error")]
     assert result.exit_code != 0 and len(errors) == 1 and re.search(says, errors[0]), result.output
-    assert_refused(args, errors[0][len("error: "):][:30], tmp_path, {})
+    assert_refused(args, errors[0][len("error: "):][:30], tmp_path, {p.name: p.stat().st_mtime_ns
+                                                                     for p in tmp_path.iterdir()})
 
 
 @pytest.mark.parametrize("extra", ["--box 300,600,-200,200,100,500 --rpy 180,0,0",
@@ -62,6 +70,14 @@ def test_one_test_of_typed_angles_tells_radians(orientation, radians):
     values = [float(v) for v in orientation.split(",")]
     assert units.looks_like_radians(values) is radians
     assert units.looks_like_radians(np.radians([180.0, 0.0, 0.0]))  # the example's rx, converted
+
+
+def test_placements_in_mm_and_degrees_are_read(tmp_path):
+    from robocal.io.poses import read_placements
+
+    (tmp_path / "where.csv").write_text(PLACEMENTS["where.csv"])
+    poses, names = read_placements(tmp_path / "where.csv")
+    assert names == ["P1", "P2"] and poses[1][:3, 3].tolist() == [1800.0, 300.0, 0.0]
 
 
 def test_the_shipped_targets_and_fixture_pass_and_in_radians_or_metres_are_refused(tmp_path):

@@ -23,7 +23,7 @@ from ..io.atomic import check_outputs
 from ..io.library import load_robot
 from ..io.observations import check_robot_in_mm, read_observations, read_target_poses
 from ..io.poses import read_joints, read_placements, table, write_poses
-from ..io.units import check_typed_units
+from ..io.units import check_robot_lengths, check_typed_units
 from ..kinematics.ik import solve_ik
 from ..spatial import compose_pose, rpy_to_matrix
 from .candidates import DEFAULT_COUNT, MARGIN_DEG, box_candidates, joint_candidates
@@ -183,6 +183,7 @@ def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_sock
     rig = read_fixture(fixture)
     if placements is not None:
         poses, names = read_placements(placements)
+        check_robot_lengths(chain, poses[:, :3, 3], f"the x, y, z of {placements}")
         source = f"{len(poses)} placements of {placements}"
     else:
         poses, names = region_placements(rig, region[0::2], region[1::2], seed=seed), None
