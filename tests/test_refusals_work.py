@@ -19,7 +19,8 @@ REFUSED = [
     ("simulate kr150-2 --sampling sockets --fixture {plate} --per-socket 20000 --out s.csv", "<= 10,000"),
     ("design kr150-2 --fixture {plate} --region 1000,2000,-500,500,0,400 --n 24 --per-socket 20000 --out p.csv",
      "<= 10,000"),
-    ("design ur5 --n 10 --pool 100000000 --out p.csv", "<= 1,000,000"),
+    ("design ur5 --n 10 --pool 100000000 --out p.csv", "<= 200,000 (10,000, the default, take about 4 s"),
+    ("design ur5 --n 10 --pool 1000000 --out p.csv", "<= 200,000"),
     ("simulate ur5 --n 100000000 --out s.csv", "<= 1,000,000"),
     ("compare ur5 meas.csv --jobs 100000", "<= 1,024"),
 ]

@@ -19,6 +19,9 @@ MOST_SIMULATED_POSES = 1_000_000
 # dozen placements (MUKCa: 3 to 9) and tens of configurations per socket, each seated by hand.
 MOST_PLACEMENTS = 1000
 MOST_PER_SOCKET = 10_000
+# design --pool: memory grows by some 7 kB a candidate (UR5: 200 MB for 10,000, 410 MB for
+# 40,000), so a million would need 7 GB; 200,000 (1.4 GB) is twenty times the default.
+MOST_POOL = 200_000
 # --noise: an instrument this noisy (a metre) measures nothing about a robot.
 LARGEST_NOISE_MM = 1000
 # design's choices, as robocal.planning names them (CRITERIA, SOCKET_CRITERIA, ORDERS and the
@@ -76,7 +79,8 @@ DESIGN = (
     Setting("candidates", None, "--candidates", "CSV of your own candidate configurations (q1..qN, deg): reachable "
             "poses of an offline program, or an earlier campaign's."),
     Setting("pool", 10_000, "--pool", "Candidate configurations to draw (without --candidates).",
-            Number(whole=True, at_least=10, at_most=1_000_000)),
+            Number(whole=True, at_least=10, at_most=MOST_POOL,
+                   advice="10,000, the default, take about 4 s and 200 MB for a UR5; memory grows with the pool")),
     Setting("sampling", "uniform", "--sampling", "How candidates are drawn in joint space: uniform or lhs (Latin "
             "hypercube).", Choice(CANDIDATE_SAMPLINGS)),
     Setting("tool", None, "--tool", "The TCP x,y,z in mm in the flange frame, in place of the robot file's tool.",
