@@ -102,3 +102,13 @@ def test_a_warning_raised_again_is_printed_once(monkeypatch):
         app_module._show_warning(RobocalWarning("joint 6 barely moves the TCP"), RobocalWarning, "x.py", fold)
     app_module._show_warning(RobocalWarning("another"), RobocalWarning, "x.py", 1)
     assert said == ["joint 6 barely moves the TCP", "another"]
+
+
+def test_a_command_that_reports_stages_shows_them_without_a_count():
+    clock, stream = Clock(), io.StringIO()
+    writer = plain.PlainProgress("design", None, stream, clock)
+    for stage in ("drawing candidates", "choosing 30 of 100000"):
+        clock.now += 6.0
+        writer.advance(steps=0, stage=stage)
+    assert stream.getvalue().splitlines() == ["design: stage drawing candidates (6 s)",
+                                              "design: stage choosing 30 of 100000 (12 s)"]

@@ -65,9 +65,10 @@ class PlainProgress:
 
     def line(self, final=False):
         """What the writer would print now (without the elapsed time), and with it."""
-        count = f"{self.done}" + (f" of {self.total}" if self.total else "")
-        said = f"{self.description}: {count}" + "".join(
-            f"  {plain(key)} {plain(_shown(value))}" for key, value in self.fields.items())
+        # A command that reports stages, not steps, has no count to show.
+        count = f" {self.done}" + (f" of {self.total}" if self.total else "") if self.done or self.total else ""
+        fields = "  ".join(f"{plain(key)} {plain(_shown(value))}" for key, value in self.fields.items())
+        said = f"{self.description}:{count}" + ((" " if not count else "  ") + fields if fields else "")
         elapsed = f" ({self.clock() - self.start:.0f} s)" + (DONE if final else "")
         if len(said) + len(elapsed) > WIDTH:
             said = said[:WIDTH - len(elapsed) - 3].rstrip() + "..."

@@ -10,7 +10,7 @@ from ...settings import Choice, Either, Flag, Number, Numbers, Setting
 from ..jobs import SAMPLINGS, simulate_job
 from .app import verb
 from .options import FIXTURE, JSON, ROBOT, ROOT, SEED, TIP, Output, declared, out_option
-from .rendering import print_design, print_json, print_result, print_socket_design
+from .rendering import print_design, print_json, print_result, print_socket_design, progress
 
 # simulate --n: beyond this a file is no measurement series anyone makes, and the run would
 # take minutes and gigabytes.
@@ -208,11 +208,13 @@ def design(robot: str = ROBOT, *, n: int,
                             per_socket=per_socket, criterion=criterion, seed=seed, tool=tool, noise=noise,
                             margin=margin, max_tilt=max_tilt, root=root, tip=tip)
     else:
-        result = design_job(robot, out_file, n=n, seed=seed, criterion=criterion, parameters=parameters,
-                            candidates=candidates, pool=pool, sampling=sampling, box=box, rpy=rpy, hint=hint,
-                            tool=tool, margin=margin, existing=existing, targets=targets, noise=noise,
-                            tracker=tracker, payload=payload, order=order, root=root, tip=tip,
-                            joint_noise=joint_noise, sag=sag, volume=WorkingVolume(parse_floor(floor), walls))
+        with progress("design", None, enabled=not as_json) as advance:
+            result = design_job(robot, out_file, n=n, seed=seed, criterion=criterion, parameters=parameters,
+                                candidates=candidates, pool=pool, sampling=sampling, box=box, rpy=rpy, hint=hint,
+                                tool=tool, margin=margin, existing=existing, targets=targets, noise=noise,
+                                tracker=tracker, payload=payload, order=order, root=root, tip=tip,
+                                joint_noise=joint_noise, sag=sag, volume=WorkingVolume(parse_floor(floor), walls),
+                                progress=lambda **info: advance(steps=0, **info))
     if as_json:
         print_json(result)
     elif fixture is not None:
