@@ -25,6 +25,10 @@ FILES = {
     "fleet_robot_number.toml": "robot = 3\n",
     "fleet_options_number.toml": '[[robot]]\nname = "r1"\nrobot = "ur5"\ntrain = "t.csv"\noptions = 5\n',
     "fleet_name_list.toml": '[[robot]]\nname = ["r1"]\nrobot = "ur5"\ntrain = "t.csv"\n',
+    "existing_two_joints.csv": "q1,q2\n1,2\n",
+    "existing_text.csv": "q1,q2,q3,q4,q5,q6\n0,-90,[90],0,90,0\n",
+    "points_no_z.txt": "name;x;y\nP1;1;2\n",
+    "joints.csv": "q1,q2,q3,q4,q5,q6,name\n0,-90,90,0,90,0,P1\n",
 }
 REFUSED = [
     ("show r_convention_list.toml", "convention must be one of 'dh', 'mdh', 'poe', got []"),
@@ -39,6 +43,9 @@ REFUSED = [
     ("fleet fleet_robot_number.toml --out out", "'robot' must be [[robot]] tables"),
     ("fleet fleet_options_number.toml --out out", "options must be a table of calibrate's options"),
     ("fleet fleet_name_list.toml --out out", "name must be a non-empty text in quotes, got ['r1']"),
+    ("design ur5 --n 10 --pool 200 --existing existing_two_joints.csv --out p.csv", "lacks columns q3, q4, q5, q6"),
+    ("design ur5 --n 10 --pool 200 --existing existing_text.csv --out p.csv", "'[90]'"),
+    ("import --points points_no_z.txt --joints joints.csv --out m.csv", "names no z column"),
     ("simulate ur5 --errors truth_robot_number.json --out s.csv", "robot must be a non-empty text"),
     ("simulate ur5 --errors truth_seed_huge.json --out s.csv", "truth_seed_huge.json"),
     ("simulate ur5 --errors truth_deviation_list.json --out s.csv", "truth_deviation_list.json"),
