@@ -1,7 +1,8 @@
 """What a user reads in a pipe or an 80-column log: a long command's progress as plain lines
 on stderr (robocal.interfaces.progress), one every few seconds, no control characters, at
-most 79 columns, a line that says nothing new printed once; --help that breaks no choice
-list inside a word and cuts off no text."""
+most 79 columns, a line that says nothing new printed once, a warning raised again printed
+once; --help that breaks no choice list inside a word and cuts off no text; messages that
+name only options robocal has."""
 import io
 import os
 import re
@@ -112,3 +113,19 @@ def test_a_command_that_reports_stages_shows_them_without_a_count():
         writer.advance(steps=0, stage=stage)
     assert stream.getvalue().splitlines() == ["design: stage drawing candidates (6 s)",
                                               "design: stage choosing 30 of 100000 (12 s)"]
+
+
+def test_every_option_a_message_names_is_a_real_option():
+    import typer
+
+    from robocal.interfaces.cli import app
+
+    command = typer.main.get_command(app)
+    options = {"--help", "--version"} | {option for sub in command.commands.values() for param in sub.params
+                                         for option in param.opts + param.secondary_opts}
+    named = {}
+    for path in (ROOT / "robocal").rglob("*.py"):
+        text = "\n".join(line for line in path.read_text().splitlines() if not line.lstrip().startswith("#"))
+        for found in re.finditer(r"--[a-z][a-z0-9-]*[a-z0-9]", text):
+            named.setdefault(found.group(), str(path.relative_to(ROOT)))
+    assert {option: where for option, where in named.items() if option not in options} == {}
