@@ -45,7 +45,8 @@ HINT = Setting("hint", None, "--hint", "With --box: a posture q1,...,qn in deg w
 SIMULATE = (
     BOX, RPY, HINT,
     Setting("n", None, "--n", "Number of poses (default 200; liu2022: 150).",
-            Number(whole=True, at_least=1, at_most=MOST_SIMULATED_POSES)),
+            Number(whole=True, at_least=1, at_most=MOST_SIMULATED_POSES,
+                   advice="a million take minutes and gigabytes; simulate several files for more")),
     Setting("sampling", "joint", "--sampling", "joint (uniform in the limits), lhs (Latin hypercube in --box), grid "
             "(n^(1/3) per axis in --box) or sockets (ball in the sockets of --fixture, joint angles only).",
             Choice(SAMPLINGS)),
@@ -67,7 +68,9 @@ SIMULATE = (
 
 DESIGN = (
     BOX, RPY, HINT,
-    Setting("n", ..., "--n", "Number of poses to measure.", Number(whole=True, at_least=1, at_most=100_000)),
+    Setting("n", ..., "--n", "Number of poses to measure.",
+            Number(whole=True, at_least=1, at_most=100_000,
+                   advice="real campaigns measure tens to a few thousand poses")),
     Setting("criterion", "prediction", "--criterion", "prediction (default: the mean squared error of the calibrated "
             "TCP over the targets; what a calibration is for), d-optimal (log det of the parameters' information), "
             "space-filling (spread over configuration space) or variance (one pose at a time where a "
