@@ -57,6 +57,18 @@ def test_a_short_run_prints_nothing_and_a_quiet_one_repeats_no_line():
     assert len(stream.getvalue().splitlines()) == 2
 
 
+def test_the_heartbeat_writes_the_line_due_inside_a_long_step():
+    clock, stream = Clock(), io.StringIO()
+    writer = plain.PlainProgress("design", None, stream, clock)
+    clock.now = 1.0
+    writer.advance(steps=0, stage="choosing 30 of 100000")  # too early for a line
+    clock.now = 7.0
+    writer.tick()  # seven seconds into one step that reports nothing more
+    clock.now = 8.0
+    writer.tick()  # a line was written a second ago: none due
+    assert stream.getvalue().splitlines() == ["design: stage choosing 30 of 100000 (7 s)"]
+
+
 def test_a_line_too_long_for_80_columns_is_cut():
     lines = _run(10, 1.0, last=lambda k: "x" * 300)
     assert lines and all(len(line) <= 79 for line in lines)
@@ -67,6 +79,7 @@ def test_the_command_lines_progress_writes_plain_lines_where_stderr_is_no_termin
     clock = Clock()
     monkeypatch.setattr(sys, "stderr", stream)
     monkeypatch.setattr(plain.time, "monotonic", clock)
+    monkeypatch.setattr(plain, "HEARTBEAT_SECONDS", 3600.0)  # this test's clock is its own
     with rendering.progress("robots", 3) as advance:
         for k in range(3):
             clock.now += 10.0

@@ -5,7 +5,9 @@ delegates here.  A bar redrawn in place is a stream of carriage returns and esca
 in a log, and nothing at all is worse (a ``compare`` that runs for minutes looks hung), so
 this writes plain lines to stderr: the first once the command has run for
 :data:`FIRST_LINE_SECONDS`, then one every :data:`INTERVAL_SECONDS` at most, and a last one
-when a run that printed any ends.  Each line is printable text of at most
+when a run that printed any ends.  A heartbeat (a thread that wakes every
+:data:`HEARTBEAT_SECONDS`) writes the line due even while the command is inside one long step
+that reports nothing (a fit, a design's selection).  Each line is printable text of at most
 :data:`WIDTH` characters (an 80-column log), and a line that says nothing new (only the
 elapsed time moved) is printed once, then again at most every :data:`QUIET_SECONDS`, so
 that a log still shows the command alive.
@@ -15,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import re
 import sys
+import threading
 import time
 
 # A short command prints no progress at all; a long one says it is alive this soon.
@@ -23,6 +26,8 @@ FIRST_LINE_SECONDS = 5.0
 INTERVAL_SECONDS = 5.0
 # A line that says nothing new is repeated no more often than this.
 QUIET_SECONDS = 60.0
+# How often the heartbeat looks whether a line is due (it prints by the rules above).
+HEARTBEAT_SECONDS = 1.0
 # Lines fit an 80-column log (the last column left free: some terminals wrap on it).
 WIDTH = 79
 # Escape sequences (colours, cursor moves) and control characters: nothing of them in a log.
@@ -53,15 +58,24 @@ class PlainProgress:
         self.start = self.clock()
         self.done, self.fields = 0, {}
         self.last_time, self.last_said, self.lines = None, None, 0
+        # The heartbeat's thread and the command's both write: one at a time.
+        self._lock = threading.Lock()
 
     def advance(self, steps=1, **fields):
-        self.done += steps
-        self.fields.update(fields)
-        self._maybe_write(final=False)
+        with self._lock:
+            self.done += steps
+            self.fields.update(fields)
+            self._maybe_write(final=False)
+
+    def tick(self):
+        """Write the line due now, if one is (the heartbeat's call)."""
+        with self._lock:
+            self._maybe_write(final=False)
 
     def finish(self):
-        if self.lines:
-            self._maybe_write(final=True)
+        with self._lock:
+            if self.lines:
+                self._maybe_write(final=True)
 
     def line(self, final=False):
         """What the writer would print now (without the elapsed time), and with it."""
@@ -93,5 +107,18 @@ def plain_progress(description, total=None, stream=None):
     """Yield ``advance(steps=1, **fields)`` writing :class:`PlainProgress` lines to
     ``stream`` (stderr); the last line when the block ends without an error."""
     writer = PlainProgress(description, total, stream)
-    yield writer.advance
-    writer.finish()
+    stop = threading.Event()
+
+    def beat():
+        while not stop.wait(HEARTBEAT_SECONDS):
+            writer.tick()
+
+    heartbeat = threading.Thread(target=beat, name="robocal-progress", daemon=True)
+    heartbeat.start()
+    try:
+        yield writer.advance
+        stop.set()
+        heartbeat.join()
+        writer.finish()
+    finally:
+        stop.set()
