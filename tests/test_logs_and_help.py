@@ -74,8 +74,18 @@ def test_a_line_too_long_for_80_columns_is_cut():
     assert lines and all(len(line) <= 79 for line in lines)
 
 
+class Pipe(io.StringIO):
+    """A stream with a file descriptor that is no terminal, as a pipe or a log file is."""
+
+    def fileno(self):
+        return 99
+
+    def isatty(self):
+        return False
+
+
 def test_the_command_lines_progress_writes_plain_lines_where_stderr_is_no_terminal(monkeypatch):
-    stream = io.StringIO()
+    stream = Pipe()
     clock = Clock()
     monkeypatch.setattr(sys, "stderr", stream)
     monkeypatch.setattr(plain.time, "monotonic", clock)
@@ -142,3 +152,26 @@ def test_every_option_a_message_names_is_a_real_option():
         for found in re.finditer(r"--[a-z][a-z0-9-]*[a-z0-9]", text):
             named.setdefault(found.group(), str(path.relative_to(ROOT)))
     assert {option: where for option, where in named.items() if option not in options} == {}
+
+
+def test_a_stream_captured_in_process_gets_no_progress_lines(monkeypatch):
+    stream = io.StringIO()  # a test runner's capture: no file descriptor
+    monkeypatch.setattr(sys, "stderr", stream)
+    with plain.plain_progress("fitting", 3) as advance:
+        advance()
+    assert not plain._is_file(stream) and plain._is_file(Pipe()) and stream.getvalue() == ""
+
+
+def test_the_command_lines_progress_in_a_real_pipe_is_plain_lines():
+    script = ("import time\n"
+              "import robocal.interfaces.progress as p\n"
+              "p.FIRST_LINE_SECONDS = p.INTERVAL_SECONDS = 0.0\n"
+              "from robocal.interfaces.cli.rendering import progress\n"
+              "with progress('comparing the methods, fit', 3) as advance:\n"
+              "    for k in range(3):\n"
+              "        advance(last=f'\\x1b[1mfold {k}\\x1b[0m')\n")
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT, timeout=120,
+                            env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.splitlines() == [f"comparing the methods, fit: {k} of 3  last fold {k - 1} (0 s)"
+                                          for k in (1, 2, 3)], result.stderr
