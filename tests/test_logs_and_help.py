@@ -127,6 +127,12 @@ def test_a_warning_raised_again_is_printed_once(monkeypatch):
     app_module._show_warning(RobocalWarning("another"), RobocalWarning, "x.py", 1)
     assert said == ["joint 6 barely moves the TCP", "another"]
 
+    def command():
+        app_module._show_warning(RobocalWarning("another"), RobocalWarning, "x.py", 1)
+
+    app_module.user_errors(command)()  # the next command (in the same process) warns again
+    assert said == ["joint 6 barely moves the TCP", "another", "another"]
+
 
 def test_a_command_that_reports_stages_shows_them_without_a_count():
     clock, stream = Clock(), io.StringIO()

@@ -114,8 +114,8 @@ command = functools.partial(app.command, cls=_Command)
 _state = {"debug": False}
 
 
-# The warnings printed so far: the same warning raised again (by every fold of a comparison,
-# every robot of a fleet run here) is printed once.
+# The warnings the running command has printed: the same warning raised again (by every fold
+# of a comparison, every robot of a fleet run here) is printed once.
 _warned = set()
 
 
@@ -154,6 +154,7 @@ def user_errors(func):
     def wrapper(*args, debug=False, **kwargs):
         if debug:
             _state["debug"] = True
+        _warned.clear()  # once per command: a command run again (in one process) warns again
         try:
             with outputs_together(keep_on=(typer.Exit,)):
                 return func(*args, **kwargs)
