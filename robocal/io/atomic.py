@@ -149,9 +149,9 @@ def promote(source: str | os.PathLike, target: str | os.PathLike) -> None:
     if target.exists() and target not in outputs.created:  # one it created is removed, not restored
         backup = target.parent / f".{target.name}.{secrets.token_hex(8)}.bak"
         try:
-            os.link(target, backup)
+            os.link(target, backup, follow_symlinks=False)  # a symbolic link is put back as one
         except OSError:  # a file system without hard links
-            shutil.copy2(target, backup)
+            shutil.copy2(target, backup, follow_symlinks=False)
     try:
         os.replace(source, target)
     except BaseException:
