@@ -104,3 +104,75 @@ def test_the_schema_helper_names_the_place_and_what_it_must_be(call, says):
     with pytest.raises(FileFormatError) as caught:
         call()
     assert says in str(caught.value) and len(str(caught.value)) < 200
+
+
+# --------------------------------------------------------------------------- every value, every wrong type
+WRONG = [None, [], {}, "x", -1, 1e300, True, [[1]], {"a": {"b": 1}}, [1, 2], "", ["x", "y", "z"]]
+
+
+def _places(document, prefix=()):
+    """Every path to a value of ``document`` (the first three entries of a list)."""
+    yield prefix
+    if isinstance(document, dict):
+        for key, value in document.items():
+            yield from _places(value, prefix + (key,))
+    elif isinstance(document, list):
+        for k, value in enumerate(document[:3]):
+            yield from _places(value, prefix + (k,))
+
+
+def _variants(document):
+    """``document`` with one value replaced by a value of a wrong type, or removed."""
+    import copy
+
+    for place in list(_places(document))[1:]:
+        for value in WRONG + ["remove"]:
+            changed = copy.deepcopy(document)
+            inner = changed
+            for step in place[:-1]:
+                inner = inner[step]
+            if value == "remove":
+                del inner[place[-1]]
+            else:
+                inner[place[-1]] = value
+            yield place, value, changed
+
+
+def _only_user_errors(read, document):
+    import warnings
+
+    from robocal.errors import RobocalError
+
+    crashes = {}
+    for place, value, changed in _variants(document):
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # a huge number overflows on the way to its refusal
+                read(changed)
+        except RobocalError:
+            pass
+        except Exception as exc:  # noqa: BLE001 - what the test looks for
+            crashes.setdefault(type(exc).__name__, (place, value, str(exc)[:80]))
+    return crashes
+
+
+def test_a_robot_document_with_any_value_of_a_wrong_type_is_a_user_error():
+    import tomllib
+
+    from robocal.io.robot_file import chain_from_dict
+
+    for name in ("ur5", "panda", "fanuc-r2000ic-165f"):
+        document = tomllib.loads((EXAMPLES.parent / "robocal" / "io" / "robots" / f"{name}.toml").read_text())
+        document["tolerances"] = {"length_mm": 0.1}
+        document["tool"] = {"xyz": [0, 0, 100], "rpy": [0, 0, 0]}
+        assert _only_user_errors(lambda d, where=name: chain_from_dict(d, where), document) == {}, name
+
+
+def test_a_fleet_robot_or_truth_with_any_value_of_a_wrong_type_is_a_user_error(tmp_path, truth):
+    from robocal.interfaces.fleet import _robot
+    from robocal.simulation.true_robot import TrueRobot
+
+    table = {"name": "r1", "robot": "ur5", "train": "t.csv", "test": "t.csv", "method": "ann", "fixture": "f.toml",
+             "options": {"hidden": [16, 16], "seed": 3, "generations": 100}}
+    assert _only_user_errors(lambda d: _robot(d, 1, tmp_path / "fleet.toml", tmp_path), table) == {}
+    assert _only_user_errors(lambda d: TrueRobot.from_dict(d, "truth.json"), truth) == {}
