@@ -88,7 +88,9 @@ class Choice(Constraint):
 
     @property
     def metavar(self):
-        return "<" + "|".join(self.values) + (f"|FILE{self.or_file}" if self.or_file else "") + ">"
+        # Spaces around the bars: --help wraps a long list of choices between them, never
+        # inside a word (an 80-column terminal gives the metavar column some 25 characters).
+        return "<" + " | ".join(self.values + ((f"FILE{self.or_file}",) if self.or_file else ())) + ">"
 
     def _takes(self, value):
         # Equality for strings only: an array compared with == would give an array.
@@ -112,12 +114,15 @@ class Choice(Constraint):
 @dataclass(frozen=True)
 class Number(Constraint):
     """A number (``whole``: a whole number) ``>= at_least``, ``<= at_most`` (whole numbers:
-    :data:`LARGEST_WHOLE` unless told) or strictly ``between`` two bounds; always finite."""
+    :data:`LARGEST_WHOLE` unless told) or strictly ``between`` two bounds; always finite.
+    ``advice``: what the refusal of a value beyond ``at_most`` adds (an amount of work: what
+    the largest costs, what to do instead)."""
 
     whole: bool = False
     at_least: float | None = None
     at_most: float | None = None
     between: tuple | None = None
+    advice: str = ""
 
     @property
     def _most(self):
@@ -138,7 +143,8 @@ class Number(Constraint):
 
     def _bounded(self, number, given):
         if self._most is not None and number > self._most:
-            raise Refusal(f"{self.expected} and <= {self._most:,}", given)
+            raise Refusal(f"{self.expected} and <= {self._most:,}" + (f" ({self.advice})" if self.advice else ""),
+                          given)
         if (not math.isfinite(number) or (self.at_least is not None and number < self.at_least)
                 or (self.between is not None and not self.between[0] < number < self.between[1])):
             raise Refusal(self.expected, given)
@@ -164,13 +170,17 @@ class Number(Constraint):
 @dataclass(frozen=True)
 class Numbers(Constraint):
     """Comma-separated numbers: ``count`` of them (any number when 0, at least
-    ``at_least_count``), each whole if ``whole`` and ``>= at_least``; ``example`` shows one."""
+    ``at_least_count``, at most ``at_most_count``), each whole if ``whole``, ``>= at_least``
+    and ``<= at_most`` (whole numbers: :data:`LARGEST_WHOLE` unless told); ``example`` shows
+    one."""
 
     count: int = 0
     whole: bool = False
     at_least: float | None = None
     at_least_count: int = 0
     example: str = ""
+    at_most: float | None = None
+    at_most_count: int | None = None
 
     @property
     def expected(self):
@@ -191,8 +201,11 @@ class Numbers(Constraint):
         return "<" + ",".join(["x"] * self.count) + ">" if self.count else "<x,y,...>"
 
     def _checked(self, values, given):
-        if self.whole and max(values, default=0) > LARGEST_WHOLE:
-            raise Refusal(f"{self.expected} <= {LARGEST_WHOLE:,}{self._hint}", given)
+        most = LARGEST_WHOLE if self.whole and self.at_most is None else self.at_most
+        if most is not None and max(values, default=0) > most:
+            raise Refusal(f"{self.expected} <= {most:,}{self._hint}", given)
+        if self.at_most_count is not None and len(values) > self.at_most_count:
+            raise Refusal(f"{self.expected}, at most {self.at_most_count} of them{self._hint}", given)
         if ((self.count and len(values) != self.count) or len(values) < self.at_least_count
                 or not all(math.isfinite(v) and (self.at_least is None or v >= self.at_least) for v in values)):
             raise Refusal(self.expected + self._hint, given)
@@ -250,7 +263,7 @@ class Either(Constraint):
 
     @property
     def metavar(self):
-        return "<" + "|".join(c.metavar.strip("<>") for c in (self.first, self.second)) + ">"
+        return "<" + " | ".join(c.metavar.strip("<>") for c in (self.first, self.second)) + ">"
 
     def _either(self, how, value):
         for constraint in (self.first, self.second):

@@ -127,8 +127,8 @@ def test_a_robot_file_in_metres_is_refused():
 def test_a_fixture_in_metres_is_refused(tmp_path):
     path = tmp_path / "plate.toml"
     path.write_text('[sockets]\nA = [0.0, 0.0, 0.0]\nB = [0.15, 0.0, 0.0]\nC = [0.0, 0.12, 0.0]\n')
-    with pytest.raises(FileFormatError, match="plate.toml: .* at most 0.192 apart.* look like metres; give the "
-                                              "socket positions in mm"):
+    with pytest.raises(FileFormatError, match="plate.toml: .* socket spacing: largest 0.192, .* look like metres; "
+                                              "give them in mm"):
         read_fixture(path)
     Fixture("mm", {"A": [0, 0, 0], "B": [1.5, 0, 0]})  # a small fixture in mm is still one
 

@@ -67,7 +67,7 @@ def test_help_lists_the_choices(name, choices):
     result = runner.invoke(app, [name, "--help"], env=WIDE)
     assert result.exit_code == 0, result.output
     for values in choices:
-        assert "<" + "|".join(values) + ">" in result.output, values
+        assert "<" + " | ".join(values) + ">" in result.output, values
 
 
 # --------------------------------------------------------------------------- flags and --debug anywhere

@@ -56,7 +56,7 @@ REFUSED = [
     ("calibrate ur5 meas.csv --out m.json --method ann --hidden 0,4", "--hidden"),
     ("calibrate ur5 meas.csv --out m.json --method ann --hidden 4,-4", "--hidden"),
     ("calibrate ur5 meas.csv --out m.json --method ann --generations abc", "--generations"),
-    ("calibrate ur5 meas.csv --out m.json --method ann --hidden 100000,100000", "smaller hidden layers"),
+    ("calibrate ur5 meas.csv --out m.json --method ann --hidden 100000,100000", "<= 256"),
     ("calibrate ur5 meas.csv --out m.json --method ann --trainer lbfgs", "at least 145 poses"),
     ("calibrate ur5 meas.csv --out m.json --method kinematic --hidden 4,4", "--hidden does not apply"),
     ("calibrate ur5 meas.csv --out m.json --method kinematic --generations 5", "--generations does not apply"),

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from refusals import EXAMPLES, PLATE
-from robocal.errors import FileFormatError, InputError, RobocalWarning
+from robocal.errors import FileFormatError, InputError
 
 
 # ---------------------------------------------------------------- load_robot and read_observations
@@ -143,10 +143,10 @@ def _targets(tmp_path, orientation):
 
 @pytest.mark.parametrize("orientation", ["3.14159,0,1.57", "-3.1416,0,0", "1.5708,0,0", "2.5,0.3,-1.2",
                                          "0,0.785398,0"])
-def test_target_orientations_in_radians_are_warned_about(tmp_path, orientation):
+def test_target_orientations_in_radians_are_refused(tmp_path, orientation):
     from robocal.io.tables import read_targets
 
-    with pytest.warns(RobocalWarning, match="look like radians"):
+    with pytest.raises(InputError, match="rx, ry, rz of .* look like radians"):
         read_targets(_targets(tmp_path, orientation))
 
 
@@ -162,7 +162,7 @@ def test_degree_targets_raise_no_false_alarm(tmp_path, orientation):
             read_targets(EXAMPLES / example)
 
 
-def test_the_example_targets_converted_to_radians_are_warned_about(tmp_path):
+def test_the_example_targets_converted_to_radians_are_refused(tmp_path):
     from robocal.io.tables import read_targets
 
     lines = (EXAMPLES / "ur5-targets.csv").read_text().splitlines()
@@ -170,5 +170,5 @@ def test_the_example_targets_converted_to_radians_are_warned_about(tmp_path):
     converted = [r[:3] + list(np.radians(r[3:6])) + r[6:] for r in rows]
     path = tmp_path / "t.csv"
     path.write_text("\n".join([lines[0]] + [",".join(str(float(v)) for v in r) for r in converted]) + "\n")
-    with pytest.warns(RobocalWarning, match="look like radians"):
+    with pytest.raises(InputError, match="look like radians"):
         read_targets(path)

@@ -42,7 +42,8 @@ from pathlib import Path
 from .. import parallel
 from ..errors import FileFormatError, InputError, RobocalError, RobocalWarning
 from ..io.csv_writing import csv_text
-from ..io.atomic import write_text_atomic
+from ..io.atomic import make_directory, outputs_together, promote, write_text_atomic
+from ..io import schema
 from ..io.reading import load_json
 from ..methods import DEFAULT_METHOD, FRAMES, make_method, method_names, settings_by_option
 from ..methods.base import option_of
@@ -108,8 +109,7 @@ def read_fleet(path):
     tables = document.get("robot")
     if not tables:
         raise InputError(f"{path} lists no robots: add a [[robot]] table with name, robot and train for each")
-    if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
-        raise InputError(f"{path}: 'robot' must be [[robot]] tables (double brackets), one per robot")
+    schema.tables(tables, f"{path}: 'robot'", "[[robot]] tables (double brackets), one per robot")
     folder = path.resolve().parent
     robots = [_robot(table, k + 1, path, folder) for k, table in enumerate(tables)]
     seen = {}
@@ -135,17 +135,15 @@ def _robot(table, number, path, folder):
             raise InputError(f"{where}: no {key}; every [[robot]] needs name, robot (a built-in name or a robot "
                              "file) and train (its measurement CSV)")
     for key in REQUIRED_KEYS + ("test", "method", "fixture"):
-        if key in table and (not isinstance(table[key], str) or not table[key].strip()):
-            raise InputError(f"{where}: {key} must be a non-empty text in quotes, got {table[key]!r}")
+        if key in table:
+            schema.text(table[key], f"{where}: {key}")
     name = table["name"]
     if not NAME.match(name) or name.lower() in (SUMMARY_CSV, SUMMARY_HTML):
         raise InputError(f"{where}: name {name!r} is not a plain file name (it names the robot's folder in the "
                          "output): use letters, digits, '.', '_' and '-', starting with a letter or digit, and not "
                          f"{SUMMARY_CSV} or {SUMMARY_HTML}, e.g. 'line1-r07'")
-    options = table.get("options", {})
-    if not isinstance(options, dict):
-        raise InputError(f"{where}: options must be a table of calibrate's options, e.g. "
-                         "options = { parameters = \"full+gains\", seed = 3 }")
+    options = schema.table(table.get("options", {}), f"{where}: options", "a table of calibrate's options, e.g. "
+                           "options = { parameters = \"full+gains\", seed = 3 }")
     method, settings, job_options = _calibrate_options(table.get("method", DEFAULT_METHOD), options, where)
     robot = table["robot"]
     if Path(robot).suffix.lower() in ROBOT_FILE_SUFFIXES:
@@ -260,7 +258,7 @@ def run_robot(task):
                 if stats.get("outside_domain"):
                     notes.append(stats["domain_summary"])
             row.update(mean_mm=stats["mean_mm"], max_mm=stats["max_mm"])
-            os.replace(staged, model_path)
+            promote(staged, model_path)
             promoted = True
             _report(model_path, task["test"] or task["train"], report_path, task.get("beyond_limits", False))
         notes += list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, RobocalWarning)))
@@ -311,6 +309,13 @@ def fleet_job(fleet_file, out_dir, *, jobs=None, scheduler=None, on_robot=None):
     :func:`robocal.parallel.executor`, serially outside one.  Writes DIR/<name>/model.json and
     report.html, DIR/summary.csv and DIR/summary.html; ``on_robot(row, finished, total)`` is
     called as each robot finishes.  Returns the rows and what was written; ``failed`` counts the failures."""
+    # One unit: a fleet that fails as a whole (no scheduler, Ctrl-C) leaves no folder or file
+    # it made; one that runs keeps every robot's, failed robots included.
+    with outputs_together():
+        return _run_fleet(fleet_file, out_dir, jobs, scheduler, on_robot)
+
+
+def _run_fleet(fleet_file, out_dir, jobs, scheduler, on_robot):
     if jobs is not None or scheduler is not None:
         parallel.require_dask("robocal fleet")
     robots = read_fleet(fleet_file)
@@ -319,10 +324,10 @@ def fleet_job(fleet_file, out_dir, *, jobs=None, scheduler=None, on_robot=None):
         raise InputError(f"--out {out} is a file: give a folder (it is created if missing)")
     folders = [_robot_folder(out, robot.name) for robot in robots]
     _check_inputs_are_not_outputs(robots, folders, out, fleet_file)
-    out.mkdir(parents=True, exist_ok=True)
+    make_directory(out)
     created = [folder for folder in folders if not folder.exists()]
     for folder in folders:
-        folder.mkdir(exist_ok=True)
+        make_directory(folder)
     # Absolute: a worker of a cluster given by address runs in a folder of its own.
     tasks = [robot.task(os.path.abspath(folder)) for robot, folder in zip(robots, folders)]
 
@@ -351,6 +356,7 @@ def fleet_job(fleet_file, out_dir, *, jobs=None, scheduler=None, on_robot=None):
     failed = sum(row["status"] != OK for row in rows)
     return {"fleet": str(fleet_file), "out": str(out), "ran_on": where, "workers": workers,
             "robots": rows, "ok": len(rows) - failed, "failed": failed, **written}
+
 
 
 def _robot_folder(out, name):

@@ -8,12 +8,23 @@ one file system and is atomic), are flushed to disk, and only then replace the t
 An interruption (``KeyboardInterrupt``, or the ``SystemExit`` the command line raises on
 SIGTERM) that stops a write removes the temporary file and is re-raised with the attribute
 ``unwritten_file``: the target it left as it was, for the one line the command line prints.
+
+A command writes several files (a measurement file and its truth, a dataset's four files, a
+fleet's folders), and one that fails half-way must not leave the first ones behind:
+:func:`outputs_together` makes the files and folders written in its block one unit.  Each
+file still takes its final name as soon as it is written (the command may read it back), but
+on a failure or an interruption the files it created are removed, the files it replaced get
+their earlier content back, and the folders it created (:func:`make_directory`) go with
+everything in them.  The command line runs every verb in one.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import os
 import secrets
+import shutil
 import stat
 from collections.abc import Iterable
 from pathlib import Path
@@ -62,7 +73,7 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes | Iterable[bytes]) -
             os.fsync(stream.fileno())
         if target.exists():
             os.chmod(temporary, stat.S_IMODE(target.stat().st_mode))
-        os.replace(temporary, target)
+        promote(temporary, target)
     except BaseException as error:
         if descriptor is None and isinstance(error, OSError):  # the temporary file was never created
             raise _cannot_create(target, directory, error) from error
@@ -74,6 +85,103 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes | Iterable[bytes]) -
         raise
     _sync_directory(directory)
     return target
+
+
+# The outputs of the running command (outputs_together), None outside one.
+_OUTPUTS = contextvars.ContextVar("robocal_outputs", default=None)
+
+
+class _Outputs:
+    """What a block of :func:`outputs_together` wrote: files created, (file, backup of its
+    earlier content) replaced, folders created."""
+
+    def __init__(self):
+        self.created, self.replaced, self.directories = [], [], []
+
+    def undo(self):
+        for path in reversed(self.created):
+            path.unlink(missing_ok=True)
+        for target, backup in reversed(self.replaced):
+            with contextlib.suppress(OSError):
+                os.replace(backup, target)
+        for folder in reversed(self.directories):
+            shutil.rmtree(folder, ignore_errors=True)
+
+    def keep(self):
+        for _, backup in self.replaced:
+            backup.unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def outputs_together(keep_on=()):
+    """Make the files and folders written in the block one unit (module notes): on an
+    exception (or interruption) not among ``keep_on`` every one is undone.  Nested blocks
+    belong to the outermost."""
+    if _OUTPUTS.get() is not None:
+        yield
+        return
+    outputs = _Outputs()
+    token = _OUTPUTS.set(outputs)
+    try:
+        yield
+    except BaseException as error:
+        if isinstance(error, keep_on):
+            outputs.keep()
+        else:
+            outputs.undo()
+        raise
+    else:
+        outputs.keep()
+    finally:
+        _OUTPUTS.reset(token)
+
+
+def promote(source: str | os.PathLike, target: str | os.PathLike) -> None:
+    """Rename the finished file ``source`` to ``target`` (same folder), recorded by the
+    running :func:`outputs_together`: a file it replaces is kept aside (a hard link, else a
+    copy) until the block ends, to be put back if the block fails."""
+    source, target = Path(source), Path(target)
+    outputs = _OUTPUTS.get()
+    if outputs is None:
+        os.replace(source, target)
+        return
+    backup = None
+    if target.exists() and target not in outputs.created:  # one it created is removed, not restored
+        backup = target.parent / f".{target.name}.{secrets.token_hex(8)}.bak"
+        try:
+            os.link(target, backup, follow_symlinks=False)  # a symbolic link is put back as one
+        except OSError:  # a file system without hard links
+            shutil.copy2(target, backup, follow_symlinks=False)
+    try:
+        os.replace(source, target)
+    except BaseException:
+        if backup is not None:
+            backup.unlink(missing_ok=True)
+        raise
+    if backup is None:
+        if target not in outputs.created:
+            outputs.created.append(target)
+    else:
+        outputs.replaced.append((target, backup))
+
+
+def make_directory(path: str | os.PathLike) -> Path:
+    """Create the folder ``path`` and its missing parents unless it is there; the folders
+    this creates inside :func:`outputs_together` are removed, with their contents, if the
+    block fails."""
+    path = Path(path)
+    topmost = None
+    for folder in (path, *path.parents):
+        if folder.exists():
+            break
+        topmost = folder
+    if topmost is None:
+        return path
+    path.mkdir(parents=True, exist_ok=True)
+    outputs = _OUTPUTS.get()
+    if outputs is not None:
+        outputs.directories.append(topmost)
+    return path
 
 
 def _slices(data):

@@ -18,7 +18,9 @@ import numpy as np
 
 from robocal.errors import FileFormatError, InputError
 from robocal.io.atomic import write_text_atomic
+from robocal.io import schema
 from robocal.io.reading import load_toml
+from robocal.io.units import check_lengths
 
 # Two sockets closer than this are the same socket typed twice, not a usable distance.
 _SAME_POSITION_MM = 1e-6
@@ -55,12 +57,9 @@ class Fixture:
                     f"each socket needs its own position"
                 )
         largest = max(np.linalg.norm(a - b) for a, b in itertools.combinations(sockets.values(), 2))
-        if largest < _SMALLEST_FIXTURE_MM:
-            raise InputError(
-                f"fixture '{self.name}': its sockets lie at most {largest:.3g} apart, where a "
-                "fixture spans tens of mm: "
-                f"they look like metres; give the socket positions in mm"
-            )
+        # The one test of typed lengths (robocal.io.units), against a fixture's smallest span.
+        check_lengths(largest, _SMALLEST_FIXTURE_MM, f"fixture '{self.name}': the socket spacing",
+                      "a ball-in-socket fixture (tens of mm)")
         object.__setattr__(self, "name", str(self.name))
         object.__setattr__(self, "sockets", sockets)
 
@@ -119,7 +118,8 @@ def read_fixture(path: str | os.PathLike) -> Fixture:
             f"{path} has no [sockets] table{_suggestion(document)}: list the sockets as id = [x, y, z] (mm)"
         )
     try:
-        return Fixture(name=str(document.get("name", Path(path).stem)), sockets=sockets)
+        name = schema.text(document["name"], f"{path}: name") if "name" in document else Path(path).stem
+        return Fixture(name=name, sockets=sockets)
     except InputError as error:
         raise FileFormatError(f"{path}: {error}") from None
 

@@ -20,6 +20,7 @@ from ..spatial import compose_pose
 from .atomic import write_text_atomic
 from .file_kinds import KIND_COLUMN, check_kind, marked
 from .reading import read_text
+from .units import check_angles
 
 # Joint values in a file that all lie within this (and spread by at least RADIAN_SPREAD over
 # RADIAN_ROWS rows or more) are radians, not the degrees robocal reads.
@@ -133,6 +134,7 @@ def read_placements(path):
     if not rows:
         raise FileFormatError(f"{path} has a header but no placements")
     values = numbers(path, header, rows, columns)
+    check_angles(values[:, 3:], f"the rx, ry, rz of {path}")  # the one test of typed angles
     names = ([row[header.index("fixture")].strip() if header.index("fixture") < len(row) else "" for row in rows]
              if "fixture" in header else [f"P{k + 1}" for k in range(len(rows))])
     if any(not name for name in names) or len(set(names)) < len(names):

@@ -13,7 +13,6 @@ Keys beyond the basic format (docs/ARCHITECTURE.md, "File formats"), all optiona
   for coupled axes such as FANUC's J2/J3 (``sign`` is its diagonal special case; give one or
   the other).  Joint zero offsets of the model live in ``theta``.
 """
-import difflib
 import sys
 
 import numpy as np
@@ -22,6 +21,7 @@ from ..errors import FileFormatError, InputError
 from ..kinematics import Chain
 from ..spatial import compose_pose, pose_to_xyz_rpy
 from .atomic import write_text_atomic
+from . import schema
 from .reading import load_toml
 
 if sys.version_info >= (3, 11):
@@ -42,26 +42,18 @@ def _fail(path, message):
 
 
 def _number(path, where, value):
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        _fail(path, f"{where} must be a number, got {value!r}")
-    if not np.isfinite(value):
-        _fail(path, f"{where} must be finite, got {value!r}")
-    return float(value)
+    return schema.number(value, f"{path}: {where}")
 
 
 def _vector(path, where, value):
-    if not isinstance(value, list) or len(value) != 3:
-        _fail(path, f"{where} must be a list of three numbers, got {value!r}")
-    return np.array([_number(path, f"{where}[{i}]", v) for i, v in enumerate(value)])
+    return np.array(schema.numbers(value, f"{path}: {where}", count=3))
 
 
 def _frame(path, table, key):
     """An optional [key] table with xyz (mm) and rpy (deg) -> 4x4 (mm, rad)."""
     if key not in table:
         return np.eye(4)
-    sub = table[key]
-    if not isinstance(sub, dict):
-        _fail(path, f"[{key}] must be a table with xyz and rpy")
+    sub = schema.table(table[key], f"{path}: [{key}]", "a table with xyz and rpy")
     unknown = set(sub) - {"xyz", "rpy"}
     if unknown:
         _fail(path, f"[{key}] has unknown key {sorted(unknown)[0]!r}: use xyz = [...] (mm) and rpy = [...] (deg)")
@@ -88,11 +80,7 @@ def _tolerances(path, doc):
 
 
 def _check_keys(path, where, keys, allowed):
-    for key in keys:
-        if key not in allowed:
-            close = difflib.get_close_matches(key, allowed, n=1)
-            hint = f": did you mean {close[0]!r}?" if close else f"; known keys: {', '.join(allowed)}"
-            _fail(path, f"{where} has unknown key {key!r}{hint}")
+    schema.keys(keys, f"{path}: {where}", allowed)
 
 
 def chain_from_dict(doc, path="<robot>"):
@@ -107,11 +95,11 @@ def chain_from_dict(doc, path="<robot>"):
     convention = doc.get("convention")
     if convention is None:
         _fail(path, "no convention line: add convention = \"dh\", \"mdh\" or \"poe\"")
-    if convention not in _LINK_KEYS:
-        _fail(path, f"convention must be one of 'dh', 'mdh', 'poe', got {convention!r}")
+    schema.text(convention, f"{path}: convention", tuple(_LINK_KEYS))
     joints = doc.get("joints")
-    if not isinstance(joints, list) or not joints:
+    if not joints:
         _fail(path, "no [[joints]] tables: list one per joint, base to tip")
+    schema.tables(joints, f"{path}: joints", "[[joints]] tables, one per joint, base to tip")
     columns, types, signs = _read_joints(path, joints, convention)
     joint_map = _joint_map(path, doc, signs)
     name = doc.get("name")
@@ -153,9 +141,7 @@ def _read_joints(path, joints, convention):
         missing = [k for k in required if k not in joint]
         if missing:
             _fail(path, f"{where} is missing {', '.join(missing)} (a {convention} joint needs {', '.join(required)})")
-        kind = joint.get("type", "revolute")
-        if kind not in ("revolute", "prismatic"):
-            _fail(path, f"{where}: type must be 'revolute' or 'prismatic', got {kind!r}")
+        kind = schema.text(joint.get("type", "revolute"), f"{path}: {where} type", ("revolute", "prismatic"))
         types.append(kind)
         sign = _number(path, f"{where} sign", joint.get("sign", 1.0))
         if sign not in (1.0, -1.0):

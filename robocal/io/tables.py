@@ -28,6 +28,7 @@ from robocal.io.csv_table import (  # noqa: F401  (the column names are this mod
 )
 from robocal.io.csv_writing import write_commands, write_measurements  # noqa: F401  (re-exported)
 from robocal.io.file_kinds import KIND_COLUMN, check_kind
+from robocal.io.units import check_angles
 
 _NAMED_COLUMNS = POSITION_COLUMNS + ORIENTATION_COLUMNS + SIGMA_COLUMNS + CONSTRAINT_COLUMNS + (KIND_COLUMN,)
 # Joint names offered as spelling suggestions even when the file has fewer joints.
@@ -38,15 +39,6 @@ _SUGGESTED_JOINT_COUNT = 12
 _RADIAN_BOUND = 6.3
 _RADIAN_MIN_ROWS = 5
 _RADIAN_MIN_SPREAD = 0.5
-
-# Target orientations in radians: every rx, ry, rz within one half-turn in radians, and one
-# that a degree file would hardly hold within that bound — either a fraction beyond
-# RADIAN_TARGET_LARGE (a tool within 3 deg of the base's axes, tilted 1.x deg or more), or within
-# RADIAN_TARGET_SNAP of a non-zero multiple of 45 deg in radians (pi, pi/2: the tool down or
-# sideways, as radians write it).  Degree targets (rx = 180; small tilts near zero) pass.
-_RADIAN_TARGET_BOUND = np.pi + 1e-3
-_RADIAN_TARGET_LARGE = 1.0
-_RADIAN_TARGET_SNAP = 2e-3
 
 # How many groups of identical rows a warning spells out before summarising the rest.
 _DUPLICATES_SHOWN = 3
@@ -318,9 +310,7 @@ def read_targets(path: str | os.PathLike, n_joints: int | None = None, joint_nam
 
     Raises:
         FileFormatError: as for :func:`read_measurements`.
-
-    Warns:
-        RobocalWarning: orientations that look like radians.
+        InputError: orientations that look like radians.
     """
     table = _named_joints(_read_table(path), joint_names)
     check_kind(table.path, table.header, _kind_cells(table), ("measurements",), "a targets file",
@@ -339,7 +329,8 @@ def read_targets(path: str | os.PathLike, n_joints: int | None = None, joint_nam
         hints=table.numbers(joint_names) if joint_names else None,
         rows=table.lines,
     )
-    _warn_if_radian_orientations(targets)
+    # The one test of typed angles (robocal.io.units): a file of radians is refused.
+    check_angles(targets.orientations, f"the rx, ry, rz of {targets.path}")
     return targets
 
 
@@ -421,25 +412,6 @@ def _warn_if_radians(measurements: Measurements) -> None:
             RobocalWarning(
                 f"all joint values of {measurements.path} lie within ±{_RADIAN_BOUND}: they look like radians, "
                 f"but robocal expects degrees; convert with numpy.degrees() or check the export"
-            ),
-            stacklevel=3,
-        )
-
-
-def _warn_if_radian_orientations(targets: Targets) -> None:
-    """RobocalWarning when rx, ry, rz look like radians (see _RADIAN_TARGET_BOUND)."""
-    angles = np.abs(targets.orientations)
-    if angles.max() > _RADIAN_TARGET_BOUND:
-        return
-    eighths = angles / (np.pi / 4)
-    snapped = (np.round(eighths) >= 1) & (np.abs(eighths - np.round(eighths)) * (np.pi / 4) <= _RADIAN_TARGET_SNAP)
-    # Hand-written degree tilts are whole numbers; radians (other than 0) almost never are.
-    large = (angles > _RADIAN_TARGET_LARGE) & (angles != np.round(angles))
-    if large.any() or snapped.any():
-        warnings.warn(
-            RobocalWarning(
-                f"all rx, ry, rz of {targets.path} lie within ±3.1416 and look like radians (largest "
-                f"{angles.max():.6g}), but robocal expects degrees: convert with numpy.degrees() or check the export"
             ),
             stacklevel=3,
         )

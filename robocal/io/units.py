@@ -15,7 +15,14 @@ miss?  The stated units stand unless another reading explains the data
   linear least squares, alternated), and the lengths' scale against the robot's:
   :func:`check_measurement_units`;
 * posture hints in targets files (degrees or radians): how far the hint's TCP lies from its
-  target: :func:`check_hint_units`.
+  target: :func:`check_hint_units`;
+* lengths a user types or a file carries without measurements to judge them by (design's
+  ``--box``, ``--tool``, ``--tracker``, ``--region``, ``--walls``; a fixture's socket
+  spacings): their size against the robot's reach (or a fixture's smallest span), and which
+  other unit would make them a length of that robot: :func:`check_lengths`;
+* angles typed or carried without a robot's TCP to judge them by (``--rpy``, ``--hint``
+  without targets, a targets file's ``rx, ry, rz``): :func:`looks_like_radians`, the one
+  numeric test, and :func:`check_angles`, its refusal.
 """
 from __future__ import annotations
 
@@ -186,3 +193,100 @@ def check_hint_units(chain, hint_values, target_positions, path):
                      f"lies {misses['radians']:.3g} mm from its targets (median), read as degrees "
                      f"{misses['degrees']:.3g} mm, on other arm branches; robocal reads degrees: convert them with "
                      "numpy.degrees()")
+
+
+# --------------------------------------------------------------------------- typed lengths
+# A length that locates something about a robot (a box it works in, a tool on its flange, a
+# tracker beside it) is at least this share of the robot's reach: a UR5 (850 mm) gives
+# 4.25 mm, a KR 150-2 (2.7 m) 13.5 mm.  The same lengths typed in metres are a thousandth of
+# what they mean (a box 0.3..0.6, a 0.1 tool, a tracker at 2.5): far below it.
+SMALLEST_REACH_SHARE = 1.0 / 200.0
+# Joints sampled to measure the reach (seeded: the same robot is judged the same way).
+REACH_SAMPLE = 256
+
+
+def reach_mm(chain):
+    """The largest distance (mm) of the flange from the base over ``chain``'s joint range."""
+    joints = chain.random_configurations(REACH_SAMPLE, rng=0)
+    rigid = chain.rigid.replace(base=np.eye(4), tool=np.eye(4))
+    return float(np.linalg.norm(rigid.fk_positions(joints), axis=1).max())
+
+
+def check_lengths(size, smallest_mm, what, owner):
+    """InputError when ``size`` (the largest length of ``what``, as typed, > 0) lies below
+    ``smallest_mm``, the least a length of ``owner`` (a phrase: "a UR5 reaching 850 mm")
+    can be in mm; the message names metres when they make it one.  A
+    zero size (a tool on the flange, a box at the origin) says nothing and passes."""
+    size = float(size)
+    if not np.isfinite(size) or size == 0.0 or size >= smallest_mm:
+        return
+    # Metres are what a length typed 1000 times too small is (a SI habit, a ROS export);
+    # below even that, the numbers are no length of this kind in any unit.
+    looks = "they look like metres" if size * LENGTH_UNITS["metres"] >= smallest_mm else "they are not mm"
+    raise InputError(f"{what}: largest {size:.3g}, where {owner} needs at least {smallest_mm:.3g} mm: {looks}; "
+                     "give them in mm")
+
+
+def check_robot_lengths(chain, values, what, *, position=False):
+    """:func:`check_lengths` for lengths about ``chain``: ``values`` (any shape, mm as typed)
+    of ``what`` (``'--box'``); ``position``: one point (a tool, a tracker), judged by its
+    distance from the origin, else by the largest coordinate."""
+    values = np.asarray(values, dtype=float)
+    size = np.linalg.norm(values) if position else np.abs(values).max(initial=0.0)
+    reach = reach_mm(chain)
+    check_lengths(size, reach * SMALLEST_REACH_SHARE, what,
+                  f"a length about robot '{chain.name}' (reach {reach:.0f} mm)")
+
+
+# --------------------------------------------------------------------------- typed angles
+# Angles in radians, without a robot's TCP to judge them: every value within half a turn in
+# radians (one turn for joint values), and one that a degree value would hardly be within
+# that bound: either a fraction beyond RADIAN_LARGE (a tool within 3 deg of the base's axes,
+# tilted 1.x deg or more), or within RADIAN_SNAP of a non-zero multiple of 45 deg in radians
+# (pi, pi/2: the tool down or sideways, as radians write it).  Degree values (rx = 180; small
+# whole tilts near zero; 0) pass.
+RADIAN_HALF_TURN = np.pi + 1e-3
+RADIAN_LARGE = 1.0
+RADIAN_SNAP = 2e-3
+
+
+def looks_like_radians(values, bound=RADIAN_HALF_TURN):
+    """Whether the angles ``values`` (any shape, as typed) look like radians (see above);
+    ``bound``: the largest magnitude radians would take (one turn for joint values)."""
+    angles = np.abs(np.asarray(values, dtype=float))
+    if angles.size == 0 or not np.all(np.isfinite(angles)) or angles.max() > bound:
+        return False
+    eighths = angles / (np.pi / 4)
+    snapped = (np.round(eighths) >= 1) & (np.abs(eighths - np.round(eighths)) * (np.pi / 4) <= RADIAN_SNAP)
+    large = (angles > RADIAN_LARGE) & (angles != np.round(angles))
+    return bool(large.any() or snapped.any())
+
+
+def check_angles(values, what, *, joints=False):
+    """InputError when the angles ``values`` of ``what`` (``'the angles of --rpy'``, ``'the rx,
+    ry, rz of FILE'``) look like radians (:func:`looks_like_radians`; ``joints``: joint values, within
+    one turn)."""
+    if looks_like_radians(values, ONE_TURN if joints else RADIAN_HALF_TURN):
+        largest = float(np.abs(np.asarray(values, dtype=float)).max())
+        raise InputError(f"{what} look like radians (all within one {'turn' if joints else 'half-turn'}, largest "
+                         f"{largest:.6g}), but robocal reads degrees: convert with numpy.degrees()")
+
+
+def check_typed_units(chain, *, box=None, rpy=None, hint=None, tool=None, tracker=None, region=None, walls=None):
+    """InputError in one line when a number typed on the command line is in other units than
+    mm and degrees (robocal.io.units: lengths judged by ``chain``'s reach, angles by the one
+    test of typed angles): a --box in metres, an --rpy or --hint in radians."""
+    for option, values in (("--box", box), ("--region", region), ("--walls", walls)):
+        if values is not None:
+            check_robot_lengths(chain, values, option)
+    for option, values in (("--tool", tool), ("--tracker", tracker)):
+        if values is not None:
+            check_robot_lengths(chain, values, option, position=True)
+    if rpy is not None:
+        check_angles(rpy, "the angles of --rpy")
+    if hint is not None:
+        if len(hint) != chain.n_joints:
+            raise InputError(f"--hint gives {len(hint)} joint values, but robot '{chain.name}' has {chain.n_joints} "
+                             "joints: give one per joint, in degrees")
+        revolute = np.asarray(chain.revolute, dtype=bool)
+        check_angles(np.asarray(hint, dtype=float)[revolute], "the joint values of --hint", joints=True)

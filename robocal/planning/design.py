@@ -207,7 +207,7 @@ class _Prediction:
 
 def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, parameters="full", noise=0.02,
                  tracker=None, targets=None, existing=None, payload=None, refine=True, seed=0, order="tour",
-                 kernel=None, joint_noise=0.0, sag=0.0):
+                 kernel=None, joint_noise=0.0, sag=0.0, progress=None):
     """Choose ``count`` of ``candidates`` (N, n) rad to measure for a calibration of
     ``parameters`` (a parameter set) and predict the result.
 
@@ -229,10 +229,12 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
     k-means start and the random selections the summary compares with.  order: ``tour``
     (short motions) or ``random`` (a seeded shuffle: on a robot with gear backlash a tour
     approaches neighbouring poses from the same side, which biases the calibrated joint
-    offsets where a random order averages the play out; see bench/design.py).  Returns a
-    :class:`Design`.
+    offsets where a random order averages the play out; see bench/design.py).
+    progress: called as ``progress(stage=...)`` as each stage begins (a long design says
+    where it is).  Returns a :class:`Design`.
     """
     check_criterion(criterion)
+    progress = (lambda **info: None) if progress is None else progress
     q = _check_joints(chain, candidates, "candidate")
     before = None if existing is None or len(existing) == 0 else _check_joints(chain, existing, "measured pose")
     n_before = 0 if before is None else len(before)
@@ -241,6 +243,7 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
     if count > len(q):
         raise InputError(f"{count} poses asked for but only {len(q)} candidates: ask for at most {len(q)} poses or "
                          "give more candidates")
+    progress(stage=f"the information of {len(q)} candidates")
     info = information_model(chain, q, parameters, noise=noise, tracker=tracker, payload=payload)
     p = info.n_parameters
     if 3 * (count + n_before) < p:
@@ -272,6 +275,7 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
     else:
         state = InformationState(info.blocks, start, None)
     available = np.ones(len(q), dtype=bool)
+    progress(stage=f"choosing {count} of {len(q)}")
     if criterion == "prediction":
         points, target_points = spacing_points(chain, q, None if targets is None else target_q)
         labels = strata(points, count, seed, target_points)
@@ -288,6 +292,7 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
     else:
         order = np.random.default_rng(seed).permutation(len(chosen))
     chosen_in_order = chosen[order]
+    progress(stage="predicting the result")
     design = _summary(chain, info, q, chosen_in_order, chosen, criterion, steps, prediction, before, before_blocks,
                       seed, joint_noise, target_q)
     design = replace(design, sag=float(sag) if prediction.bias is not None else 0.0)

@@ -23,6 +23,7 @@ from ..io.atomic import check_outputs
 from ..io.library import load_robot
 from ..io.observations import check_robot_in_mm, read_observations, read_target_poses
 from ..io.poses import read_joints, read_placements, table, write_poses
+from ..io.units import check_robot_lengths, check_typed_units
 from ..kinematics.ik import solve_ik
 from ..spatial import compose_pose, rpy_to_matrix
 from .candidates import DEFAULT_COUNT, MARGIN_DEG, box_candidates, joint_candidates
@@ -99,18 +100,22 @@ def _variance_kernel(path, chain, parameters, payload):
 def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters="full", candidates=None,
                pool=DEFAULT_COUNT, sampling="uniform", box=None, rpy=None, hint=None, tool=None,
                margin=MARGIN_DEG, existing=None, targets=None, noise=None, tracker=None, payload=None,
-               order="tour", root=None, tip=None, joint_noise=0.0, sag=0.0, volume=None):
+               order="tour", root=None, tip=None, joint_noise=0.0, sag=0.0, volume=None, progress=None):
     """Design ``n`` poses for ``robot`` and write them to ``out`` (module notes); returns the
     JSON-ready result: the design's :meth:`~robocal.planning.Design.to_dict` and where the
     candidates, the noise and the poses came from and went.  ``volume``: the
     :class:`~robocal.planning.workspace.WorkingVolume` drawn candidates keep to (default:
-    above the mounting plane); a user's own ``candidates`` are taken as given."""
+    above the mounting plane); a user's own ``candidates`` are taken as given.  ``progress``:
+    called as ``progress(stage=...)`` as each stage begins."""
+    progress = (lambda **info: None) if progress is None else progress
     check_outputs([out], [robot, candidates, existing, targets])
     chain = load_robot(robot, root=root, tip=tip)
+    volume = WorkingVolume() if volume is None else volume
+    progress(stage="drawing candidates")
+    check_typed_units(chain, box=box, rpy=rpy, hint=hint, tool=tool, tracker=tracker, walls=volume.walls_mm)
     if tool is not None:
         chain = chain.replace(tool=compose_pose(np.asarray(tool, dtype=float), np.zeros(3)))
     check_robot_in_mm(chain)
-    volume = WorkingVolume() if volume is None else volume
     if candidates is not None:
         given = {"--pool": pool != DEFAULT_COUNT or None, "--sampling": sampling != "uniform" or None, "--box": box,
                  "--rpy": rpy, "--hint": hint}
@@ -150,7 +155,7 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
     design = design_poses(chain, n, q, criterion=criterion, parameters=parameters,
                           noise=0.02 if noise is None else noise, tracker=tracker, targets=target_q,
                           existing=before, payload=payload, seed=seed, order=order, kernel=kernel,
-                          joint_noise=joint_noise, sag=sag)
+                          joint_noise=joint_noise, sag=sag, progress=progress)
     write_poses(out, chain, design.joints)
     return {"robot": chain.name, "out": str(out), "candidates_from": source, "noise_from": noise_note,
             "working_volume": ("your candidates, as given" if candidates is not None else volume.describe()),
@@ -174,12 +179,14 @@ def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_sock
         raise InputError("a ball-in-socket design needs where the fixture may go: give --placements FILE.csv or "
                          "--region xmin,xmax,ymin,ymax,zmin,zmax (mm), one of them")
     chain = load_robot(robot, root=root, tip=tip)
+    check_typed_units(chain, tool=tool, region=region)
     if tool is not None:
         chain = chain.replace(tool=compose_pose(np.asarray(tool, dtype=float), np.zeros(3)))
     check_robot_in_mm(chain)
     rig = read_fixture(fixture)
     if placements is not None:
         poses, names = read_placements(placements)
+        check_robot_lengths(chain, poses[:, :3, 3], f"the x, y, z of {placements}")
         source = f"{len(poses)} placements of {placements}"
     else:
         poses, names = region_placements(rig, region[0::2], region[1::2], seed=seed), None

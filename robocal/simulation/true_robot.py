@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import FileFormatError, InputError
 from ..io.atomic import write_text_atomic
+from ..io import schema
 from ..io.reading import load_json
 from ..io.robot_file import chain_from_dict, robot_to_toml, tomllib
 from ..io.observations import Observations, check_robot_in_mm
@@ -214,7 +215,7 @@ class TrueRobot:
                 f"{where}: truth file version {doc.get('version')!r}; this robocal reads version {TRUTH_VERSION}"
             )
         try:
-            nominal = chain_from_dict(tomllib.loads(doc["robot"]), f"{where} (robot)")
+            nominal = chain_from_dict(tomllib.loads(schema.text(doc["robot"], f"{where}: robot")), f"{where} (robot)")
             compliance = doc.get("compliance")
             if compliance is not None:
                 compliance = Compliance(
@@ -236,7 +237,7 @@ class TrueRobot:
             raise
         except KeyError as missing:
             raise FileFormatError(f"{where}: missing entry {missing}") from None
-        except (TypeError, ValueError, tomllib.TOMLDecodeError) as why:
+        except (TypeError, ValueError, OverflowError, tomllib.TOMLDecodeError) as why:
             raise FileFormatError(f"{where}: {why}") from None
 
 

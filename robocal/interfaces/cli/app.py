@@ -21,6 +21,7 @@ from typer.core import TyperCommand, TyperGroup
 
 from ... import __version__
 from ...errors import RobocalError, RobocalWarning
+from ...io.atomic import outputs_together
 from .options import Refused
 from .rendering import err, out, say
 
@@ -113,7 +114,16 @@ command = functools.partial(app.command, cls=_Command)
 _state = {"debug": False}
 
 
+# The warnings the running command has printed: the same warning raised again (by every fold
+# of a comparison, every robot of a fleet run here) is printed once.
+_warned = set()
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None):
+    key = (category, str(message))
+    if key in _warned:
+        return
+    _warned.add(key)
     if issubclass(category, RobocalWarning):
         say("warning", "yellow", message)
     else:
@@ -135,14 +145,19 @@ def verb(*args, **kwargs):
 
 def user_errors(func):
     """Turn RobocalError (and a system's refusal of a file) into one line on stderr and exit
-    status 2; add ``--debug`` to the command (it is also accepted before the command)."""
+    status 2; add ``--debug`` to the command (it is also accepted before the command).  The
+    command's outputs are one unit (:func:`robocal.io.atomic.outputs_together`): a command
+    that fails or is interrupted leaves none of the files or folders it wrote; one that
+    exits with a status of its own (fleet: a robot failed) keeps them."""
 
     @functools.wraps(func)
     def wrapper(*args, debug=False, **kwargs):
         if debug:
             _state["debug"] = True
+        _warned.clear()  # once per command: a command run again (in one process) warns again
         try:
-            return func(*args, **kwargs)
+            with outputs_together(keep_on=(typer.Exit,)):
+                return func(*args, **kwargs)
         except RobocalError as exc:
             if _state["debug"]:
                 raise

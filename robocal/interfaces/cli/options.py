@@ -111,7 +111,8 @@ JOBS = typer.Option(None, help="Run the independent fits (the folds of a compari
                     "error component's likelihood search of kriging and hybrid, the robots of a fleet) on a local "
                     "Dask cluster of this many workers, listening on 127.0.0.1 (needs pip install "
                     "'robocal[fleet]'); default: one after the other here (fleet: one worker per CPU core).",
-                    **parsed(Number(whole=True, at_least=1, at_most=1024)))
+                    **parsed(Number(whole=True, at_least=1, at_most=1024,
+                                    advice="more workers than CPU cores only wait for each other")))
 SCHEDULER = typer.Option(None, metavar="<tcp://HOST:PORT>", help="Run them on the workers of a running Dask "
                          "scheduler instead (they must run this robocal version and see the files at the same paths).")
 SEED = typer.Option(0, help="Random seed (of the poses drawn, the folds, the split).",
@@ -160,7 +161,8 @@ def _help(entries):
     for setting, names in takers.items():
         default = "" if setting.default is None or isinstance(setting.constraint, Flag) else \
             f" (default {_shown(setting.default)})"
-        parts.append(f"{'/'.join(names)}: {setting.help}{default}.")
+        # Methods joined with spaces: one long word would push --help's columns out of shape.
+        parts.append(f"{', '.join(names)}: {setting.help}{default}.")
     return " ".join(parts)
 
 

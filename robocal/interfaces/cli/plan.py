@@ -10,11 +10,18 @@ from ...settings import Choice, Either, Flag, Number, Numbers, Setting
 from ..jobs import SAMPLINGS, simulate_job
 from .app import verb
 from .options import FIXTURE, JSON, ROBOT, ROOT, SEED, TIP, Output, declared, out_option
-from .rendering import print_design, print_json, print_result, print_socket_design
+from .rendering import print_design, print_json, print_result, print_socket_design, progress
 
 # simulate --n: beyond this a file is no measurement series anyone makes, and the run would
 # take minutes and gigabytes.
 MOST_SIMULATED_POSES = 1_000_000
+# Fixture placements and configurations per socket: a real ball-in-socket campaign has a few
+# dozen placements (MUKCa: 3 to 9) and tens of configurations per socket, each seated by hand.
+MOST_PLACEMENTS = 1000
+MOST_PER_SOCKET = 10_000
+# design --pool: memory grows by some 7 kB a candidate (UR5: 200 MB for 10,000, 410 MB for
+# 40,000), so a million would need 7 GB; 200,000 (1.4 GB) is twenty times the default.
+MOST_POOL = 200_000
 # --noise: an instrument this noisy (a metre) measures nothing about a robot.
 LARGEST_NOISE_MM = 1000
 # design's choices, as robocal.planning names them (CRITERIA, SOCKET_CRITERIA, ORDERS and the
@@ -28,8 +35,8 @@ CANDIDATE_SAMPLINGS = ("uniform", "lhs")
 PRESETS = ("none", "typical", "liu2022")
 
 # Where the poses are drawn (simulate --sampling lhs) or the candidates lie (design --box).
-BOX = Setting("box", None, "--box", "A Cartesian box of the robot base frame, xmin,xmax,ymin,ymax,zmin,zmax in mm: "
-              "where simulate --sampling lhs draws the poses, where design's candidates lie.", Numbers(count=6))
+BOX = Setting("box", None, "--box", "A Cartesian box of the robot base frame, xmin, xmax, ymin, ymax, zmin, zmax in "
+              "mm: where simulate --sampling lhs draws the poses, where design's candidates lie.", Numbers(count=6))
 RPY = Setting("rpy", None, "--rpy", "With --box: the TCP orientation rx,ry,rz in deg (default 180,0,0).",
               Numbers(count=3))
 HINT = Setting("hint", None, "--hint", "With --box: a posture q1,...,qn in deg whose IK branch every pose takes.",
@@ -38,7 +45,8 @@ HINT = Setting("hint", None, "--hint", "With --box: a posture q1,...,qn in deg w
 SIMULATE = (
     BOX, RPY, HINT,
     Setting("n", None, "--n", "Number of poses (default 200; liu2022: 150).",
-            Number(whole=True, at_least=1, at_most=MOST_SIMULATED_POSES)),
+            Number(whole=True, at_least=1, at_most=MOST_SIMULATED_POSES,
+                   advice="a million take minutes and gigabytes; simulate several files for more")),
     Setting("sampling", "joint", "--sampling", "joint (uniform in the limits), lhs (Latin hypercube in --box), grid "
             "(n^(1/3) per axis in --box) or sockets (ball in the sockets of --fixture, joint angles only).",
             Choice(SAMPLINGS)),
@@ -49,16 +57,20 @@ SIMULATE = (
     Setting("truth", None, "--truth", "Also write the hidden truth (JSON) here.", Output(".json")),
     Setting("orientation", False, "--orientation", "Also write measured rx, ry, rz.", Flag()),
     Setting("placements", None, "--placements", "sockets: number of fixture placements (default 4).",
-            Number(whole=True, at_least=1)),
+            Number(whole=True, at_least=1, at_most=MOST_PLACEMENTS,
+                   advice="a real campaign places a fixture a few dozen times")),
     Setting("per_socket", None, "--per-socket", "sockets: configurations per socket and placement (default 10).",
-            Number(whole=True, at_least=2)),
+            Number(whole=True, at_least=2, at_most=MOST_PER_SOCKET,
+                   advice="a real campaign seats the ball tens of times per socket")),
     Setting("joint_noise", None, "--joint-noise", "sockets: noise of the joint readings (deg, default 0).",
             Number(at_least=0)),
 )
 
 DESIGN = (
     BOX, RPY, HINT,
-    Setting("n", ..., "--n", "Number of poses to measure.", Number(whole=True, at_least=1, at_most=100_000)),
+    Setting("n", ..., "--n", "Number of poses to measure.",
+            Number(whole=True, at_least=1, at_most=100_000,
+                   advice="real campaigns measure tens to a few thousand poses")),
     Setting("criterion", "prediction", "--criterion", "prediction (default: the mean squared error of the calibrated "
             "TCP over the targets; what a calibration is for), d-optimal (log det of the parameters' information), "
             "space-filling (spread over configuration space) or variance (one pose at a time where a "
@@ -70,7 +82,8 @@ DESIGN = (
     Setting("candidates", None, "--candidates", "CSV of your own candidate configurations (q1..qN, deg): reachable "
             "poses of an offline program, or an earlier campaign's."),
     Setting("pool", 10_000, "--pool", "Candidate configurations to draw (without --candidates).",
-            Number(whole=True, at_least=10, at_most=1_000_000)),
+            Number(whole=True, at_least=10, at_most=MOST_POOL,
+                   advice="10,000, the default, take about 4 s and 200 MB for a UR5; memory grows with the pool")),
     Setting("sampling", "uniform", "--sampling", "How candidates are drawn in joint space: uniform or lhs (Latin "
             "hypercube).", Choice(CANDIDATE_SAMPLINGS)),
     Setting("tool", None, "--tool", "The TCP x,y,z in mm in the flange frame, in place of the robot file's tool.",
@@ -80,7 +93,7 @@ DESIGN = (
     Setting("floor", None, "--floor", "The lowest z (mm, robot base frame) the arm's joints and TCP may take in a "
             "drawn candidate. Default 0: above the mounting plane (a table- or floor-mounted robot); none for a wall "
             "or ceiling mount.", Either(Choice(("none",)), Number(at_least=-1e6, at_most=1e6))),
-    Setting("walls", None, "--walls", "Keep the arm's joints and TCP within xmin,xmax,ymin,ymax (mm, robot base "
+    Setting("walls", None, "--walls", "Keep the arm's joints and TCP within xmin, xmax, ymin, ymax (mm, robot base "
             "frame).", Numbers(count=4)),
     Setting("existing", None, "--existing", "Measurement (or poses) CSV of poses measured before: design the --n "
             "poses that best complement them; with x, y, z their calibration's residual sets the noise unless --noise "
@@ -111,9 +124,11 @@ DESIGN = (
             "rx,ry,rz (deg) of the fixture frame in the robot base frame, and optionally a fixture column naming "
             "them."),
     Setting("region", None, "--region", "With --fixture, instead of --placements: where the fixture may stand level, "
-            "xmin,xmax,ymin,ymax,zmin,zmax in mm (robot base frame).", Numbers(count=6)),
+            "xmin, xmax, ymin, ymax, zmin, zmax in mm (robot base frame).", Numbers(count=6)),
     Setting("per_socket", None, "--per-socket", "With --fixture: configurations per socket (default: --n spread over "
-            "every reachable placement); fewer placements are then chosen.", Number(whole=True, at_least=2)),
+            "every reachable placement); fewer placements are then chosen.",
+            Number(whole=True, at_least=2, at_most=MOST_PER_SOCKET,
+                   advice="a real campaign seats the ball tens of times per socket")),
     Setting("max_tilt", None, "--max-tilt", "With --fixture: the largest angle between the tool axis and the fixture "
             "normal, deg (default 30).", Number(at_least=0, at_most=89)),
 )
@@ -132,6 +147,11 @@ def simulate(robot: str = ROBOT, out_file: str = out_option("Measurement CSV to 
     Ball in sockets: robocal simulate kr150-2 --sampling sockets --fixture fix.toml --placements 6
     --per-socket 20 --out sockets.csv
     """
+    if box is not None and sampling in ("lhs", "grid") and fixture is None:  # where --box, --rpy, --hint apply
+        from ...io.library import load_robot
+        from ...io.units import check_typed_units
+
+        check_typed_units(load_robot(robot, root=root, tip=tip), box=box, rpy=rpy, hint=hint)
     result = simulate_job(robot, out_file, n=n, sampling=sampling, errors=errors, noise=noise, seed=seed,
                           truth=truth, orientation=orientation, box=box, rpy=rpy, hint=hint, root=root, tip=tip,
                           fixture=fixture, placements=placements, per_socket=per_socket, joint_noise=joint_noise)
@@ -191,11 +211,13 @@ def design(robot: str = ROBOT, *, n: int,
                             per_socket=per_socket, criterion=criterion, seed=seed, tool=tool, noise=noise,
                             margin=margin, max_tilt=max_tilt, root=root, tip=tip)
     else:
-        result = design_job(robot, out_file, n=n, seed=seed, criterion=criterion, parameters=parameters,
-                            candidates=candidates, pool=pool, sampling=sampling, box=box, rpy=rpy, hint=hint,
-                            tool=tool, margin=margin, existing=existing, targets=targets, noise=noise,
-                            tracker=tracker, payload=payload, order=order, root=root, tip=tip,
-                            joint_noise=joint_noise, sag=sag, volume=WorkingVolume(parse_floor(floor), walls))
+        with progress("design", None, enabled=not as_json) as advance:
+            result = design_job(robot, out_file, n=n, seed=seed, criterion=criterion, parameters=parameters,
+                                candidates=candidates, pool=pool, sampling=sampling, box=box, rpy=rpy, hint=hint,
+                                tool=tool, margin=margin, existing=existing, targets=targets, noise=noise,
+                                tracker=tracker, payload=payload, order=order, root=root, tip=tip,
+                                joint_noise=joint_noise, sag=sag, volume=WorkingVolume(parse_floor(floor), walls),
+                                progress=lambda **info: advance(steps=0, **info))
     if as_json:
         print_json(result)
     elif fixture is not None:

@@ -23,10 +23,16 @@ def say(label, style, message):
 @contextlib.contextmanager
 def progress(description, total=None, *, enabled=True):
     """Progress on a long run: yield ``advance(steps=1, **fields)``; a bar on stderr when it
-    is a terminal and ``enabled`` (False for --json), else a function that does nothing.
+    is a terminal and ``enabled`` (False for --json), plain lines elsewhere
+    (:mod:`robocal.interfaces.progress`).
     ``fields`` are shown after the bar (e.g. best=...)."""
-    if not (enabled and sys.stderr.isatty()):
+    if not enabled:
         yield lambda steps=1, **fields: None
+        return
+    if not sys.stderr.isatty():  # a pipe or a log: plain lines every few seconds
+        from ..progress import plain_progress
+        with plain_progress(description, total) as advance:
+            yield advance
         return
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 

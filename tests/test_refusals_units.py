@@ -1,0 +1,105 @@
+"""Units on every number a user types or a file carries (robocal.io.units): a length typed in
+metres, an angle in radians, is refused in one line naming the likely unit, by the one test
+for its kind (:func:`~robocal.io.units.check_robot_lengths` judged by the robot's reach,
+:func:`~robocal.io.units.looks_like_radians`); the same numbers in mm and degrees, the
+README's examples and the shipped examples, pass."""
+import numpy as np
+import pytest
+
+from refusals import EXAMPLES, PLATE, assert_refused, run_ok
+from robocal.errors import InputError
+from robocal.io import units
+from robocal.io.fixtures import Fixture, read_fixture
+from robocal.io.library import builtin
+from robocal.io.tables import read_targets
+
+DESIGN = "design ur5 --n 10 --pool 200 --out p.csv"
+SOCKETS = "design kr150-2 --fixture {plate} --n 24 --per-socket 2 --out p.csv"
+REFUSED = [
+    (f"{DESIGN} --box 0.3,0.6,-0.2,0.2,0.1,0.5", "--box: largest 0.6, .* look like metres"),
+    (f"{DESIGN} --box 300,600,-200,200,100,500 --rpy 3.14,0,0", "angles of --rpy look like radians"),
+    (f"{DESIGN} --box 300,600,-200,200,100,500 --rpy 0,1.5708,0", "angles of --rpy look like radians"),
+    (f"{DESIGN} --box 300,600,-200,200,100,500 --hint 0,-1.57,1.57,0,1.57,0",
+     "joint values of --hint look like radians"),
+    (f"{DESIGN} --box 300,600,-200,200,100,500 --hint 0,-90,90", "--hint gives 3 joint values"),
+    (f"{DESIGN} --tool 0,0,0.1", "--tool: largest 0.1, .* look like metres"),
+    (f"{DESIGN} --tracker 2,0,0.5", "--tracker: largest 2.06, .* look like metres"),
+    (f"{DESIGN} --walls -1,1,-1,1", "--walls: largest 1, .* look like metres"),
+    (f"{SOCKETS} --region 1,2,-0.5,0.5,0,0.4", "--region: largest 2, .* look like metres"),
+    (f"{SOCKETS} --region 1000,2000,-500,500,0,400 --tool 0,0,0.2", "--tool: largest 0.2"),
+    (f"{SOCKETS} --placements where_m.csv", "the x, y, z of where_m.csv: largest 1.8, .* look like metres"),
+    (f"{SOCKETS} --placements where_rad.csv", "the rx, ry, rz of where_rad.csv look like radians"),
+]
+PLACEMENTS = {"where_m.csv": "x,y,z,rx,ry,rz\n1.5,0,0,0,0,0\n1.8,0.3,0,0,0,90\n",
+              "where_rad.csv": "x,y,z,rx,ry,rz\n1500,0,0,0,0,0\n1800,300,0,0,0,1.5708\n",
+              "where.csv": "x,y,z,rx,ry,rz\n1500,0,0,0,0,0\n1800,300,0,0,0,90\n"}
+
+
+@pytest.mark.parametrize("command, says", REFUSED, ids=[row[0] for row in REFUSED])
+def test_a_number_typed_in_other_units_is_refused_in_one_line(tmp_path, monkeypatch, command, says):
+    monkeypatch.chdir(tmp_path)
+    for name, text in PLACEMENTS.items():
+        (tmp_path / name).write_text(text)
+    import re
+
+    args = command.format(plate=PLATE).split()
+    from refusals import runner
+    from robocal.interfaces.cli import app
+
+    result = runner.invoke(app, args)
+    errors = [line for line in result.output.splitlines() if line.lower().startswith("error")]
+    assert result.exit_code != 0 and len(errors) == 1 and re.search(says, errors[0]), result.output
+    assert_refused(args, errors[0][len("error: "):][:30], tmp_path, {p.name: p.stat().st_mtime_ns
+                                                                     for p in tmp_path.iterdir()})
+
+
+@pytest.mark.parametrize("extra", ["--box 300,600,-200,200,100,500 --rpy 180,0,0",
+                                   "--box 300,600,-200,200,100,500 --rpy 180,0,0 --hint 0,-90,90,-90,-90,0",
+                                   "--tool 0,0,100 --tracker 2000,0,500", "--walls -1000,1000,-1000,1000",
+                                   "--tool 0,0,0"])
+def test_the_same_numbers_in_mm_and_degrees_are_designed(tmp_path, monkeypatch, extra):
+    monkeypatch.chdir(tmp_path)
+    run_ok(*DESIGN.split(), *extra.split())
+    assert (tmp_path / "p.csv").exists()
+
+
+@pytest.mark.parametrize("orientation, radians", [
+    ("180,0,0", False), ("-180,0,0", False), ("0,0,0", False), ("0,90,0", False), ("179.9,0.1,-90", False),
+    ("0,0,3", False), ("3.14159,0,1.57", True), ("0,0.785398,0", True), ("2.5,0.3,-1.2", True)])
+def test_one_test_of_typed_angles_tells_radians(orientation, radians):
+    values = [float(v) for v in orientation.split(",")]
+    assert units.looks_like_radians(values) is radians
+    assert units.looks_like_radians(np.radians([180.0, 0.0, 0.0]))  # the example's rx, converted
+
+
+def test_placements_in_mm_and_degrees_are_read(tmp_path):
+    from robocal.io.poses import read_placements
+
+    (tmp_path / "where.csv").write_text(PLACEMENTS["where.csv"])
+    poses, names = read_placements(tmp_path / "where.csv")
+    assert names == ["P1", "P2"] and poses[1][:3, 3].tolist() == [1800.0, 300.0, 0.0]
+
+
+def test_the_shipped_targets_and_fixture_pass_and_in_radians_or_metres_are_refused(tmp_path):
+    for example in ("ur5-targets.csv", "kr150-targets.csv"):
+        read_targets(EXAMPLES / example)
+    fixture = read_fixture(PLATE)
+    with pytest.raises(InputError, match="socket spacing: largest .* look like metres"):
+        Fixture("metres", {k: v / 1000 for k, v in fixture.sockets.items()})
+    lines = (EXAMPLES / "kr150-targets.csv").read_text().splitlines()
+    rows = [line.split(",") for line in lines[1:]]
+    converted = [r[:3] + [repr(float(np.radians(float(v)))) for v in r[3:6]] + r[6:] for r in rows]
+    path = tmp_path / "t.csv"
+    path.write_text("\n".join([lines[0]] + [",".join(r) for r in converted]) + "\n")
+    with pytest.raises(InputError, match="rx, ry, rz of .* look like radians"):
+        read_targets(path)
+
+
+def test_lengths_are_judged_by_the_robots_reach():
+    kr150, ur5 = builtin("kr150-2"), builtin("ur5")
+    assert units.reach_mm(kr150) > 2.5 * units.reach_mm(ur5) / 1.5
+    units.check_robot_lengths(ur5, [0.0, 0.0, 25.0], "--tool", position=True)  # a short probe in mm
+    with pytest.raises(InputError, match="look like metres"):
+        units.check_robot_lengths(kr150, [0.0, 0.0, 0.3], "--tool", position=True)
+    with pytest.raises(InputError, match="they are not mm"):
+        units.check_lengths(1e-6, 1.0, "--box", "a box")
