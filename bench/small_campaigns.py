@@ -39,6 +39,8 @@ import numpy as np  # noqa: E402
 from robocal.io import datasets  # noqa: E402
 from robocal.io.observations import observations  # noqa: E402
 from robocal.methods import make_method  # noqa: E402
+from robocal.methods.bound import fit_bound  # noqa: E402
+from robocal.methods.moved_bound import reregistered_bound  # noqa: E402
 from robocal.methods.reregistration import reregister  # noqa: E402
 from robocal.methods.selection import choose  # noqa: E402
 
@@ -121,7 +123,7 @@ def small_campaigns(names, sizes, draws):
     return summary
 
 
-def reregistration(draws):
+def reregistration(draws, with_bound=False):
     """auto and kinematic on all of UR10 B, each re-registered on 25 poses of A; held out on
     the rest of A."""
     chain_b, obs_b = load("ur10-B")
@@ -131,6 +133,11 @@ def reregistration(draws):
         warnings.simplefilter("ignore")
         auto, comparison = choose(chain_b, obs_b)
         kinematic = make_method("kinematic").fit(chain_b, obs_b)
+    if with_bound:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            auto.bound_ = fit_bound(auto, chain_b, obs_b)
+            kinematic.bound_ = fit_bound(kinematic, chain_b, obs_b)
     outside = "" if comparison.outside is None else f", {comparison.outside.label} outside its domain"
     print(f"\nauto on UR10 B ({obs_b.n_poses} poses): {comparison.recommended.label}{outside}; "
           f"{time.process_time() - start:.0f} s CPU ({load_note()})")
@@ -144,6 +151,16 @@ def reregistration(draws):
             moved_kinematic = reregister(kinematic, train, robot=chain_b)
         a, k = held_out_mean(moved_auto, test), held_out_mean(moved_kinematic, test)
         ratios.append(a / k)
+        if with_bound:
+            for label, fitted, moved in (("auto", auto, moved_auto), ("kinematic", kinematic, moved_kinematic)):
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    bound = reregistered_bound(fitted.bound_, fitted, moved, train, robot=chain_b)
+                error = np.linalg.norm(test.positions - moved.predict(test.joints), axis=1)
+                limit = bound.predict(test.joints)
+                print(f"    {label} re-registered: {np.mean(error <= limit):.3f} of the test poses within the 95 % "
+                      f"bound, median bound / median error {np.median(limit) / np.median(error):.2f} "
+                      f"(set-up factor {bound.set_up_factor:.2f})", flush=True)
         answered = int(moved_auto.compensator_.outside_mask(test.joints).sum()) if hasattr(
             moved_auto.compensator_, "outside_mask") else 0
         print(f"  draw {seed}: auto re-registered {a:.4f} mm ({answered} of {test.n_poses} test poses answered by "
@@ -162,6 +179,8 @@ def main():
     parser.add_argument("--draws", type=int, default=DRAWS)
     parser.add_argument("--no-small", action="store_true")
     parser.add_argument("--no-reregistration", action="store_true")
+    parser.add_argument("--bound", action="store_true",
+                        help="also the 95 %% bound's coverage of the re-registered models on the rest of A")
     args = parser.parse_args()
     start = time.process_time()
     print(f"robocal small campaigns ({load_note()})")
@@ -171,7 +190,7 @@ def main():
         for name, size, models, failed, mean, worst, ok in summary:
             print(f"{name:<8} {size:>5} {models:>6} {failed:>6} {mean:>10.4f} {worst:>7.4f} {'ok' if ok else 'FAIL'}")
     if not args.no_reregistration:
-        reregistration(args.draws if args.draws < REREGISTER_DRAWS else REREGISTER_DRAWS)
+        reregistration(args.draws if args.draws < REREGISTER_DRAWS else REREGISTER_DRAWS, args.bound)
     print(f"\n{time.process_time() - start:.0f} s CPU in all ({load_note()})")
 
 
