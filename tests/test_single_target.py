@@ -36,8 +36,8 @@ def test_point_program_equals_batched_fk_and_jacobian(name):
         q = chain.random_configurations(20, np.random.default_rng(2))
         for row in q:
             np.testing.assert_allclose(program.matrix(row.tolist()), chain.fk(row), atol=1e-9)
-            _, rows = program.pose_jacobian(row.tolist())
-            np.testing.assert_allclose(np.array(rows), chain.jacobian(row), atol=1e-9)
+            _, columns = program.pose_jacobian(row.tolist())
+            np.testing.assert_allclose(np.array(columns).reshape(-1, 6).T, chain.jacobian(row), atol=1e-9)
 
 
 @pytest.mark.parametrize("name", ROBOTS)

@@ -138,8 +138,4 @@ class SphericalWrist(ClosedForm):
                 for j, (t4, t6) in enumerate(wrists):
                     angles.append((t1, first, f["sign3"] * second, t4, flips[j][0], t6))
                     cosine.append(max(elbow_excess, flip_excess))
-        return (
-            np.array(angles).T.reshape(6, 2, 2, 2),
-            np.full((2, 2, 2), shoulder_excess),
-            np.reshape(cosine, (2, 2, 2)),
-        )
+        return angles, shoulder_excess, cosine

@@ -117,8 +117,4 @@ class OffsetWrist(ClosedForm):
                 for first, _, _, second, _, _ in elbows:
                     angles.append((t1, first, f["sign3"] * second, f["sign4"] * (phi - first - second), t5, t6))
                     cosine.append(max(flip_excess, elbow_excess))
-        return (
-            np.array(angles).T.reshape(6, 2, 2, 2),
-            np.full((2, 2, 2), shoulder_excess),
-            np.reshape(cosine, (2, 2, 2)),
-        )
+        return angles, shoulder_excess, cosine
