@@ -132,6 +132,9 @@ class ClosedForm:
         unmap = self._unmap
         self._unmap_terms = None if np.array_equal(unmap, np.eye(6)) else [
             [(j, float(c)) for j, c in enumerate(row) if c != 0.0] for row in unmap]
+        # Joint 1's row of a diagonal joint map (for the bound of :meth:`nearest_one`).
+        diagonal = np.count_nonzero(unmap - np.diag(np.diag(unmap))) == 0
+        self._diagonal_terms = [(0, float(unmap[0, 0]))] if diagonal else None
         periodic = [bool(v) for v in self._periodic[:, 0, 0]]
         lower, upper = self._lower[:, 0, 0], self._upper[:, 0, 0]
         # Per joint: the limits (widened for seeds), the limits without margin, periodic.
@@ -239,13 +242,32 @@ class ClosedForm:
     def _fit(self):
         raise NotImplementedError
 
+    def _shoulder_roots_one(self, rows, t):
+        """The first step of :meth:`_angles_one`: (what the second needs, the two roots
+        (angle, cos, sin) of joint 1's exponential angle, the length excess: one float, the
+        same for every branch); ``rows`` and ``t``, G's rotation rows and translation as
+        float triples."""
+        raise NotImplementedError
+
+    def _shoulder_angles_one(self, rows, context, shoulder, stretch):
+        """The four branches of one shoulder root (from :meth:`_shoulder_roots_one`): their
+        exponential angles (4 tuples of 6, in the batch's order) and cosine excesses (4
+        floats), on floats (raises :class:`.one.Degenerate` where only the batched code can
+        follow the batch)."""
+        raise NotImplementedError
+
     def _angles_one(self, rows, t, stretch):
         """:meth:`_angles` for one target, G's rows and translation as float triples: the
         exponential angles of the 8 branches (8 tuples of 6, in the order of the batch's
-        flattened branch axes), the length excess (one float, the same for every branch)
-        and the cosine excesses (8 floats), on floats (raises :class:`.one.Degenerate` where
-        only the batched code can follow the batch)."""
-        raise NotImplementedError
+        flattened branch axes), the length excess (one float) and the cosine excesses (8
+        floats)."""
+        context, shoulders, length = self._shoulder_roots_one(rows, t)
+        angles, cosine = [], []
+        for shoulder in shoulders:
+            more, more_cosine = self._shoulder_angles_one(rows, context, shoulder, stretch)
+            angles += more
+            cosine += more_cosine
+        return angles, length, cosine
 
     def _angles(self, rows, t, stretch):
         """Exponential angles (6, 2, 2, 2, B) of every branch, for G given as rotation rows
@@ -364,58 +386,111 @@ class ClosedForm:
         where only the batch can follow the batch (a target that is not finite, a division
         by zero).
         """
+        rows, t = self._relative_one(target)
+        angles, length, cosine = self._angles_one(rows, t, SEED_STRETCH if seeds else 1.0)
+        near = reference if reference is not None else _ZEROS
+        found = [self._branch_one(branch, branch_cosine, length, near, seeds)
+                 for branch, branch_cosine in zip(angles, cosine)]
+        return [f[0] for f in found], [f[1] for f in found], [f[2] for f in found]
+
+    def nearest_one(self, target, reference, seeds, allowance):
+        """The usable branch of one target nearest ``reference`` (6 floats, rad), as
+        :func:`~.solve.solve_ik` ranks them: squared joint distance, plus ``allowance`` for
+        a branch that is not preferred, the first of equals.  Returns (joints (6 floats),
+        preferred) or None when no branch is usable; raises :class:`.one.Degenerate` as
+        :meth:`branches_one` does.
+
+        With a diagonal joint map, joint 1 alone bounds the distance of a shoulder root's
+        four branches from below, so the shoulder root whose joint 1 is farther is solved
+        only if that bound does not exceed the best branch of the nearer one (it rarely
+        does: the two roots are about half a turn apart), and not at all when joint 1
+        cannot be brought within its limits.
+        """
+        rows, t = self._relative_one(target)
+        context, shoulders, length = self._shoulder_roots_one(rows, t)
+        stretch = SEED_STRETCH if seeds else 1.0
+        order = sorted((self._joint1_bound(shoulder[0], reference, seeds), k) for k, shoulder in enumerate(shoulders))
+        best, found = (math.inf, 8), None
+        for bound, k in order:
+            if bound > best[0]:
+                break
+            angles, cosine = self._shoulder_angles_one(rows, context, shoulders[k], stretch)
+            for j, (branch, branch_cosine) in enumerate(zip(angles, cosine)):
+                joints, ok, clean = self._branch_one(branch, branch_cosine, length, reference, seeds)
+                if not ok:
+                    continue
+                distance = sum([(b - r) ** 2 for b, r in zip(joints, reference)])
+                if not clean:
+                    distance += allowance
+                key = (distance, 4 * k + j)
+                if key < best:
+                    best, found = key, (joints, clean)
+        return found
+
+    def _relative_one(self, target):
+        """G of one target (4, 4) as float triples (rotation rows, translation)."""
         g = (self._pre @ target @ self._post).tolist()
         r0, r1, r2 = g[0], g[1], g[2]
         if not math.isfinite(sum(r0) + sum(r1) + sum(r2)):
             raise one.Degenerate("a target that is not finite")
-        angles, length, cosine = self._angles_one(
-            ((r0[0], r0[1], r0[2]), (r1[0], r1[1], r1[2]), (r2[0], r2[1], r2[2])),
-            (r0[3], r1[3], r2[3]), SEED_STRETCH if seeds else 1.0)
-        near = reference if reference is not None else _ZEROS
-        joint_limits = self._joint_limits_f[seeds]
+        return ((r0[0], r0[1], r0[2]), (r1[0], r1[1], r1[2]), (r2[0], r2[1], r2[2])), (r0[3], r1[3], r2[3])
+
+    def _joint1_bound(self, angle, reference, seeds):
+        """(joint 1 - reference)^2 of every branch with joint 1's exponential angle
+        ``angle``: a lower bound of their squared distance; infinite when joint 1 cannot be
+        within its limits, 0 when the joint map mixes joint 1 with others."""
+        if self._diagonal_terms is None:
+            return 0.0
+        value = angle if self._offsets_f is None else angle - self._offsets_f[0]
+        value = _combine_one(self._diagonal_terms, [value])
+        low, high, _, _, turns = self._joint_limits_f[seeds][0]
+        try:
+            if turns:
+                value = value + TWO_PI * round((reference[0] - value) * INVERSE_TWO_PI)
+                if value < low:
+                    value += TWO_PI
+                if value > high:
+                    value -= TWO_PI
+        except (ValueError, OverflowError):
+            raise one.Degenerate("an angle that is not finite") from None
+        if not low <= value <= high:
+            return math.inf
+        return (value - reference[0]) ** 2
+
+    def _branch_one(self, branch, branch_cosine, length, near, seeds):
+        """One branch's controller joints (6 floats, NaN unless usable), usable, preferred,
+        from its exponential angles and excesses, as :meth:`_branches` computes them."""
+        exact = length <= EXACT_REACH[0] and branch_cosine <= EXACT_REACH[1]
+        if not (exact or (seeds and length <= SEED_REACH[0] and branch_cosine <= SEED_REACH[1])):
+            return _NANS, False, False  # out of reach, whatever its joints
         offsets, terms = self._offsets_f, self._unmap_terms
-        exact_length = length <= EXACT_REACH[0]
-        seed_length = seeds and length <= SEED_REACH[0]
-        joints, usable, preferred = [], [], []
-        for branch, branch_cosine in zip(angles, cosine):
-            exact = exact_length and branch_cosine <= EXACT_REACH[1]
-            if not (exact or (seed_length and branch_cosine <= SEED_REACH[1])):
-                # Out of reach: neither usable nor preferred whatever its joints.
-                joints.append(_NANS)
-                usable.append(False)
-                preferred.append(False)
-                continue
-            model = branch if offsets is None else [a - o for a, o in zip(branch, offsets)]
-            if terms is not None:
-                model = [_combine_one(row, model) for row in terms]
-            # nearest_equivalent_one, with the check against the limits without the seed
-            # margin in the same pass.
-            turned, inside, strict = [], True, True
-            try:
-                for value, reference_value, (low, high, strict_low, strict_high, turns) in zip(
-                        model, near, joint_limits):
-                    if turns:
-                        value = value + TWO_PI * round((reference_value - value) * INVERSE_TWO_PI)
-                        if value < low:
-                            value += TWO_PI
-                        if value > high:
-                            value -= TWO_PI
-                    if not low <= value <= high:
-                        inside = False
-                    if not strict_low <= value <= strict_high:
-                        strict = False
-                    turned.append(value)
-            except (ValueError, OverflowError):  # round() of a NaN or an infinity
-                raise one.Degenerate("an angle that is not finite") from None
-            if seeds:
-                ok = inside
-                best = exact and strict
-            else:
-                ok = best = exact and inside
-            joints.append(turned if ok else _NANS)
-            usable.append(ok)
-            preferred.append(best)
-        return joints, usable, preferred
+        model = branch if offsets is None else [a - o for a, o in zip(branch, offsets)]
+        if terms is not None:
+            model = [_combine_one(row, model) for row in terms]
+        # nearest_equivalent_one, with the check against the limits without the seed margin
+        # in the same pass.
+        turned, inside, strict = [], True, True
+        try:
+            for value, reference_value, (low, high, strict_low, strict_high, turns) in zip(
+                    model, near, self._joint_limits_f[seeds]):
+                if turns:
+                    value = value + TWO_PI * round((reference_value - value) * INVERSE_TWO_PI)
+                    if value < low:
+                        value += TWO_PI
+                    if value > high:
+                        value -= TWO_PI
+                if not low <= value <= high:
+                    inside = False
+                if not strict_low <= value <= strict_high:
+                    strict = False
+                turned.append(value)
+        except (ValueError, OverflowError):  # round() of a NaN or an infinity
+            raise one.Degenerate("an angle that is not finite") from None
+        if seeds:
+            ok, best = inside, exact and strict
+        else:
+            ok = best = exact and inside
+        return (turned if ok else _NANS), ok, best
 
     def _controller_joints(self, angles):
         """Exponential angles (6, ...) -> controller joints (6, ...)."""

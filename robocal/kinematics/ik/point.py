@@ -80,21 +80,10 @@ class PointSolver:
         """The nearest closed-form branch refined by Newton steps, or None when that does
         not simply work."""
         try:
-            joints, usable, preferred = self.solver.branches_one(target, reference, not self.exact)
+            found = self.solver.nearest_one(target, reference, not self.exact, ALLOWANCE_RANK)
         except Degenerate:
             return None
-        best, seed = math.inf, None
-        for branch, ok, clean in zip(joints, usable, preferred):
-            if not ok:
-                continue
-            distance = sum([(b - r) ** 2 for b, r in zip(branch, reference)])
-            if not clean:
-                distance += ALLOWANCE_RANK
-            if distance < best:
-                best, seed = distance, branch
-        if seed is None:
-            return None
-        return self._newton(target, seed)
+        return None if found is None else self._newton(target, found[0])
 
     def _newton(self, target, seed):
         """Newton's method on the 6 x 6 pose residual from ``seed`` (6 floats); the joints
@@ -105,8 +94,9 @@ class PointSolver:
         the normal matrix); where one does not, the batch damps, projects or gives the seed
         up, and so this returns None and leaves the target to the batch.
         """
-        goal = (target[0, 3], target[1, 3], target[2, 3])
-        rt = target[:3, :3].tolist()
+        rows = target.tolist()  # floats: numpy scalars would slow every operation below
+        goal = (rows[0][3], rows[1][3], rows[2][3])
+        rt = (rows[0][:3], rows[1][:3], rows[2][:3])
         lower, upper = self._lower, self._upper
         q = seed
         if not _within(q, lower, upper):
@@ -152,13 +142,17 @@ def _residual(goal, rt, pose):
     R_target R^T; None beyond MAX_ROTATION."""
     xx, xy, xz, yx, yy, yz, zx, zy, zz, tx, ty, tz = pose
     dp = [goal[0] - tx, goal[1] - ty, goal[2] - tz]
-    # M = R_target R^T: M[i][j] = sum_k R_target[i][k] R[j][k], R's columns x, y, z.
-    r0, r1, r2 = rt
-    m = [[r[0] * c0 + r[1] * c1 + r[2] * c2 for c0, c1, c2 in ((xx, yx, zx), (xy, yy, zy), (xz, yz, zz))]
-         for r in (r0, r1, r2)]
-    vx, vy, vz = 0.5 * (m[2][1] - m[1][2]), 0.5 * (m[0][2] - m[2][0]), 0.5 * (m[1][0] - m[0][1])
+    # M = R_target R^T: M[i][j] = sum_k R_target[i][k] R[j][k], R's columns x, y, z; only the
+    # trace and the antisymmetric part are needed.
+    (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = rt
+    m00 = a0 * xx + a1 * yx + a2 * zx
+    m11 = b0 * xy + b1 * yy + b2 * zy
+    m22 = c0 * xz + c1 * yz + c2 * zz
+    vx = 0.5 * ((c0 * xy + c1 * yy + c2 * zy) - (b0 * xz + b1 * yz + b2 * zz))
+    vy = 0.5 * ((a0 * xz + a1 * yz + a2 * zz) - (c0 * xx + c1 * yx + c2 * zx))
+    vz = 0.5 * ((b0 * xx + b1 * yx + b2 * zx) - (a0 * xy + a1 * yy + a2 * zy))
     sine = math.sqrt(vx * vx + vy * vy + vz * vz)
-    cosine = 0.5 * (m[0][0] + m[1][1] + m[2][2] - 1.0)
+    cosine = 0.5 * (m00 + m11 + m22 - 1.0)
     angle = math.atan2(sine, cosine)
     if angle > MAX_ROTATION:
         return None
