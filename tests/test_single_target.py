@@ -86,6 +86,36 @@ def test_closed_form_of_one_target_equals_the_batch(name):
                 np.testing.assert_array_equal(mask_alone[0], mask_batch[i])
 
 
+@pytest.mark.parametrize("name", ["kr150-2", "irb120", "ur5", "ur10"])
+def test_nearest_branch_of_one_target_is_the_batch_ranking_first(name):
+    """ClosedForm.nearest_one skips a shoulder root that joint 1 alone rules out: what it
+    returns is still the first of all eight branches as solve_ik ranks them, also for
+    references far from the target (the other shoulder then often wins) and for a joint map
+    that mixes joints (no skipping)."""
+    nominal = load_robot(name)
+    mixed = nominal.replace(joint_map=np.eye(6) + 0.01 * np.eye(6, k=1))
+    rng = np.random.default_rng(11)
+    for chain, seeds in ((nominal, False), (perturbed(nominal, 12), True), (mixed, False)):
+        solver = closed_form(nominal if seeds else chain)
+        q = chain.random_configurations(30, rng)
+        targets = chain.fk(q)
+        # Every other reference near the target's own configuration, the others anywhere.
+        references = np.where((np.arange(30) % 2 == 0)[:, None], q + rng.normal(0.0, 0.1, q.shape),
+                              chain.random_configurations(30, rng))
+        for target, reference in zip(targets, references):
+            reference = reference.tolist()
+            joints, usable, preferred = solver.branches_one(target, reference, seeds)
+            distance = [np.inf if not ok else float(np.sum((np.array(b) - reference) ** 2)) + (0.0 if p else 1e6)
+                        for b, ok, p in zip(joints, usable, preferred)]
+            found = solver.nearest_one(target, reference, seeds, 1e6)
+            if not np.isfinite(min(distance)):
+                assert found is None
+                continue
+            best = int(np.argmin(distance))
+            np.testing.assert_array_equal(found[0], joints[best])
+            assert found[1] == preferred[best]
+
+
 def test_closed_form_is_fitted_once_per_chain():
     chain = load_robot("ur5")
     assert closed_form(chain) is closed_form(chain)
