@@ -240,3 +240,13 @@ def test_serve_refuses_a_bad_format(setup):
     models, _ = setup
     result = runner.invoke(app, ["serve", str(models["kinematic"][0]), "--format", "xml"])
     assert result.exit_code == 2 and "--format" in result.output
+
+
+def test_a_request_pose_is_the_one_compose_pose_builds():
+    from robocal.interfaces.serve import target_pose
+    from robocal.spatial import compose_pose
+
+    rng = np.random.default_rng(3)
+    for xyz, rxyz in zip(rng.uniform(-2000, 2000, (50, 3)), rng.uniform(-400, 400, (50, 3))):
+        expected = compose_pose(xyz[None], np.radians(rxyz)[None])[0]
+        np.testing.assert_allclose(target_pose(xyz.tolist(), rxyz.tolist()), expected, rtol=0, atol=1e-12)
