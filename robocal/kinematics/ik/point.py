@@ -69,11 +69,12 @@ class PointSolver:
             values = hint.tolist()
         else:
             try:
-                values = np.asarray(hint, dtype=float).reshape(-1).tolist()
+                array = np.asarray(hint, dtype=float)
             except (TypeError, ValueError):
                 return None
-            if len(values) != self._n:
+            if array.shape not in ((self._n,), (1, self._n)):  # as solve_ik takes a hint
                 return None
+            values = array.reshape(-1).tolist()
         return values if math.isfinite(sum(values)) else None
 
     def _first_attempt(self, target, reference):
