@@ -250,3 +250,26 @@ def test_a_request_pose_is_the_one_compose_pose_builds():
     for xyz, rxyz in zip(rng.uniform(-2000, 2000, (50, 3)), rng.uniform(-400, 400, (50, 3))):
         expected = compose_pose(xyz[None], np.radians(rxyz)[None])[0]
         np.testing.assert_allclose(target_pose(xyz.tolist(), rxyz.tolist()), expected, rtol=0, atol=1e-12)
+
+
+def test_an_idle_client_is_disconnected_after_the_idle_timeout(monkeypatch):
+    import asyncio
+
+    from robocal.interfaces import serve
+
+    monkeypatch.setattr(serve, "IDLE_TIMEOUT", 0.3)
+    logs = []
+
+    async def scenario():
+        server = serve.Server(answerer=None, log=logs.append)  # no request: nothing to answer
+        listening = await asyncio.start_server(server.handle, "127.0.0.1", 0)
+        port = listening.sockets[0].getsockname()[1]
+        reader, writer = await asyncio.open_connection("127.0.0.1", port)
+        ended = await asyncio.wait_for(reader.read(), 10.0)  # b"" once the server closes
+        writer.close()
+        listening.close()
+        await listening.wait_closed()
+        return ended
+
+    assert asyncio.run(scenario()) == b""
+    assert any("timed out" in line for line in logs)

@@ -242,7 +242,10 @@ class Server:
                 else:
                     answer, ok = self.answerer.answer(line)
                 writer.write(answer)
-                await asyncio.wait_for(writer.drain(), WRITE_TIMEOUT)
+                # Usually the socket takes the answer at once: nothing to wait for (a wait_for
+                # costs a task per request, some 30 us on this machine under load).
+                if writer.transport.get_write_buffer_size():
+                    await asyncio.wait_for(writer.drain(), WRITE_TIMEOUT)
                 self.stats.latencies.append(time.perf_counter() - begun)
                 requests += 1
                 errors += not ok
@@ -282,6 +285,17 @@ class Server:
         self.log(f"robocal serve: stopped; {self.stats.summary()}")
 
 
+if hasattr(asyncio, "timeout"):  # Python 3.11: a deadline on the running task, no new task
+    async def _read(reader):
+        """The next bytes from a client (b"" at its end); TimeoutError after IDLE_TIMEOUT s."""
+        async with asyncio.timeout(IDLE_TIMEOUT):
+            return await reader.read(READ_CHUNK)
+else:  # pragma: no cover - Python 3.10
+    async def _read(reader):
+        """The next bytes from a client (b"" at its end); TimeoutError after IDLE_TIMEOUT s."""
+        return await asyncio.wait_for(reader.read(READ_CHUNK), IDLE_TIMEOUT)
+
+
 async def _lines(reader):
     """Request lines (bytes, without newline) as they arrive; None for a line longer than
     MAX_LINE (its bytes discarded as they come, never held); a last line without newline at
@@ -289,7 +303,7 @@ async def _lines(reader):
     buffer = bytearray()
     discarding = False
     while True:
-        chunk = await asyncio.wait_for(reader.read(READ_CHUNK), IDLE_TIMEOUT)
+        chunk = await _read(reader)
         if not chunk:
             if buffer and not discarding:
                 yield bytes(buffer)
