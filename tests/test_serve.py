@@ -273,3 +273,18 @@ def test_an_idle_client_is_disconnected_after_the_idle_timeout(monkeypatch):
 
     assert asyncio.run(scenario()) == b""
     assert any("timed out" in line for line in logs)
+
+
+def test_an_answer_pose_is_what_pose_to_xyz_rpy_gives():
+    from robocal.interfaces.serve import answer_xyz_rpy, target_pose
+    from robocal.spatial import pose_to_xyz_rpy
+
+    rng = np.random.default_rng(4)
+    # Near pitch = +-90 deg too, where roll and yaw are nearly dependent.
+    angles = np.vstack([rng.uniform(-179, 179, (40, 3)), [[10.0, 90.0 - 1e-7, -20.0], [-30.0, -90.0 + 1e-9, 5.0]]])
+    for xyz, rxyz in zip(rng.uniform(-2000, 2000, (len(angles), 3)), angles):
+        pose = target_pose(xyz.tolist(), rxyz.tolist())
+        position, rpy = pose_to_xyz_rpy(pose[None])
+        got = answer_xyz_rpy(pose)
+        np.testing.assert_allclose(got[:3], position[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got[3:], np.degrees(rpy[0]), rtol=0, atol=1e-9)

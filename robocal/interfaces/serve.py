@@ -157,9 +157,8 @@ class Answerer:
         bound = None
         if self.fitted.bound_ is not None:
             bound = float(self.fitted.bound_.predict(q, inside=inside)[0])
-        position, rpy = pose_to_xyz_rpy(result.corrected)
         joints = self.robot.joints_to_file(q)[0]
-        return {"q": joints.tolist(), **dict(zip(CARTESIAN, position[0].tolist() + np.degrees(rpy[0]).tolist())),
+        return {"q": joints.tolist(), **dict(zip(CARTESIAN, answer_xyz_rpy(result.corrected[0]))),
                 "in_domain": in_domain, "bound95_mm": bound}
 
     def answer(self, line):
@@ -190,6 +189,20 @@ def target_pose(xyz, rxyz):
                      [sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx, xyz[1]],
                      [-sy, cy * sx, cy * cx, xyz[2]],
                      [0.0, 0.0, 0.0, 1.0]])
+
+
+def answer_xyz_rpy(pose):
+    """x, y, z (mm) and rx, ry, rz (deg) of one (4, 4) pose, as
+    :func:`robocal.spatial.pose_to_xyz_rpy` gives them (equal to rounding; the same steps:
+    pitch from a well-conditioned atan2, roll from the last row, yaw from what is left), on
+    floats."""
+    (m00, m01, m02, x), (m10, m11, m12, y), (m20, m21, m22, z) = pose[:3].tolist()
+    pitch = math.atan2(-m20, math.hypot(m00, m10))
+    roll = math.atan2(m21, m22)
+    ca, sa, cb, sb = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+    # The first column of R Rx(roll)ᵀ Ry(pitch)ᵀ: Rz(yaw)'s.
+    yaw = math.atan2(m10 * cb + (m11 * sa + m12 * ca) * sb, m00 * cb + (m01 * sa + m02 * ca) * sb)
+    return [x, y, z, math.degrees(roll), math.degrees(pitch), math.degrees(yaw)]
 
 
 def error_line(message):
