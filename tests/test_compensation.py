@@ -233,3 +233,20 @@ def test_the_commands_file_says_which_frame_its_cartesian_columns_are_in(tmp_pat
         rows = list(csv.DictReader(stream))
     assert rows and all(row["frame"] == COMMANDS_FRAME for row in rows)
     assert "robot base" in COMMANDS_FRAME
+
+
+def test_an_error_model_moved_to_another_frame_is_an_error_model_with_its_fit_diagnostics():
+    from robocal.compensation import ErrorModel
+    from robocal.estimation.kriging import Kriging
+    from robocal.methods.reframed import ReframedErrorModel
+
+    rng = np.random.default_rng(8)
+    x = rng.uniform(-500.0, 500.0, (40, 3))
+    kriging = Kriging(random_state=0).fit(x, np.column_stack([np.sin(x[:, 0] / 200.0), x[:, 1] / 500.0, x[:, 2] * 0.0]))
+    wrapper = ReframedErrorModel(kriging, np.eye(4))
+    assert isinstance(wrapper, ErrorModel) and isinstance(kriging, ErrorModel)
+    assert wrapper.diagnostics_ == kriging.diagnostics_
+    # A Kriging has no training history: the report's getattr(..., None) finds none.
+    assert getattr(wrapper, "history_", None) is None
+    # Nothing else of the wrapped model shows through by accident.
+    assert not hasattr(wrapper, "theta_")

@@ -9,6 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from refusals import assert_refused, copy_inputs
+from robocal.compensation import CompensatorProtocol
 from robocal.interfaces.cli import app
 from robocal.io.library import load_robot
 from robocal.io.model_file import load_model, save_model
@@ -75,6 +76,17 @@ def test_command_of_one_target_takes_the_fallback_as_commands_do(half_range):
         assert one.success[0] == mixed.success[i]
         np.testing.assert_allclose(one.q[0], mixed.q[i], atol=1e-8, equal_nan=True)
         np.testing.assert_allclose(one.corrected[0], mixed.corrected[i], atol=1e-6, equal_nan=True)
+
+
+def test_the_fallback_declares_the_compensator_protocol_and_forwards_nothing_else(half_range):
+    _, _, _, inside, _, model, _ = half_range
+    fallback = model.compensator_
+    assert isinstance(fallback, CompensatorProtocol) and isinstance(inside.compensator_, CompensatorProtocol)
+    for name in ("chain", "error_model", "error_input", "nominal", "controller", "reference"):
+        assert getattr(fallback, name) is getattr(fallback.inside, name)
+    # What the protocol does not declare is not the chosen model's by accident.
+    assert not hasattr(fallback, "corrected_targets") and not hasattr(fallback, "_point")
+    assert fallback.label == "kinematic full+compliance"
 
 
 def test_the_model_file_keeps_the_fallback_and_older_files_stay_schema_1(half_range, tmp_path):

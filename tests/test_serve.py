@@ -240,3 +240,51 @@ def test_serve_refuses_a_bad_format(setup):
     models, _ = setup
     result = runner.invoke(app, ["serve", str(models["kinematic"][0]), "--format", "xml"])
     assert result.exit_code == 2 and "--format" in result.output
+
+
+def test_a_request_pose_is_the_one_compose_pose_builds():
+    from robocal.interfaces.serve import target_pose
+    from robocal.spatial import compose_pose
+
+    rng = np.random.default_rng(3)
+    for xyz, rxyz in zip(rng.uniform(-2000, 2000, (50, 3)), rng.uniform(-400, 400, (50, 3))):
+        expected = compose_pose(xyz[None], np.radians(rxyz)[None])[0]
+        np.testing.assert_allclose(target_pose(xyz.tolist(), rxyz.tolist()), expected, rtol=0, atol=1e-12)
+
+
+def test_an_idle_client_is_disconnected_after_the_idle_timeout(monkeypatch):
+    import asyncio
+
+    from robocal.interfaces import serve
+
+    monkeypatch.setattr(serve, "IDLE_TIMEOUT", 0.3)
+    logs = []
+
+    async def scenario():
+        server = serve.Server(answerer=None, log=logs.append)  # no request: nothing to answer
+        listening = await asyncio.start_server(server.handle, "127.0.0.1", 0)
+        port = listening.sockets[0].getsockname()[1]
+        reader, writer = await asyncio.open_connection("127.0.0.1", port)
+        ended = await asyncio.wait_for(reader.read(), 10.0)  # b"" once the server closes
+        writer.close()
+        listening.close()
+        await listening.wait_closed()
+        return ended
+
+    assert asyncio.run(scenario()) == b""
+    assert any("timed out" in line for line in logs)
+
+
+def test_an_answer_pose_is_what_pose_to_xyz_rpy_gives():
+    from robocal.interfaces.serve import answer_xyz_rpy, target_pose
+    from robocal.spatial import pose_to_xyz_rpy
+
+    rng = np.random.default_rng(4)
+    # Near pitch = +-90 deg too, where roll and yaw are nearly dependent.
+    angles = np.vstack([rng.uniform(-179, 179, (40, 3)), [[10.0, 90.0 - 1e-7, -20.0], [-30.0, -90.0 + 1e-9, 5.0]]])
+    for xyz, rxyz in zip(rng.uniform(-2000, 2000, (len(angles), 3)), angles):
+        pose = target_pose(xyz.tolist(), rxyz.tolist())
+        position, rpy = pose_to_xyz_rpy(pose[None])
+        got = answer_xyz_rpy(pose)
+        np.testing.assert_allclose(got[:3], position[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got[3:], np.degrees(rpy[0]), rtol=0, atol=1e-9)

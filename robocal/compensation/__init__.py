@@ -2,5 +2,6 @@
 commands or corrected Cartesian targets."""
 from .compensator import CommandResult, Compensator
 from .joint_space import correct_joints
+from .protocol import CompensatorProtocol, ErrorModel
 
-__all__ = ["CommandResult", "Compensator", "correct_joints"]
+__all__ = ["CommandResult", "Compensator", "CompensatorProtocol", "ErrorModel", "correct_joints"]

@@ -144,27 +144,26 @@ class Compensator:
         if target.shape != (4, 4):
             raise InputError(f"a target must be one (4, 4) pose, got shape {target.shape}")
         point = self._point
-        joint_space = self.error_model is not None and self.error_input == "joints"
-        if self.error_model is None or joint_space:
-            moved, error = target, np.full(3, np.nan)
-        else:
+        if point.mode == "position":
             corrected, error = self.corrected_targets(target[None], iterate=iterate)
-            moved, error = corrected[0], error[0]
+            moved = corrected[0]
+        else:
+            moved, error = target, None
         q, ok = point.solver.solve(moved, hint)
         if ok and point.compliant:
             q = self.chain.commands_for(q[None])[0]
-        if ok and joint_space:
+        if ok and point.mode == "joints":
             # As _joint_space_commands: IK, then the correction against the predicted error.
-            error = np.asarray(self.error_model.predict(q[None]), dtype=float)[0]
+            error = np.asarray(self.error_model.predict(q[None]), dtype=float).reshape(1, 3)
             q = correct_joints(self.chain, self.error_model, q[None],
                                iterations=JOINT_ITERATIONS if iterate else 1)[0]
             ok = bool(self.chain.within_limits(q[None])[0])
             if not ok:
-                q = np.full_like(q, np.nan)
-        corrected = np.full((4, 4), np.nan)
-        if ok:
-            corrected = point.controller_fk(q)
-        return CommandResult(q[None], np.array([ok]), corrected[None], np.asarray(error, dtype=float)[None])
+                q = q + np.nan
+        if error is None:
+            error = _NAN_ROW.copy()
+        corrected = point.controller_fk(q) if ok else _NAN_POSE.copy()
+        return CommandResult(q[None], np.array([ok]), corrected, error)
 
     @cached_property
     def _point(self):
@@ -206,23 +205,32 @@ class Compensator:
         return q, ok, error
 
 
+# What command returns where nothing is known (copied: results are the caller's to keep).
+_NAN_ROW = np.full((1, 3), np.nan)
+_NAN_POSE = np.full((1, 4, 4), np.nan)
+
+
 class _PointPath:
-    """A compensator's one-target machinery (see :meth:`Compensator.command`)."""
+    """A compensator's one-target machinery (see :meth:`Compensator.command`): ``mode`` is
+    'position' (a Cartesian error model moves the target), 'joints' (a joint-space error
+    model corrects the IK solution) or 'none' (IK alone)."""
 
     def __init__(self, compensator):
         rigid = compensator.chain.rigid
         self.compliant = rigid is not compensator.chain
+        self.mode = "none" if compensator.error_model is None else compensator.error_input
         self.solver = PointSolver(rigid, compensator.nominal)
         controller = compensator.controller if compensator.controller is not None else (
             compensator.nominal or compensator.chain)
         if getattr(controller, "rigid", None) is controller:
-            self._program = PointProgram.of(controller)
+            self._pose = PointProgram.of(controller).pose
             self._controller = None
         else:
-            self._program, self._controller = None, controller
+            self._pose, self._controller = None, controller
 
     def controller_fk(self, q):
-        """The controller's FK (4, 4) of one command (n,)."""
-        if self._program is None:
-            return self._controller.fk(q[None])[0]
-        return self._program.matrix(q.tolist())
+        """The controller's FK (1, 4, 4) of one command (n,)."""
+        if self._pose is None:
+            return self._controller.fk(q[None])
+        xx, xy, xz, yx, yy, yz, zx, zy, zz, tx, ty, tz = self._pose(q.tolist())
+        return np.array([xx, yx, zx, tx, xy, yy, zy, ty, xz, yz, zz, tz, 0.0, 0.0, 0.0, 1.0]).reshape(1, 4, 4)

@@ -267,7 +267,10 @@ class PointProgram:
     ``pose(q)`` takes the n controller joints (a sequence of floats, rad / mm) and returns
     the TCP pose as 12 floats: the columns x, y, z of the rotation, then the origin.
     ``pose_jacobian(q)`` returns them and the geometric Jacobian with respect to the
-    controller joints, as 6 rows (lists of n floats; rows [dp; dw] as in ``fk_jacobian``).
+    controller joints, column after column in one tuple of 6 n floats (column k, the
+    derivative [dp; dw] of the pose by joint k as in ``fk_jacobian``, at [6 k, 6 k + 6]):
+    ``np.array(columns).reshape(n, 6).T`` is the (6, n) Jacobian, in the column-major order
+    LAPACK takes without a copy.
     Equal to :func:`forward` to rounding (cos and sin from ``math`` instead of half-angle
     tangents).
     """
@@ -311,7 +314,7 @@ class PointProgram:
         jac = self._jacobian_source(n, marks, revolute, joint_map) if len(marks) == n else None
         if jac is not None:
             source += ("def pose_jacobian(q):\n"
-                       + "\n".join("    " + line for line in lines + body + jac + [f"return {result}, rows"]) + "\n")
+                       + "\n".join("    " + line for line in lines + body + jac + [f"return {result}, columns"]) + "\n")
         exec(compile(source, "<robocal point program>", "exec"), namespace)  # noqa: S102 - our own source
         self.pose = namespace["pose"]
         self.pose_jacobian = namespace.get("pose_jacobian")
@@ -319,8 +322,8 @@ class PointProgram:
 
     @staticmethod
     def _jacobian_source(n, marks, revolute, joint_map):
-        """Lines that build ``rows``: the Jacobian's columns from each joint's z axis and
-        origin (marks J1..Jn), then times the joint map."""
+        """Lines that build ``columns``: the Jacobian's columns from each joint's z axis and
+        origin (marks J1..Jn), then times the joint map, one after the other."""
         lines = []
         for k in range(n):
             if revolute[k]:
@@ -329,11 +332,11 @@ class PointProgram:
             else:
                 lines.append(f"v{k} = (j{k}[0], j{k}[1], j{k}[2], 0.0, 0.0, 0.0)")
         if np.array_equal(joint_map, np.eye(n)):
-            cols = [[f"v{k}[{r}]" for k in range(n)] for r in range(6)]
+            lines.append("columns = " + " + ".join(f"v{k}" for k in range(n)))
         else:
-            cols = [[_sum([_term(float(joint_map[i, k]), f"v{i}[{r}]") for i in range(n)]) for k in range(n)]
-                    for r in range(6)]
-        lines.append("rows = [" + ", ".join("[" + ", ".join(row) + "]" for row in cols) + "]")
+            flat = [_sum([_term(float(joint_map[i, k]), f"v{i}[{r}]") for i in range(n)])
+                    for k in range(n) for r in range(6)]
+            lines.append("columns = (" + ", ".join(flat) + ",)")
         return lines
 
     def matrix(self, q):

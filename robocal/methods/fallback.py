@@ -16,9 +16,9 @@ arm branch, a joint beyond its measured range — two kinds of model are known t
 So :class:`DomainFallback` holds two compensators: the chosen model's for configurations
 inside its :class:`~robocal.methods.domain.Domain`, and a parametric calibration's without
 gains (the rule is in :func:`robocal.methods.selection.outside_choice`) for those outside.
-Every verb sees one compensator: ``predict_positions`` and ``commands`` pick per
-configuration; everything else (the chain, the error model, the frames) is the chosen
-model's.
+Every verb sees one compensator (:class:`~robocal.compensation.CompensatorProtocol`):
+``predict_positions``, ``commands`` and ``command`` pick per configuration; the chain, the
+error model and the frames are the chosen model's, each declared below.
 """
 from dataclasses import dataclass
 
@@ -47,11 +47,38 @@ class DomainFallback:
     domain: Domain
     label: str
 
-    def __getattr__(self, name):
-        # The chain, error model, frames and controller are the chosen model's.
-        if name in ("inside", "__setstate__"):
-            raise AttributeError(name)
-        return getattr(self.inside, name)
+    # The rest of the compensator protocol is the chosen model's: its chain solves and
+    # reports, its error model is the one the report and the bound describe, its frames are
+    # the ones the model file records.
+    @property
+    def chain(self):
+        """The chosen model's kinematic model (measurement frame)."""
+        return self.inside.chain
+
+    @property
+    def error_model(self):
+        """The chosen model's error model (None for a parametric calibration)."""
+        return self.inside.error_model
+
+    @property
+    def error_input(self):
+        """What the chosen model's error model is over: 'position' or 'joints'."""
+        return self.inside.error_input
+
+    @property
+    def nominal(self):
+        """The robot whose closed form seeds the chosen model's IK."""
+        return self.inside.nominal
+
+    @property
+    def controller(self):
+        """The robot as its controller knows it (shared by both models)."""
+        return self.inside.controller
+
+    @property
+    def reference(self):
+        """The chosen model's nominal geometry in the measurement frame."""
+        return self.inside.reference
 
     def _inside(self, joints):
         """(N,) bool: configurations inside the domain; a NaN row (unreachable) counts as

@@ -21,7 +21,8 @@ DOCUMENT_TYPE = "reframed"
 
 # ------------------------------------------------------------ the error model
 class ReframedErrorModel:
-    """An error model learned in one measurement frame, predicting in another.
+    """An error model learned in one measurement frame, predicting in another: an
+    :class:`~robocal.compensation.ErrorModel`.
 
     Parameters
     ----------
@@ -54,12 +55,18 @@ class ReframedErrorModel:
         self.error_input = error_input
         self.joint_shift = None if joint_shift is None else np.asarray(joint_shift, dtype=float).reshape(-1)
 
-    def __getattr__(self, name):
-        # The fitted attributes (diagnostics_, history_, ...) are the wrapped model's: the
-        # reframing changes where the model is used, not what it learned.
-        if name.endswith("_") and not name.startswith("__") and "error_model" in self.__dict__:
-            return getattr(self.__dict__["error_model"], name)
-        raise AttributeError(name)
+    # What the report reads of a fitted error model is the wrapped model's: the reframing
+    # changes where the model is used, not what it learned.  A model without one (a
+    # network has no diagnostics_, a Kriging no history_) raises AttributeError, as it would.
+    @property
+    def diagnostics_(self):
+        """The wrapped model's fit diagnostics (Kriging: list of str)."""
+        return self.error_model.diagnostics_
+
+    @property
+    def history_(self):
+        """The wrapped model's training history (the network's best fitness per generation)."""
+        return self.error_model.history_
 
     def inputs(self, X):
         """The wrapped model's input for X: T⁻¹·p for positions (N, 3) mm, the shifted

@@ -14,13 +14,15 @@ and does the bookkeeping around the geometry:
   then a seed that the numerical solver refines; one that does not meet them at all raises
   :class:`NoFit` with the reason.
 """
+import math
+
 import numpy as np
 
 from ...errors import InputError
 from ...spatial import invert, make_transform, rot_y, rot_z
 from ..conversions import to_poe
 from . import one
-from .limits import LIMIT_TOL, nearest_equivalent, periodic_joints
+from .limits import INVERSE_TWO_PI, LIMIT_TOL, TWO_PI, nearest_equivalent, periodic_joints
 from .subproblems import TwoLink, matvec, sinusoid_roots
 
 # Deviations from the ideal structure below these count as rounding: the solution is exact.
@@ -43,6 +45,9 @@ SEED_MARGIN = 0.2
 SEED_STRETCH = 1.0 - 1e-3
 # Axes closer to parallel than this cannot define an angle between them.
 MIN_SINE = 0.1
+# What branches_one returns for a branch that is not usable.
+_NANS = (float("nan"),) * 6
+_ZEROS = (0.0,) * 6
 # Targets per block: the temporaries of one block stay in the processor's cache.
 BLOCK = 4096
 # Up to this many targets, G comes from plain 4x4 products (see ClosedForm._relative).
@@ -110,11 +115,33 @@ class ClosedForm:
         self._worst_length = 0.0
         self._fit()
         self._floats()
+        self._point_constants()
 
     def _floats(self):
         """The constants of :meth:`_angles_one` as floats (subclasses add their own)."""
         self._f = {"n": _triple(self.n), "ex": _triple(self.plane[0]), "ey": _triple(self.plane[1]),
                    "link": one.Link(self.link), "along": float(self.along)}
+
+    def _point_constants(self):
+        """What :meth:`branches_one` needs as Python floats: offsets, the joint map's inverse
+        as the nonzero terms of each row (None for the identity), periodic joints, and the
+        limits (with :data:`LIMIT_TOL`, and widened by :data:`SEED_MARGIN` for seeds)
+        computed as the batch computes them, so that the masks agree to the bit."""
+        # x - 0.0 is x: zero offsets are left out.
+        self._offsets_f = None if not np.any(self._offsets) else [float(v) for v in self._offsets]
+        unmap = self._unmap
+        self._unmap_terms = None if np.array_equal(unmap, np.eye(6)) else [
+            [(j, float(c)) for j, c in enumerate(row) if c != 0.0] for row in unmap]
+        # Joint 1's row of a diagonal joint map (for the bound of :meth:`nearest_one`).
+        diagonal = np.count_nonzero(unmap - np.diag(np.diag(unmap))) == 0
+        self._diagonal_terms = [(0, float(unmap[0, 0]))] if diagonal else None
+        periodic = [bool(v) for v in self._periodic[:, 0, 0]]
+        lower, upper = self._lower[:, 0, 0], self._upper[:, 0, 0]
+        # Per joint: the limits (widened for seeds), the limits without margin, periodic.
+        self._joint_limits_f = {
+            seeds: list(zip((lower - margin).tolist(), (upper + margin).tolist(), lower.tolist(),
+                            upper.tolist(), periodic))
+            for seeds, margin in ((False, 0.0), (True, SEED_MARGIN))}
 
     @property
     def exact(self):
@@ -215,11 +242,32 @@ class ClosedForm:
     def _fit(self):
         raise NotImplementedError
 
-    def _angles_one(self, rows, t, stretch):
-        """:meth:`_angles` for one target, G's rows and translation as float triples:
-        angles (6, 2, 2, 2) and the length and cosine excesses (2, 2, 2), on floats (raises
-        :class:`.one.Degenerate` where only the batched code can follow the batch)."""
+    def _shoulder_roots_one(self, rows, t):
+        """The first step of :meth:`_angles_one`: (what the second needs, the two roots
+        (angle, cos, sin) of joint 1's exponential angle, the length excess: one float, the
+        same for every branch); ``rows`` and ``t``, G's rotation rows and translation as
+        float triples."""
         raise NotImplementedError
+
+    def _shoulder_angles_one(self, rows, context, shoulder, stretch):
+        """The four branches of one shoulder root (from :meth:`_shoulder_roots_one`): their
+        exponential angles (4 tuples of 6, in the batch's order) and cosine excesses (4
+        floats), on floats (raises :class:`.one.Degenerate` where only the batched code can
+        follow the batch)."""
+        raise NotImplementedError
+
+    def _angles_one(self, rows, t, stretch):
+        """:meth:`_angles` for one target, G's rows and translation as float triples: the
+        exponential angles of the 8 branches (8 tuples of 6, in the order of the batch's
+        flattened branch axes), the length excess (one float) and the cosine excesses (8
+        floats)."""
+        context, shoulders, length = self._shoulder_roots_one(rows, t)
+        angles, cosine = [], []
+        for shoulder in shoulders:
+            more, more_cosine = self._shoulder_angles_one(rows, context, shoulder, stretch)
+            angles += more
+            cosine += more_cosine
+        return angles, length, cosine
 
     def _angles(self, rows, t, stretch):
         """Exponential angles (6, 2, 2, 2, B) of every branch, for G given as rotation rows
@@ -321,26 +369,128 @@ class ClosedForm:
         return self._angles(*self._relative(targets), stretch)
 
     def _branches_one(self, target, reference, seeds):
-        """:meth:`_branches` of one target (4, 4): the same steps on (6, 8) arrays, the
-        angles from :meth:`_angles_one` (raises :class:`.one.Degenerate` where that cannot
-        follow the batch)."""
+        """:meth:`_branches` of one target (4, 4), from :meth:`branches_one` (raises
+        :class:`.one.Degenerate` where that cannot follow the batch)."""
+        near = None if reference is None else np.broadcast_to(reference, (1, 6))[0].tolist()
+        joints, usable, preferred = self.branches_one(target, near, seeds)
+        return np.array(joints)[None], np.array(usable)[None], np.array(preferred)[None]
+
+    def branches_one(self, target, reference, seeds):
+        """Every branch of one target, on Python floats: what :meth:`solve` (``seeds``
+        False) or :meth:`seeds` returns for it, as lists.
+
+        target: (4, 4) array, world frame (mm); reference: 6 floats (rad) or None (zero).
+        Returns joints (8 lists of 6 floats, NaN where not usable), usable (8 bools) and
+        preferred (8 bools).  The same formulas and order of operations as the batch, so
+        the same branches to rounding and the same masks; raises :class:`.one.Degenerate`
+        where only the batch can follow the batch (a target that is not finite, a division
+        by zero).
+        """
+        rows, t = self._relative_one(target)
+        angles, length, cosine = self._angles_one(rows, t, SEED_STRETCH if seeds else 1.0)
+        near = reference if reference is not None else _ZEROS
+        found = [self._branch_one(branch, branch_cosine, length, near, seeds)
+                 for branch, branch_cosine in zip(angles, cosine)]
+        return [f[0] for f in found], [f[1] for f in found], [f[2] for f in found]
+
+    def nearest_one(self, target, reference, seeds, allowance):
+        """The usable branch of one target nearest ``reference`` (6 floats, rad), as
+        :func:`~.solve.solve_ik` ranks them: squared joint distance, plus ``allowance`` for
+        a branch that is not preferred, the first of equals.  Returns (joints (6 floats),
+        preferred) or None when no branch is usable; raises :class:`.one.Degenerate` as
+        :meth:`branches_one` does.
+
+        With a diagonal joint map, joint 1 alone bounds the distance of a shoulder root's
+        four branches from below, so the shoulder root whose joint 1 is farther is solved
+        only if that bound does not exceed the best branch of the nearer one (it rarely
+        does: the two roots are about half a turn apart), and not at all when joint 1
+        cannot be brought within its limits.
+        """
+        rows, t = self._relative_one(target)
+        context, shoulders, length = self._shoulder_roots_one(rows, t)
+        stretch = SEED_STRETCH if seeds else 1.0
+        order = sorted((self._joint1_bound(shoulder[0], reference, seeds), k) for k, shoulder in enumerate(shoulders))
+        best, found = (math.inf, 8), None
+        for bound, k in order:
+            if bound > best[0]:
+                break
+            angles, cosine = self._shoulder_angles_one(rows, context, shoulders[k], stretch)
+            for j, (branch, branch_cosine) in enumerate(zip(angles, cosine)):
+                joints, ok, clean = self._branch_one(branch, branch_cosine, length, reference, seeds)
+                if not ok:
+                    continue
+                distance = sum([(b - r) ** 2 for b, r in zip(joints, reference)])
+                if not clean:
+                    distance += allowance
+                key = (distance, 4 * k + j)
+                if key < best:
+                    best, found = key, (joints, clean)
+        return found
+
+    def _relative_one(self, target):
+        """G of one target (4, 4) as float triples (rotation rows, translation)."""
         g = (self._pre @ target @ self._post).tolist()
-        angles, length, cosine = self._angles_one(tuple(tuple(row[:3]) for row in g[:3]),
-                                                  tuple(row[3] for row in g[:3]), SEED_STRETCH if seeds else 1.0)
-        joints = self._unmap @ (angles.reshape(6, 8) - self._offsets[:, None])
-        near = 0.0 if reference is None else np.broadcast_to(reference, (1, 6)).reshape(6, 1)
-        margin = SEED_MARGIN if seeds else 0.0
-        lower, upper = self._lower[:, :, 0], self._upper[:, :, 0]
-        joints, inside = nearest_equivalent(joints, near, lower - margin, upper + margin, self._periodic[:, :, 0])
-        length, cosine = length.reshape(8), cosine.reshape(8)
-        exact = (length <= EXACT_REACH[0]) & (cosine <= EXACT_REACH[1])
+        r0, r1, r2 = g[0], g[1], g[2]
+        if not math.isfinite(sum(r0) + sum(r1) + sum(r2)):
+            raise one.Degenerate("a target that is not finite")
+        return ((r0[0], r0[1], r0[2]), (r1[0], r1[1], r1[2]), (r2[0], r2[1], r2[2])), (r0[3], r1[3], r2[3])
+
+    def _joint1_bound(self, angle, reference, seeds):
+        """(joint 1 - reference)^2 of every branch with joint 1's exponential angle
+        ``angle``: a lower bound of their squared distance; infinite when joint 1 cannot be
+        within its limits, 0 when the joint map mixes joint 1 with others."""
+        if self._diagonal_terms is None:
+            return 0.0
+        value = angle if self._offsets_f is None else angle - self._offsets_f[0]
+        value = _combine_one(self._diagonal_terms, [value])
+        low, high, _, _, turns = self._joint_limits_f[seeds][0]
+        try:
+            if turns:
+                value = value + TWO_PI * round((reference[0] - value) * INVERSE_TWO_PI)
+                if value < low:
+                    value += TWO_PI
+                if value > high:
+                    value -= TWO_PI
+        except (ValueError, OverflowError):
+            raise one.Degenerate("an angle that is not finite") from None
+        if not low <= value <= high:
+            return math.inf
+        return (value - reference[0]) ** 2
+
+    def _branch_one(self, branch, branch_cosine, length, near, seeds):
+        """One branch's controller joints (6 floats, NaN unless usable), usable, preferred,
+        from its exponential angles and excesses, as :meth:`_branches` computes them."""
+        exact = length <= EXACT_REACH[0] and branch_cosine <= EXACT_REACH[1]
+        if not (exact or (seeds and length <= SEED_REACH[0] and branch_cosine <= SEED_REACH[1])):
+            return _NANS, False, False  # out of reach, whatever its joints
+        offsets, terms = self._offsets_f, self._unmap_terms
+        model = branch if offsets is None else [a - o for a, o in zip(branch, offsets)]
+        if terms is not None:
+            model = [_combine_one(row, model) for row in terms]
+        # nearest_equivalent_one, with the check against the limits without the seed margin
+        # in the same pass.
+        turned, inside, strict = [], True, True
+        try:
+            for value, reference_value, (low, high, strict_low, strict_high, turns) in zip(
+                    model, near, self._joint_limits_f[seeds]):
+                if turns:
+                    value = value + TWO_PI * round((reference_value - value) * INVERSE_TWO_PI)
+                    if value < low:
+                        value += TWO_PI
+                    if value > high:
+                        value -= TWO_PI
+                if not low <= value <= high:
+                    inside = False
+                if not strict_low <= value <= strict_high:
+                    strict = False
+                turned.append(value)
+        except (ValueError, OverflowError):  # round() of a NaN or an infinity
+            raise one.Degenerate("an angle that is not finite") from None
         if seeds:
-            ok = (length <= SEED_REACH[0]) & (cosine <= SEED_REACH[1]) & np.all(inside, axis=0)
-            best = exact & np.all((joints >= lower) & (joints <= upper), axis=0)
+            ok, best = inside, exact and strict
         else:
-            ok = best = exact & np.all(inside, axis=0)
-        joints[:, ~ok] = np.nan
-        return joints.T[None], ok[None], best[None]
+            ok = best = exact and inside
+        return (turned if ok else _NANS), ok, best
 
     def _controller_joints(self, angles):
         """Exponential angles (6, ...) -> controller joints (6, ...)."""
@@ -363,6 +513,17 @@ def _reach(length_excess, cosine_excess, tolerances):
     """(8, B) mask of branches within reach, given the excesses from :meth:`_angles`."""
     ok = (length_excess <= tolerances[0]) & (cosine_excess <= tolerances[1])
     return np.broadcast_to(ok, (2, 2, 2, ok.shape[-1])).reshape(8, -1)
+
+
+def _combine_one(terms, values):
+    """:func:`_combine` on floats, for the nonzero ``terms`` [(index, coefficient)]: the same
+    additions in the same order."""
+    total = None
+    for index, coef in terms:
+        value = values[index]
+        term = value if coef == 1.0 else -value if coef == -1.0 else coef * value
+        total = term if total is None else total + term
+    return 0.0 if total is None else total
 
 
 def _combine(coefficients, arrays):

@@ -9,6 +9,7 @@ approaching a limit from a side where a whole turn brings it back inside, keeps 
 import numpy as np
 
 TWO_PI = 2.0 * np.pi
+INVERSE_TWO_PI = 1.0 / TWO_PI
 # Rounding allowance at the limits (rad, mm).
 LIMIT_TOL = 1e-9
 
@@ -34,6 +35,26 @@ def nearest_equivalent(q, reference, lower, upper, periodic):
     if not np.all(periodic):
         turned = np.where(periodic, turned, q)
     return turned, (turned >= lower) & (turned <= upper)
+
+
+def nearest_equivalent_one(q, reference, lower, upper, periodic):
+    """:func:`nearest_equivalent` of one configuration on Python floats (sequences of n:
+    joints, reference, limits, periodic flags), with the same operations in the same order.
+    Returns the joints (a list) and whether every one is within its limits.  Raises
+    ValueError or OverflowError for a joint or reference that is not finite."""
+    out = []
+    inside = True
+    for value, near, low, high, turns in zip(q, reference, lower, upper, periodic):
+        if turns:
+            value = value + TWO_PI * round((near - value) * INVERSE_TWO_PI)
+            if value < low:
+                value += TWO_PI
+            if value > high:
+                value -= TWO_PI
+        if not low <= value <= high:
+            inside = False
+        out.append(value)
+    return out, inside
 
 
 class JointLimits:

@@ -106,12 +106,16 @@ class SphericalWrist(ClosedForm):
             flip=tuple(float(v) for v in self.flip),
         )
 
-    def _angles_one(self, rows, t, stretch):
+    def _shoulder_roots_one(self, rows, t):
+        f = self._f
+        c, shoulders, shoulder_excess = self._shoulder_one(rows, t, f["centre"])
+        return (c, one.matvec(rows, f["w6"]), one.matvec(rows, f["x6"])), shoulders, shoulder_excess
+
+    def _shoulder_angles_one(self, rows, context, shoulder, stretch):
         f = self._f
         n, ex, ey, w4, w5, w6, x6, y6 = (f[k] for k in ("n", "ex", "ey", "w4", "w5", "w6", "x6", "y6"))
         a, b, offset = f["flip"]
-        c, shoulders, shoulder_excess = self._shoulder_one(rows, t, f["centre"])
-        rows_w6, rows_x6 = one.matvec(rows, w6), one.matvec(rows, x6)
+        c, rows_w6, rows_x6 = context
         angles, cosine = [], []  # branch by branch, in the order of the batch's axes
 
         def wrist(c5, s5, r_w6, r_x6):
@@ -119,27 +123,23 @@ class SphericalWrist(ClosedForm):
             rest = one.rotate(w5, c5, -s5, one.rotate(w4, c4, -s4, r_x6))
             return t4, one.angle_of(one.dot(x6, rest), one.dot(y6, rest))
 
-        for t1, c1, s1 in shoulders:
-            s1 = -s1  # undo joint 1
-            centre = one.rotate_z(c1, s1, c)
-            elbows, elbow_excess = one.planar_two_link(f["link"], one.dot(ex, centre), one.dot(ey, centre), stretch)
-            w6_1, x6_1 = one.rotate_z(c1, s1, rows_w6), one.rotate_z(c1, s1, rows_x6)
-            for first, cf, sf, second, cs, ss in elbows:
-                c23 = cf * cs - sf * ss
-                s23 = -(sf * cs + cf * ss)
-                r_w6, r_x6 = one.rotate(n, c23, s23, w6_1), one.rotate(n, c23, s23, x6_1)
-                flips, flip_excess = one.sinusoid_roots(a, b, one.dot(w4, r_w6) - offset, free=False)
-                if self.orthogonal:
-                    # As the batch: the second root is the first's mirror.
-                    t4, t6 = wrist(flips[0][1], flips[0][2], r_w6, r_x6)
-                    wrists = ((t4, t6), (t4 + np.pi, t6 + np.pi))
-                else:
-                    wrists = tuple(wrist(c5, s5, r_w6, r_x6) for _, c5, s5 in flips)
-                for j, (t4, t6) in enumerate(wrists):
-                    angles.append((t1, first, f["sign3"] * second, t4, flips[j][0], t6))
-                    cosine.append(max(elbow_excess, flip_excess))
-        return (
-            np.array(angles).T.reshape(6, 2, 2, 2),
-            np.full((2, 2, 2), shoulder_excess),
-            np.reshape(cosine, (2, 2, 2)),
-        )
+        t1, c1, s1 = shoulder
+        s1 = -s1  # undo joint 1
+        centre = one.rotate_z(c1, s1, c)
+        elbows, elbow_excess = one.planar_two_link(f["link"], one.dot(ex, centre), one.dot(ey, centre), stretch)
+        w6_1, x6_1 = one.rotate_z(c1, s1, rows_w6), one.rotate_z(c1, s1, rows_x6)
+        for first, cf, sf, second, cs, ss in elbows:
+            c23 = cf * cs - sf * ss
+            s23 = -(sf * cs + cf * ss)
+            r_w6, r_x6 = one.rotate(n, c23, s23, w6_1), one.rotate(n, c23, s23, x6_1)
+            flips, flip_excess = one.sinusoid_roots(a, b, one.dot(w4, r_w6) - offset, free=False)
+            if self.orthogonal:
+                # As the batch: the second root is the first's mirror.
+                t4, t6 = wrist(flips[0][1], flips[0][2], r_w6, r_x6)
+                wrists = ((t4, t6), (t4 + np.pi, t6 + np.pi))
+            else:
+                wrists = tuple(wrist(c5, s5, r_w6, r_x6) for _, c5, s5 in flips)
+            for j, (t4, t6) in enumerate(wrists):
+                angles.append((t1, first, f["sign3"] * second, t4, flips[j][0], t6))
+                cosine.append(max(elbow_excess, flip_excess))
+        return angles, cosine

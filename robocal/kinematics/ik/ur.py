@@ -94,31 +94,30 @@ class OffsetWrist(ClosedForm):
             flip=tuple(float(v) for v in self.flip),
         )
 
-    def _angles_one(self, rows, t, stretch):
+    def _shoulder_roots_one(self, rows, t):
+        p, shoulders, shoulder_excess = self._shoulder_one(rows, t, self._f["meet"])
+        return (p, one.matvec(rows, self._f["w6"])), shoulders, shoulder_excess
+
+    def _shoulder_angles_one(self, rows, context, shoulder, stretch):
         f = self._f
         n, ex, ey, w5, w6, arm4 = f["n"], f["ex"], f["ey"], f["w5"], f["w6"], f["arm4"]
         a, b, offset = f["flip"]
-        p, shoulders, shoulder_excess = self._shoulder_one(rows, t, f["meet"])
-        rows_w6 = one.matvec(rows, w6)
+        p, rows_w6 = context
+        t1, c1, s1 = shoulder
         angles, cosine = [], []  # branch by branch, in the order of the batch's axes
-        for t1, c1, s1 in shoulders:
-            n1 = one.rotate_z(c1, s1, n)
-            flips, flip_excess = one.sinusoid_roots(a, b, one.dot(n1, rows_w6) - offset, free=False)
-            back_n = one.transposed_matvec(rows, n1)
-            for t5, c5, s5 in flips:
-                s5 = -s5
-                t6, c6, s6 = one.angle_about(w6, back_n, one.rotate(w5, c5, s5, n))
-                s6 = -s6
-                swung = one.rotate_z(c1, -s1, one.matvec(rows, one.rotate(w6, c6, s6, one.rotate(w5, c5, s5, ex))))
-                phi = one.angle_of(one.dot(ex, swung), one.dot(ey, swung))
-                moved = one.matvec(rows, one.rotate(w6, c6, s6, one.rotate(w5, c5, s5, arm4)))
-                point = one.rotate_z(c1, -s1, (moved[0] + p[0], moved[1] + p[1], moved[2] + p[2]))
-                elbows, elbow_excess = one.planar_two_link(f["link"], one.dot(ex, point), one.dot(ey, point), stretch)
-                for first, _, _, second, _, _ in elbows:
-                    angles.append((t1, first, f["sign3"] * second, f["sign4"] * (phi - first - second), t5, t6))
-                    cosine.append(max(flip_excess, elbow_excess))
-        return (
-            np.array(angles).T.reshape(6, 2, 2, 2),
-            np.full((2, 2, 2), shoulder_excess),
-            np.reshape(cosine, (2, 2, 2)),
-        )
+        n1 = one.rotate_z(c1, s1, n)
+        flips, flip_excess = one.sinusoid_roots(a, b, one.dot(n1, rows_w6) - offset, free=False)
+        back_n = one.transposed_matvec(rows, n1)
+        for t5, c5, s5 in flips:
+            s5 = -s5
+            t6, c6, s6 = one.angle_about(w6, back_n, one.rotate(w5, c5, s5, n))
+            s6 = -s6
+            swung = one.rotate_z(c1, -s1, one.matvec(rows, one.rotate(w6, c6, s6, one.rotate(w5, c5, s5, ex))))
+            phi = one.angle_of(one.dot(ex, swung), one.dot(ey, swung))
+            moved = one.matvec(rows, one.rotate(w6, c6, s6, one.rotate(w5, c5, s5, arm4)))
+            point = one.rotate_z(c1, -s1, (moved[0] + p[0], moved[1] + p[1], moved[2] + p[2]))
+            elbows, elbow_excess = one.planar_two_link(f["link"], one.dot(ex, point), one.dot(ey, point), stretch)
+            for first, _, _, second, _, _ in elbows:
+                angles.append((t1, first, f["sign3"] * second, f["sign4"] * (phi - first - second), t5, t6))
+                cosine.append(max(flip_excess, elbow_excess))
+        return angles, cosine
