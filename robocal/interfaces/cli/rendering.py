@@ -104,14 +104,21 @@ def print_scored(result, as_json, title):
                 f"{bound['median_error_mm']:.4g} mm)")
 
 
+def print_evaluated(result, measurements, as_json):
+    """evaluate (an :class:`~robocal.interfaces.results.Evaluated`): its table, then the
+    domain's and the bound's lines."""
+    print_scored(result.to_dict(), as_json, f"{result.method} model on {measurements}")
+
+
 def print_compensated(result, out_file, as_json):
-    """compensate: a warning naming the targets it cannot reach, then the summary."""
-    if result["unreachable_rows"]:
-        rows = ", ".join(str(r) for r in result["unreachable_rows"][:10])
-        more = " ..." if len(result["unreachable_rows"]) > 10 else ""
-        say("warning", "yellow", f"{len(result['unreachable_rows'])} target(s) cannot be reached "
+    """compensate (a :class:`~robocal.interfaces.results.Compensated`): a warning naming the
+    targets it cannot reach, then the summary."""
+    if result.unreachable_rows:
+        rows = ", ".join(str(r) for r in result.unreachable_rows[:10])
+        more = " ..." if len(result.unreachable_rows) > 10 else ""
+        say("warning", "yellow", f"{len(result.unreachable_rows)} target(s) cannot be reached "
                                  f"(rows {rows}{more}): their joint cells are empty and reachable = 0")
-    print_scored(result, as_json, f"commands -> {out_file}")
+    print_scored(result.to_dict(), as_json, f"commands -> {out_file}")
 
 
 def print_filtered(result, out_dir, as_json):
@@ -123,10 +130,11 @@ def print_filtered(result, out_dir, as_json):
 
 
 def print_exported(result, out_file, as_json):
-    """export: a note per thing the robot file cannot hold, then the summary."""
-    for what in result["left_out"]:
-        say("note", "yellow", f"left out of the {result['format'].upper()} file: {what}")
-    print_result(result, as_json, f"{result['convention']} robot -> {out_file}")
+    """export (an :class:`~robocal.interfaces.results.Exported`): a note per thing the robot
+    file cannot hold, then the summary."""
+    for what in result.left_out:
+        say("note", "yellow", f"left out of the {result.format.upper()} file: {what}")
+    print_result(result.to_dict(), as_json, f"{result.convention} robot -> {out_file}")
 
 
 def _stats_row(table, label, stats):
