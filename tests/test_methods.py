@@ -158,7 +158,7 @@ def test_a_new_method_is_one_class_and_one_registry_line(tmp_path, ur5_data, mon
     # It is its own reference: the error equals the nominal's, to the last digit.
     assert evaluation["method"] == RegisteredNominal.name
     assert evaluation["mean_mm"] == pytest.approx(evaluation["nominal"]["mean_mm"], abs=1e-12)
-    cv = jobs.validate_job("ur5", meas, method=RegisteredNominal.name, folds=3)
+    cv = jobs.validate_job("ur5", meas, method=RegisteredNominal.name, folds=3).to_dict()
     assert cv["cross_validation"]["pooled"]["mean_mm"] == pytest.approx(
         cv["nominal_cross_validation"]["pooled"]["mean_mm"], abs=1e-9)
     compensated = jobs.compensate_job(out, EXAMPLES / "ur5-targets.csv", tmp_path / "c.csv")

@@ -23,7 +23,7 @@ from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
 from ..methods.reregistration import FRAMES  # noqa: F401  (the command line and fleet files name it here)
 from ..methods.selection import AUTO, choose, compare
 from ..methods.validation import cross_validate
-from .results import Calibrated, Compensated, Evaluated, Exported
+from .results import Calibrated, Compensated, Evaluated, Exported, Validated
 
 
 def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=None, fixture=None, progress=None,
@@ -459,13 +459,14 @@ def validate_job(robot, measurements, *, method=DEFAULT_METHOD, settings=None, f
                  fixture=None, root=None, tip=None, on_fit=None, beyond_limits=False):
     """Held-out accuracy of a method beside the registered nominal robot: k-fold
     cross-validation (and a learning curve) on position data, one fixture placement left out
-    at a time on ball-in-socket data.  ``on_fit()`` is called after every fit."""
+    at a time on ball-in-socket data.  ``on_fit()`` is called after every fit.  Returns a
+    :class:`.results.Validated`."""
     unfitted = make_method(method, **(settings or {}))
     chain = load_robot(robot, root=root, tip=tip)
     observations = read_observations(measurements, chain, fixture, beyond_limits=beyond_limits)
     result = cross_validate(unfitted, chain, observations, folds=folds, sizes=sizes, seed=seed, on_fit=on_fit)
     # The report checks a validation against its model's robot by this name.
-    return {"robot": chain.name, **result}
+    return Validated.of(chain.name, result)
 
 
 def compare_job(robot, measurements, *, folds=None, seed=0, fixture=None, network=None, root=None, tip=None,

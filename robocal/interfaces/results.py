@@ -175,3 +175,50 @@ class Evaluated:
         if self.per_pose is not None:
             out["per_pose"] = self.per_pose
         return out
+
+
+@dataclass(frozen=True)
+class Validated:
+    """What ``validate`` measured (:func:`robocal.methods.validation.cross_validate`).
+
+    Attributes
+    ----------
+    robot, method, file : str
+        The robot's name (the report checks a validation against its model's robot by it),
+        the method, the measurement file.
+    poses, folds : int
+        How many poses; how many folds (placements, on ball-in-socket data).
+    cross_validation, nominal_cross_validation : dict
+        The method's and the registered nominal's held-out figures: ``k``, ``folds`` (per
+        fold ``fold``, ``n_train``, ``held_out``: ErrorStats keys, mm), ``pooled``.
+    metric : str or None
+        On ball-in-socket data, what the figures measure.
+    learning_curve : list of dict or None
+        With ``--sizes``: per training size ``n_train``, ``n_test``, ``repeats``, ``held_out``,
+        ``per_repeat``.
+    """
+
+    robot: str
+    method: str
+    file: str
+    poses: int
+    folds: int
+    cross_validation: dict
+    nominal_cross_validation: dict
+    metric: str | None = None
+    learning_curve: list | None = None
+
+    @classmethod
+    def of(cls, robot, result):
+        """From the robot's name and :func:`~robocal.methods.validation.cross_validate`'s dict."""
+        return cls(robot=robot, **result)
+
+    def to_dict(self):
+        out = {"robot": self.robot, "method": self.method, "file": self.file, "poses": self.poses,
+               "folds": self.folds}
+        if self.metric is not None:
+            out["metric"] = self.metric
+        out.update(cross_validation=self.cross_validation, nominal_cross_validation=self.nominal_cross_validation)
+        if self.learning_curve is not None:
+            out["learning_curve"] = self.learning_curve
+        return out

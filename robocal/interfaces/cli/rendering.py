@@ -277,24 +277,25 @@ def print_reasoning(comparison):
 
 
 def print_validation(result, method, by_placement, as_json):
-    """validate's cross-validation beside the registered nominal's, and the learning curve."""
+    """validate (a :class:`~robocal.interfaces.results.Validated`): the cross-validation beside
+    the registered nominal's, and the learning curve."""
     if as_json:
-        print_json(result)
+        print_json(result.to_dict())
         return
     kind = ("leave-one-placement-out socket consistency" if by_placement
-            else f"{result['folds']}-fold cross-validation")
-    table = Table(title=f"{method}, {kind} on {result['poses']} poses (mm)")
+            else f"{result.folds}-fold cross-validation")
+    table = Table(title=f"{method}, {kind} on {result.poses} poses (mm)")
     for col in ("model", "mean", "RMS", "max"):
         table.add_column(col, justify="right")
     nominal = "nominal" if by_placement else "nominal, registered"
-    for label, key in ((method, "cross_validation"), (nominal, "nominal_cross_validation")):
-        _stats_row(table, label, result[key].get("pooled", result[key]))
+    for label, figures in ((method, result.cross_validation), (nominal, result.nominal_cross_validation)):
+        _stats_row(table, label, figures.get("pooled", figures))
     out.print(table)
-    if "learning_curve" in result:
+    if result.learning_curve is not None:
         curve = Table(title="learning curve: held-out error against training poses (mm)")
         for col in ("training poses", "mean", "RMS", "max"):
             curve.add_column(col, justify="right")
-        for point in result["learning_curve"]:
+        for point in result.learning_curve:
             _stats_row(curve, str(point["n_train"]), point["held_out"])
         out.print(curve)
 
