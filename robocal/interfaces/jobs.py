@@ -23,7 +23,7 @@ from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
 from ..methods.reregistration import FRAMES  # noqa: F401  (the command line and fleet files name it here)
 from ..methods.selection import AUTO, choose, compare
 from ..methods.validation import cross_validate
-from .results import Calibrated, Compensated, Evaluated, Exported, Validated
+from .results import Calibrated, Compensated, DatasetWritten, Evaluated, Exported, Validated
 
 
 def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=None, fixture=None, progress=None,
@@ -425,7 +425,8 @@ def dataset_job(name, prefix, *, split=None, seed=0):
     """Write a real dataset shipped with robocal as robocal files: PREFIX.toml (the robot model the data were
     taken against) and PREFIX.csv, or PREFIX_train.csv / PREFIX_test.csv with ``split`` the
     training fraction of a random split; ball-in-socket data also PREFIX_fixture.toml, and
-    are split by whole fixture placements (held-out placements, as a user would test)."""
+    are split by whole fixture placements (held-out placements, as a user would test).
+    Returns a :class:`.results.DatasetWritten`."""
     from ..io import datasets
     from ..io.fixtures import write_fixture
     from ..io.robot_file import write_robot
@@ -443,16 +444,13 @@ def dataset_job(name, prefix, *, split=None, seed=0):
         written["fixture"] = f"{prefix}_fixture.toml"
     if split is None:
         write_measurements(f"{prefix}.csv", data)
-        written["measurements"] = f"{prefix}.csv"
-        return {"dataset": name, "poses": data.n_poses, "source": data.path, **written}
-    if chosen is not None:
-        written["train_placements"] = chosen
+        return DatasetWritten(name, data.n_poses, data.path, **written, measurements=f"{prefix}.csv")
     test = np.setdiff1d(np.arange(data.n_poses), train)
     write_measurements(f"{prefix}_train.csv", data.subset(train))
     write_measurements(f"{prefix}_test.csv", data.subset(test))
-    written.update(train=f"{prefix}_train.csv", test=f"{prefix}_test.csv", train_poses=int(len(train)),
-                   test_poses=int(len(test)))
-    return {"dataset": name, "poses": data.n_poses, "source": data.path, **written}
+    return DatasetWritten(name, data.n_poses, data.path, **written, train=f"{prefix}_train.csv",
+                          test=f"{prefix}_test.csv", train_poses=int(len(train)), test_poses=int(len(test)),
+                          train_placements=chosen)
 
 
 def validate_job(robot, measurements, *, method=DEFAULT_METHOD, settings=None, folds=5, sizes=None, seed=0,

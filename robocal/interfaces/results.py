@@ -222,3 +222,46 @@ class Validated:
         if self.learning_curve is not None:
             out["learning_curve"] = self.learning_curve
         return out
+
+
+@dataclass(frozen=True)
+class DatasetWritten:
+    """What ``dataset`` wrote.
+
+    Attributes
+    ----------
+    dataset : str
+        The dataset's name; ``poses`` its size; ``source`` the file (or folder) it was read from.
+    robot : str
+        The robot file written (PREFIX.toml); ``fixture`` the fixture file of ball-in-socket
+        data (None for the others).
+    measurements : str or None
+        The one measurement file, without a split.
+    train, test : str or None
+        With a split: the two measurement files, ``train_poses`` and ``test_poses`` their
+        sizes and, on ball-in-socket data, ``train_placements`` the placements trained on.
+    """
+
+    dataset: str
+    poses: int
+    source: str
+    robot: str
+    fixture: str | None = None
+    measurements: str | None = None
+    train: str | None = None
+    test: str | None = None
+    train_poses: int | None = None
+    test_poses: int | None = None
+    train_placements: list | None = None
+
+    def to_dict(self):
+        out = {"dataset": self.dataset, "poses": self.poses, "source": self.source, "robot": self.robot}
+        if self.fixture is not None:
+            out["fixture"] = self.fixture
+        if self.train is None:
+            out["measurements"] = self.measurements
+            return out
+        if self.train_placements is not None:
+            out["train_placements"] = self.train_placements
+        out.update(train=self.train, test=self.test, train_poses=self.train_poses, test_poses=self.test_poses)
+        return out
