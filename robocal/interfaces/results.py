@@ -3,8 +3,9 @@ SciPy's ``OptimizeResult`` (every field documented, set once at the job's single
 its ``to_dict()``: the JSON object ``--json`` prints, key for key and in the same order as
 before the types existed.  Rendering them is :mod:`robocal.interfaces.cli.rendering`'s.
 
-The commands whose result is still a JSON-ready dict (its keys depend on the data: evaluate,
-simulate, dataset, validate, report) say so in their job's docstring.
+``compare`` returns its :class:`~robocal.methods.selection.Comparison`.  The results still
+JSON-ready dicts are simulate's (rendered in ``cli/plan.py``), report's, filter's, demo's and
+those of the planning and acceptance jobs (design, iso9283).
 """
 from __future__ import annotations
 
