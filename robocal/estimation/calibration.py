@@ -223,8 +223,7 @@ class KinematicCalibration(FittedCalibration):
         'linear', 'huber' or 'soft_l1' (per pose, on the weighted residual norm; ``f_scale``
         in those units, default 3x the median).
     position_sigma, orientation_sigma_deg : float
-        mm and deg: the row weights when the data carry no sigmas (the unit of the angle is in
-        its name: everything else in the core is in rad).
+        mm and deg (the angle's unit in its name): the row weights when the data carry no sigmas.
     register : bool
         Start from the nominal geometry with base and tool registered to the data
         (:func:`~robocal.estimation.registration.register_base_and_tool`; False for data
@@ -277,12 +276,10 @@ class KinematicCalibration(FittedCalibration):
 
     @classmethod
     def from_dict(cls, doc):
-        """A fitted calibration back from :meth:`to_dict`, also from a document written before
-        the orientation sigma's unit was in its name (``orientation_sigma``, deg)."""
-        settings = doc.get("settings") if isinstance(doc, dict) else None
-        if isinstance(settings, dict) and "orientation_sigma" in settings:
-            settings = {("orientation_sigma_deg" if k == "orientation_sigma" else k): v for k, v in settings.items()}
-            doc = {**doc, "settings": settings}
+        """As the base's; also reads documents written with ``orientation_sigma`` (deg)."""
+        if isinstance(doc, dict) and isinstance(old := doc.get("settings"), dict) and "orientation_sigma" in old:
+            renamed = {("orientation_sigma_deg" if k == "orientation_sigma" else k): v for k, v in old.items()}
+            doc = {**doc, "settings": renamed}
         return super().from_dict(doc)
 
     def _validate(self):
