@@ -53,6 +53,11 @@ CORRUPTED = [
     ("hybrid.json", "error_model.parameters.theta", [["a"]], "'error_model.parameters.theta'"),
     ("hybrid.json", "error_model.parameters.settings", 3, "'error_model.parameters.settings'"),
     ("hybrid.json", "options.trend", 2, "'options.trend'"),
+    ("auto.json", "outside_domain", "kinematic", "'outside_domain'"),
+    ("auto.json", "outside_domain.label", 3, "'outside_domain.label'"),
+    ("auto.json", "bound.fallback", "x", "'bound.fallback'"),
+    ("auto.json", "bound.fallback.inside_factor", "x", "'bound.fallback.inside_factor'"),
+    ("auto.json", "training.comparison", 3, "'training.comparison'"),
     ("cmodel.json", "training.residual_before.socket_distance.rms_mm", "x",
      "'training.residual_before.socket_distance.rms_mm'"),
     ("cmodel.json", "training.fixture.sockets.B", "far", "'training.fixture.sockets.B'"),
@@ -64,17 +69,21 @@ VERBS = {
     "model.json": ["evaluate {model} meas.csv", "compensate {model} ur5-targets.csv --out c.csv",
                    "report {model} meas.csv --out r.html", "export {model} --out k.toml"],
     "hybrid.json": ["evaluate {model} meas.csv", "compensate {model} ur5-targets.csv --out c.csv"],
+    "auto.json": ["evaluate {model} meas.csv", "compensate {model} ur5-targets.csv --out c.csv"],
     "cmodel.json": ["evaluate {model} sockets.csv", "export {model} --out k.toml"],
 }
 
 
 @pytest.fixture(scope="module")
 def model_inputs(tmp_path_factory, ur5_files, kr150_socket_files):
-    """The UR5 kinematic model, a hybrid one (a calibration and a Kriging error model) of the
-    same data, the KR 150-2 constraint model and the data and targets they are run on."""
+    """The UR5 kinematic model, a hybrid one (a calibration and a Kriging error model) and an
+    auto one (a model with its fallback outside the domain) of the same data, the KR 150-2
+    constraint model and the data and targets they are run on."""
     root = copy_files(kr150_socket_files, copy_files(ur5_files, tmp_path_factory.mktemp("models")))
     run_ok("calibrate", "ur5", root / "meas.csv", "--method", "hybrid", "--accept-extrapolation",
            "--out", root / "hybrid.json")
+    run_ok("calibrate", "ur5", root / "meas.csv", "--method", "auto", "--out", root / "auto.json")
+    assert "outside_domain" in json.loads((root / "auto.json").read_text())  # what its rows break
     (root / "ur5-targets.csv").write_text((EXAMPLES / "ur5-targets.csv").read_text())
     return root
 
