@@ -319,7 +319,7 @@ def simulated_benchmark(sizes, robocal_runs, peer_runs):
                 except Exception as error:  # a peer that fails is reported, the table goes on
                     print(f"{n:>5}  {tool.name:<28}failed: {type(error).__name__}: {error}")
                     continue
-                train_rms = error_stats(measured[:n] - predict(joints[:n]))["rms_mm"]
+                train_rms = error_stats(measured[:n] - predict(joints[:n])).rms_mm
                 error = np.linalg.norm(predict(test_joints) - test_true, axis=1)
                 print(f"{n:>5}  {tool.name:<28}{n_params:>7}{seconds:>10.3f}{done:>6}{train_rms:>11.4f}"
                       f"{error.mean():>15.4f}{error.max():>9.4f}  {note}".rstrip(), flush=True)
@@ -370,10 +370,10 @@ def real_data_benchmark():
         joints, positions, sigmas = chain.joints_from_file(data.joints), data.positions, data.sigmas
         train, test = _split(data.n_poses, fraction)
         reference, _ = register_base_and_tool(chain, joints[train], positions[train])
-        before = error_stats(positions[test] - reference.fk_positions(joints[test]))
+        before = error_stats(positions[test] - reference.fk_positions(joints[test])).to_dict()
         calibration = KinematicCalibration().fit(chain, joints[train], positions[train],
                                                  sigmas=None if sigmas is None else sigmas[train])
-        after = error_stats(positions[test] - calibration.predict(joints[test]))
+        after = error_stats(positions[test] - calibration.predict(joints[test])).to_dict()
         split = f"random {fraction:.0%}/{1 - fraction:.0%}"
         print(f"{label:<19}{split:<17}{f'{train.size}/{test.size}':>11}   {_stats(before):>28}   {_stats(after):>27}")
         folds = 5

@@ -66,13 +66,13 @@ def score(chain, q, p, train):
     """Rows (model, held-out stats, fit seconds) for one case."""
     test = ~train
     nominal = registered_nominal(chain, q[train], p[train])
-    rows = [("registered nominal", error_stats(p[test] - nominal.fk_positions(q[test])), None)]
+    rows = [("registered nominal", error_stats(p[test] - nominal.fk_positions(q[test])).to_dict(), None)]
     for name, settings in MODELS:
         start = time.perf_counter()
         fitted = methods.make_method(name, **settings).fit(chain, Observations.of(q[train], p[train]))
         seconds = time.perf_counter() - start
         label = name + (f" {settings['inputs']}" if settings else "")
-        rows.append((label, error_stats(p[test] - fitted.predict(q[test])), seconds))
+        rows.append((label, error_stats(p[test] - fitted.predict(q[test])).to_dict(), seconds))
     return rows
 
 

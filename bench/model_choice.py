@@ -165,7 +165,7 @@ def run_case(description, chain, train, test, split_kind, what, folds, seed, net
         nominal = chain
     else:
         nominal = registered_nominal(chain, train.joints, train.positions)
-    print(stats_row(NOMINAL, error_stats(held_out(nominal, test)),
+    print(stats_row(NOMINAL, error_stats(held_out(nominal, test)).to_dict(),
                     f"{comparison.scores[NOMINAL][region].pooled['mean_mm']:.4f}"))
     means, fits = {}, {}
     for candidate in comparison.candidates:
@@ -174,7 +174,7 @@ def run_case(description, chain, train, test, split_kind, what, folds, seed, net
             warnings.simplefilter("always")
             fitted = fits[candidate.label] = unfitted(candidate).fit(chain, train)
             seconds = time.perf_counter() - start
-            stats = error_stats(held_out(fitted, test))
+            stats = error_stats(held_out(fitted, test)).to_dict()
         means[candidate.label] = stats["mean_mm"]
         mark = " <- auto" if candidate.label == comparison.recommended.label else ""
         print(stats_row(candidate.label, stats, f"{comparison.scores[candidate.label][region].pooled['mean_mm']:.4f}, "
@@ -185,7 +185,7 @@ def run_case(description, chain, train, test, split_kind, what, folds, seed, net
         # What calibrate --method auto fits: the recommendation, answering with the outside
         # model for the configurations beyond its training domain.
         fitted = wrap(copy.copy(fits[auto]), fits[comparison.outside.label], comparison.outside.label)
-        stats = error_stats(held_out(fitted, test))
+        stats = error_stats(held_out(fitted, test)).to_dict()
         outside = int(fitted.compensator_.outside_mask(test.joints).sum())
         auto = f"auto ({auto}; {comparison.outside.label} outside)"
         means[auto] = stats["mean_mm"]

@@ -98,7 +98,7 @@ def simulated_benchmark(sizes, inputs_list):
     measured = truth.measure(joints, rng)
     test = uniform_joints(chain, N_TEST, rng)
     target = chain.fk_positions(test)
-    before = error_stats(truth.positions(test) - target)
+    before = error_stats(truth.positions(test) - target).to_dict()
     print("KUKA KR 150-2, typical link deviations + joint compliance, base frame, 0.02 mm noise, "
           "joint-uniform poses")
     print(f"true error on {N_TEST} held-out poses (mm); after = the real robot commanded with "
@@ -111,13 +111,13 @@ def simulated_benchmark(sizes, inputs_list):
     for n in sizes:
         q, dp = joints[:n], measured[:n] - chain.fk_positions(joints[:n])
         for label, seconds, commands in other_methods(chain, q, measured[:n], poses, test):
-            after = error_stats(truth.positions(commands) - target)
+            after = error_stats(truth.positions(commands) - target).to_dict()
             print(f"{n:>5}  {label:<22}{seconds:>8.2f}   {_stats(before):>28}   "
                   f"{_stats(after):>27}  {before['mean_mm'] / after['mean_mm']:>5.1f}x", flush=True)
         for inputs in inputs_list:
             for label, settings in TRAINERS:
                 model, seconds = train(q, dp, inputs, settings)
-                after = error_stats(truth.positions(correct_joints(chain, model, test)) - target)
+                after = error_stats(truth.positions(correct_joints(chain, model, test)) - target).to_dict()
                 print(f"{n:>5}  {label:<14}{inputs:<8}{seconds:>8.2f}   {_stats(before):>28}   "
                       f"{_stats(after):>27}  {before['mean_mm'] / after['mean_mm']:>5.1f}x  "
                       f"{_note(model)}", flush=True)
@@ -174,13 +174,13 @@ def real_data_benchmark(inputs_list):
                                                 sigmas=sigmas).chain_
         for base_label, base in (("registered", registered), ("calibrated", calibrated)):
             residual = positions - base.fk_positions(joints)
-            before = error_stats(residual[test_idx])
+            before = error_stats(residual[test_idx]).to_dict()
             print(f"{name:<15}{base_label:<13}{'(none)':<14}{'':<8}{'':>8}   {_stats(before):>28}",
                   flush=True)
             for inputs in inputs_list:
                 for label, settings in TRAINERS:
                     model, seconds = train(joints[train_idx], residual[train_idx], inputs, settings)
-                    after = error_stats(residual[test_idx] - model.predict(joints[test_idx]))
+                    after = error_stats(residual[test_idx] - model.predict(joints[test_idx])).to_dict()
                     print(f"{'':<15}{'':<13}{label:<14}{inputs:<8}{seconds:>8.2f}   "
                           f"{_stats(before):>28}   {_stats(after):>27}  {_note(model)}", flush=True)
 

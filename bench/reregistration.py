@@ -62,7 +62,7 @@ def main(names):
             warnings.simplefilter("ignore")
             fitted = make_method(method, **settings).fit(chain_b, train)
         print(f"{name} (fit {time.perf_counter() - start:.1f} s)", flush=True)
-        line("as it stands", error_stats(test.positions - fitted.predict(test.joints)))
+        line("as it stands", error_stats(test.positions - fitted.predict(test.joints)).to_dict())
         for count, index in selections.items():
             for parameters in PARAMETERS:
                 start = time.perf_counter()
@@ -75,10 +75,11 @@ def main(names):
                 if record.identifiability.fixed:
                     said += f", kept {', '.join(record.identifiability.fixed)}"
                 said += f", {seconds:.2f} s" + (f", {len(caught)} warning(s)" if caught else "")
-                line(f"{count} poses, {parameters}", error_stats(test.positions - again.predict(test.joints)), said)
+                line(f"{count} poses, {parameters}",
+                     error_stats(test.positions - again.predict(test.joints)).to_dict(), said)
                 if parameters == PARAMETERS[0]:
                     line(f"{count} poses, re-registered nominal",
-                         error_stats(test.positions - again.reference_.fk_positions(test.joints)))
+                         error_stats(test.positions - again.reference_.fk_positions(test.joints)).to_dict())
 
 
 if __name__ == "__main__":

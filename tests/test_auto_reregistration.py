@@ -69,8 +69,8 @@ def test_a_moved_auto_model_predicts_the_new_set_up_as_well_as_a_moved_kinematic
         auto = error_stats(test.positions - reregister(model, poses, robot=chain).predict(test.joints))
         plain = error_stats(test.positions - reregister(kinematic, poses, robot=chain).predict(test.joints))
         as_it_stood = error_stats(test.positions - model.predict(test.joints))
-    assert as_it_stood["mean_mm"] > 1000.0
-    assert auto["mean_mm"] <= 1.05 * plain["mean_mm"], (auto["mean_mm"], plain["mean_mm"])
+    assert as_it_stood.mean_mm > 1000.0
+    assert auto.mean_mm <= 1.05 * plain.mean_mm, (auto.mean_mm, plain.mean_mm)
 
 
 def test_the_command_line_re_registers_an_auto_model_and_keeps_its_fallback(pair, tmp_path):

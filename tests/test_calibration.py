@@ -172,6 +172,11 @@ def test_a_fitted_calibration_round_trips_through_its_document(parameters):
     if "compliance" in parameters:
         with pytest.raises(FileFormatError, match="joint_compliance"):
             KinematicCalibration.from_dict(_damaged(doc, lambda d: d["chain"]["joint_compliance"].pop("payload_kg")))
+    # A document written when the orientation sigma's unit was not in its name still loads.
+    assert doc["settings"]["orientation_sigma_deg"] == 0.01 and "orientation_sigma" not in doc["settings"]
+    older = _damaged(doc, lambda d: d["settings"].update(orientation_sigma=0.5) or d["settings"].pop(
+        "orientation_sigma_deg"))
+    assert KinematicCalibration.from_dict(older).orientation_sigma_deg == 0.5
 
 
 def test_an_unfitted_calibration_neither_predicts_nor_serialises():

@@ -176,10 +176,11 @@ def test_an_old_model_file_without_a_domain_still_loads(files, tmp_path):
     model, fitted = jobs.load_fitted(old)
     assert model.domain is None and fitted.domain_ is None
     result = jobs.evaluate_job(old, files / "test.csv")
-    assert result["domain_summary"] == jobs.NO_DOMAIN and result["outside_domain"] is None
-    assert result["n"] == 80  # the figures themselves are there
+    assert result.domain_summary == jobs.NO_DOMAIN and result.outside_domain is None
+    assert result.in_domain is None and "in_domain" not in result.to_dict()
+    assert result.scores["n"] == 80  # the figures themselves are there
     commands = jobs.compensate_job(old, files / "targets.csv", tmp_path / "commands.csv")
-    assert commands["domain_summary"] == jobs.NO_DOMAIN
+    assert commands.domain_summary == jobs.NO_DOMAIN
     # Saved again, the file stays as it was: no domain is made up.
     save_model(model, tmp_path / "again.json")
     assert load_model(tmp_path / "again.json").domain is None
@@ -197,15 +198,15 @@ def test_a_domain_entry_of_the_wrong_type_is_refused(files, tmp_path):
 
 def test_evaluate_scores_the_poses_inside_and_outside_apart(files):
     result = jobs.evaluate_job(files / "kinematic.json", files / "test.csv")
-    inside, outside = result["in_domain"], result["out_of_domain"]
-    assert inside["n"] + outside["n"] == result["n"] == 80
-    assert result["outside_domain"] == outside["n"] >= 36  # the second 40 lie in the other half
-    assert result["domain_summary"].startswith(f"{outside['n']} of 80 poses lie outside the training domain")
+    inside, outside = result.in_domain, result.out_of_domain
+    assert inside.n + outside.n == result.scores["n"] == 80
+    assert result.outside_domain == outside.n >= 36  # the second 40 lie in the other half
+    assert result.domain_summary.startswith(f"{outside.n} of 80 poses lie outside the training domain")
     # Outside, the kinematic model misses by more: what the split is for.
-    assert outside["mean_mm"] > 1.5 * inside["mean_mm"]
+    assert outside.mean_mm > 1.5 * inside.mean_mm
     # The parts recombine into the whole.
-    total = (inside["mean_mm"] * inside["n"] + outside["mean_mm"] * outside["n"]) / 80
-    assert total == pytest.approx(result["mean_mm"])
+    total = (inside.mean_mm * inside.n + outside.mean_mm * outside.n) / 80
+    assert total == pytest.approx(result.scores["mean_mm"])
 
 
 def test_compensate_writes_the_domain_columns(files, cell, tmp_path):
@@ -216,7 +217,7 @@ def test_compensate_writes_the_domain_columns(files, cell, tmp_path):
     flags = [row["in_domain"] for row in rows]
     reachable = [row["reachable"] == "1" for row in rows]
     assert all(flag == "" for flag, ok in zip(flags, reachable) if not ok)
-    assert result["outside_domain"] == flags.count("0")
+    assert result.outside_domain == flags.count("0")
     assert flags[40:].count("0") >= 36  # the targets of the other half
     # The flag is the domain's verdict on the joints written (the inverse kinematics may pick
     # a wrist or shoulder the training never saw, even for a target of the training half).
@@ -227,7 +228,7 @@ def test_compensate_writes_the_domain_columns(files, cell, tmp_path):
     assert flags[:40].count("1") >= 20
     for row in rows:
         assert (row["domain_note"] == "") == (row["in_domain"] != "0")
-    assert result["domain_summary"].startswith(f"{flags.count('0')} of {sum(reachable)} targets lie outside")
+    assert result.domain_summary.startswith(f"{flags.count('0')} of {sum(reachable)} targets lie outside")
 
 
 def test_compensate_adds_the_error_models_uncertainty(cell, files, tmp_path):
@@ -243,7 +244,7 @@ def test_compensate_adds_the_error_models_uncertainty(cell, files, tmp_path):
     assert np.all(sigma > 0)
     # The Kriging's own uncertainty grows where the domain check flags.
     assert np.median(sigma[~inside]) > np.median(sigma[inside])
-    assert "predicted uncertainty (median): inside" in result["domain_summary"]
+    assert "predicted uncertainty (median): inside" in result.domain_summary
 
 
 def test_coverage_plot_draws_every_joint(files, cell):

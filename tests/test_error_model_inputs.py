@@ -56,8 +56,8 @@ def test_each_input_kind_fits_predicts_and_round_trips_through_a_model_file(tmp_
     np.testing.assert_allclose(loaded.predict(q[test]), fitted.predict(q[test]), atol=1e-9)
     np.testing.assert_allclose(loaded.uncertainty(q[test]), fitted.uncertainty(q[test]), atol=1e-9)
     # Held out, the fitted model beats the registered nominal robot it started from.
-    nominal = error_stats(p[test] - fitted.reference_.fk_positions(q[test]))["mean_mm"]
-    assert error_stats(p[test] - fitted.predict(q[test]))["mean_mm"] < nominal
+    nominal = error_stats(p[test] - fitted.reference_.fk_positions(q[test])).mean_mm
+    assert error_stats(p[test] - fitted.predict(q[test])).mean_mm < nominal
 
 
 @pytest.mark.slow
@@ -89,7 +89,7 @@ def test_joint_inputs_compensate_a_noise_free_robot_closer_than_the_nominal_on_h
     assert ok.sum() >= 36
     compensated = error_stats(truth.positions(result.q[ok]) - targets[ok, :3, 3])
     nominal = error_stats(truth.positions(q[160:][ok]) - targets[ok, :3, 3])
-    assert compensated["mean_mm"] < 0.3 * nominal["mean_mm"], (compensated, nominal)
+    assert compensated.mean_mm < 0.3 * nominal.mean_mm, (compensated, nominal)
 
 
 def _other_elbow(chain, q):
@@ -120,8 +120,8 @@ def test_joint_inputs_beat_position_inputs_on_the_arm_branch_that_position_was_n
     scores = {}
     for inputs in INPUTS:
         fitted = _fit("kriging", inputs, chain, train, truth.positions(train))
-        scores[inputs] = error_stats(truth.positions(test) - fitted.predict(test))["mean_mm"]
-    nominal = error_stats(truth.positions(test) - fitted.reference_.fk_positions(test))["mean_mm"]
+        scores[inputs] = error_stats(truth.positions(test) - fitted.predict(test)).mean_mm
+    nominal = error_stats(truth.positions(test) - fitted.reference_.fk_positions(test)).mean_mm
     # Over the position the model mixes the two branches' errors; over the joints it does not.
     assert scores["joints"] < 0.5 * scores["position"], scores
     assert scores["sincos"] < 0.5 * scores["position"], scores
@@ -155,13 +155,11 @@ def test_old_model_files_without_an_input_load_as_position_and_damaged_ones_are_
             **good["parameters"]["features"], "revolute": "yes"}}}, "true/false"),
     ]
     for document, message in damaged:
-        joints.error_model = document
         with pytest.raises(FileFormatError, match=message):
-            methods.fitted_from_model_file(joints, path)
-    joints.error_model = good
-    joints.options = {**joints.options, "inputs": "joints"}  # options edited, not the model
+            methods.fitted_from_model_file(dataclasses.replace(joints, error_model=document), path)
+    edited = dataclasses.replace(joints, options={**joints.options, "inputs": "joints"})  # options, not the model
     with pytest.raises(FileFormatError, match="the options say inputs 'joints' but the error model is over 'sincos'"):
-        methods.fitted_from_model_file(joints, path)
+        methods.fitted_from_model_file(edited, path)
 
 
 def test_a_joint_that_does_not_move_the_tcp_is_left_out(ur5_data):

@@ -3,6 +3,7 @@ gains (robocal.methods.fallback): per configuration in predict and in the joint 
 through the model file, and chosen by the documented rule.  Real-data figures:
 bench/model_choice.py."""
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -107,8 +108,7 @@ def test_a_fallback_entry_without_a_domain_is_refused_as_damaged(half_range, tmp
     from robocal.errors import FileFormatError
     from robocal.io import model_file
     chain, _, _, _, _, model, _ = half_range
-    document = model.to_model_file(chain)
-    document.domain = None
+    document = replace(model.to_model_file(chain), domain=None)
     path = tmp_path / "no_domain.json"
     model_file.save_model(document, path)
     with pytest.raises(FileFormatError, match="records no domain"):
@@ -123,8 +123,7 @@ def test_the_command_line_refuses_a_fallback_model_without_its_domain_with_one_l
     inputs = tmp_path / "inputs"
     inputs.mkdir()
     save_model(model.to_model_file(chain), inputs / "auto.json")
-    damaged = model.to_model_file(chain)
-    damaged.domain = None
+    damaged = replace(model.to_model_file(chain), domain=None)
     save_model(damaged, inputs / "no_domain.json")
     write_measurements(inputs / "new.csv", truth.measurements(q[:25], np.random.default_rng(12)))
     folder = tmp_path / "work"

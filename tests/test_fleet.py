@@ -178,7 +178,7 @@ def test_a_robot_with_a_damaged_file_fails_alone(serial_run, data):
     ur5 = rows["cell1-ur5"]
     assert (ur5["n_train"], ur5["n_test"]) == ("40", "15")
     # What 'robocal evaluate' says of the model on the test file, well below the registered nominal's error.
-    evaluated = evaluate_job(out / "cell1-ur5" / "model.json", data / "ur5_test.csv")
+    evaluated = evaluate_job(out / "cell1-ur5" / "model.json", data / "ur5_test.csv").scores
     assert float(ur5["mean_mm"]) == round(evaluated["mean_mm"], 4)
     assert float(ur5["max_mm"]) == round(evaluated["max_mm"], 4)
     assert evaluated["mean_mm"] < 0.5 * evaluated["nominal"]["mean_mm"]

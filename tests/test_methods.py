@@ -1,5 +1,6 @@
 """The method protocol and its registry: settings refused or validated, every method round
 trips through a model file, and a new method needs nothing but its class and a registry line."""
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -88,8 +89,8 @@ def test_each_method_round_trips_through_a_model_file(tmp_path, ur5_data, name):
                                atol=1e-9)
     assert loaded.record_ == fitted.record_
     # Held out, every method beats the registered nominal robot on this simulated UR5.
-    nominal = error_stats(p[test] - fitted.reference_.fk_positions(q[test]))["mean_mm"]
-    assert error_stats(p[test] - fitted.predict(q[test]))["mean_mm"] < nominal
+    nominal = error_stats(p[test] - fitted.reference_.fk_positions(q[test])).mean_mm
+    assert error_stats(p[test] - fitted.predict(q[test])).mean_mm < nominal
 
 
 def test_a_model_file_of_an_unknown_method_or_a_foreign_error_model_is_refused(tmp_path, ur5_data):
@@ -97,12 +98,11 @@ def test_a_model_file_of_an_unknown_method_or_a_foreign_error_model_is_refused(t
     fitted = methods.make_method("kriging").fit(chain, Observations.of(q[:60], p[:60]))
     model = fitted.to_model_file(chain)
     for method, message in (("teleport", "unknown method 'teleport'"), ("kinematic", "has no error model")):
-        model.method = method
         with pytest.raises(FileFormatError, match=message):
-            methods.fitted_from_model_file(model, tmp_path / "m.json")
-    model.method = "ann"  # a Kriging document where a network belongs
+            methods.fitted_from_model_file(replace(model, method=method), tmp_path / "m.json")
+    # a Kriging document where a network belongs
     with pytest.raises(FileFormatError, match="error model is damaged"):
-        methods.fitted_from_model_file(model, tmp_path / "m.json")
+        methods.fitted_from_model_file(replace(model, method="ann"), tmp_path / "m.json")
 
 
 def test_command_line_refuses_an_option_of_another_method_and_writes_nothing(tmp_path, ur5_data):
@@ -140,7 +140,7 @@ class RegisteredNominal(Method):
 
     def _fit(self, chain, observations, progress):
         registered = registered_nominal(chain, observations.joints, observations.positions)
-        stats = error_stats(observations.positions - registered.fk_positions(observations.joints))
+        stats = error_stats(observations.positions - registered.fk_positions(observations.joints)).to_dict()
         self.compensator_ = Compensator(registered, nominal=chain)
         self.reference_ = registered
         self.record_ = FitRecord(residual_before=stats, residual_after_training=stats, registered=True)
@@ -154,15 +154,15 @@ def test_a_new_method_is_one_class_and_one_registry_line(tmp_path, ur5_data, mon
     meas, out = tmp_path / "meas.csv", tmp_path / "m.json"
     write_measurements(meas, Measurements("", chain.joints_to_file(q), positions=p))
     jobs.calibrate_job("ur5", meas, out, method=RegisteredNominal.name)
-    evaluation = jobs.evaluate_job(out, meas)
+    evaluation = jobs.evaluate_job(out, meas).to_dict()
     # It is its own reference: the error equals the nominal's, to the last digit.
     assert evaluation["method"] == RegisteredNominal.name
     assert evaluation["mean_mm"] == pytest.approx(evaluation["nominal"]["mean_mm"], abs=1e-12)
-    cv = jobs.validate_job("ur5", meas, method=RegisteredNominal.name, folds=3)
+    cv = jobs.validate_job("ur5", meas, method=RegisteredNominal.name, folds=3).to_dict()
     assert cv["cross_validation"]["pooled"]["mean_mm"] == pytest.approx(
         cv["nominal_cross_validation"]["pooled"]["mean_mm"], abs=1e-9)
     compensated = jobs.compensate_job(out, EXAMPLES / "ur5-targets.csv", tmp_path / "c.csv")
-    assert compensated["reachable"] > 0
+    assert compensated.reachable > 0
 
 
 def test_the_constraint_method_round_trips_and_beats_the_nominal_on_a_placement_it_never_saw(tmp_path):

@@ -67,12 +67,12 @@ def test_frames_from_15_poses_give_what_the_true_frames_give(setup):
     as_it_stands = held_out(fitted, test)
     ideal = error_stats(test.positions - oracle(fitted, truth, new_truth).fk_positions(test.joints))
     after = held_out(again, test)
-    assert as_it_stands["mean_mm"] > 1000.0
+    assert as_it_stands.mean_mm > 1000.0
     # Nine frame parameters from 45 equations add their estimation error to the model's own:
     # about P/m of its variance, P parameters and m equations; twice that is the bound.
     record = again.reregistration_
-    assert after["rms_mm"] <= ideal["rms_mm"] * np.sqrt(1.0 + 2.0 * 9 / 45)
-    assert after["rms_mm"] < 0.2
+    assert after.rms_mm <= ideal.rms_mm * np.sqrt(1.0 + 2.0 * 9 / 45)
+    assert after.rms_mm < 0.2
     # The record: the tracker's move and the tool change recovered, the poses named.
     true_frame = new_truth.actual.base @ invert(truth.actual.base)
     assert record.tracker_shift_mm == pytest.approx(np.linalg.norm(true_frame[:3, 3]), abs=0.5)
@@ -82,10 +82,10 @@ def test_frames_from_15_poses_give_what_the_true_frames_give(setup):
     assert record.residual_before["mean_mm"] > 1000.0 and record.residual_after["rms_mm"] < 0.2
     # The "before" of the new set-up is the nominal robot registered to its poses.
     nominal = error_stats(test.positions - again.reference_.fk_positions(test.joints))
-    assert after["mean_mm"] < nominal["mean_mm"]
+    assert after.mean_mm < nominal.mean_mm
     # The original is untouched, and the copy keeps what the fit left.
     assert fitted.compensator_.chain.base is not again.compensator_.chain.base
-    assert held_out(fitted, test)["mean_mm"] == as_it_stands["mean_mm"]
+    assert held_out(fitted, test).mean_mm == as_it_stands.mean_mm
     assert again.calibration_ is fitted.calibration_
     assert again.record_ == fitted.record_.replace(reregistration=record.to_dict())
     # The training box of the domain moves with the frame: the held-out poses stay inside it.
@@ -117,13 +117,13 @@ def test_an_error_model_moves_with_the_frame(setup, inputs):
     turn = np.linalg.norm(so3_log(model.frame[:3, :3] @ frame[:3, :3].T))
     assert np.degrees(turn) < 0.01
     test = np.arange(40, 225)
-    in_old = error_stats(old.positions[test] - fitted.predict(q[test]))["rms_mm"]
-    in_new = error_stats(new.positions[test] - again.predict(q[test]))["rms_mm"]
+    in_old = error_stats(old.positions[test] - fitted.predict(q[test])).rms_mm
+    in_new = error_stats(new.positions[test] - again.predict(q[test])).rms_mm
     # The bound of the test above, with the model's own error as the noise.  40 poses: what a
     # residual model leaves is correlated between nearby poses, so its rows are fewer
     # independent equations than a calibration's.
     assert in_new <= in_old * np.sqrt(1.0 + 2.0 * 9 / 120)
-    nominal = error_stats(new.positions[test] - again.reference_.fk_positions(q[test]))["rms_mm"]
+    nominal = error_stats(new.positions[test] - again.reference_.fk_positions(q[test])).rms_mm
     assert in_new < 0.2 * nominal
 
 
@@ -194,8 +194,8 @@ def test_frames_and_offsets_recover_a_remastered_joint(setup):
     assert set(record.identifiability.fixed) == {"theta1", "theta6"}
     for name, value in injected.items():
         assert record.offset_changes[name] == pytest.approx(value, abs=max(4 * record.std_errors[name], 0.005))
-    assert held_out(with_offsets, test)["rms_mm"] < 0.5 * held_out(frames_only, test)["rms_mm"]
-    assert held_out(with_offsets, test)["rms_mm"] < 0.2
+    assert held_out(with_offsets, test).rms_mm < 0.5 * held_out(frames_only, test).rms_mm
+    assert held_out(with_offsets, test).rms_mm < 0.2
 
 
 def test_implausible_results_warn(setup):

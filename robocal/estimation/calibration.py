@@ -222,8 +222,8 @@ class KinematicCalibration(FittedCalibration):
     loss : str
         'linear', 'huber' or 'soft_l1' (per pose, on the weighted residual norm; ``f_scale``
         in those units, default 3x the median).
-    position_sigma, orientation_sigma : float
-        mm and deg: the row weights when the data carry no sigmas.
+    position_sigma, orientation_sigma_deg : float
+        mm and deg (the angle's unit in its name): the row weights when the data carry no sigmas.
     register : bool
         Start from the nominal geometry with base and tool registered to the data
         (:func:`~robocal.estimation.registration.register_base_and_tool`; False for data
@@ -253,13 +253,13 @@ class KinematicCalibration(FittedCalibration):
     RESULT = CalibrationResult
 
     def __init__(self, parameters="full", *, loss="linear", f_scale=None, position_sigma=0.02,
-                 orientation_sigma=0.01, register=True, payload=None, max_iterations=50, tolerance=1e-7,
+                 orientation_sigma_deg=0.01, register=True, payload=None, max_iterations=50, tolerance=1e-7,
                  prior="tolerances", tolerance_scale=1.0):
         self.parameters = parameters
         self.loss = loss
         self.f_scale = f_scale
         self.position_sigma = position_sigma
-        self.orientation_sigma = orientation_sigma
+        self.orientation_sigma_deg = orientation_sigma_deg
         self.register = register
         self.payload = payload
         self.max_iterations = max_iterations
@@ -270,15 +270,23 @@ class KinematicCalibration(FittedCalibration):
     def get_settings(self):
         """The settings, as given to ``__init__``."""
         return {"parameters": self.parameters, "loss": self.loss, "f_scale": self.f_scale,
-                "position_sigma": self.position_sigma, "orientation_sigma": self.orientation_sigma,
+                "position_sigma": self.position_sigma, "orientation_sigma_deg": self.orientation_sigma_deg,
                 "register": self.register, "payload": self.payload, "max_iterations": self.max_iterations,
                 "tolerance": self.tolerance, "prior": self.prior, "tolerance_scale": self.tolerance_scale}
+
+    @classmethod
+    def from_dict(cls, doc):
+        """As the base's; also reads documents written with ``orientation_sigma`` (deg)."""
+        if isinstance(doc, dict) and isinstance(old := doc.get("settings"), dict) and "orientation_sigma" in old:
+            renamed = {("orientation_sigma_deg" if k == "orientation_sigma" else k): v for k, v in old.items()}
+            doc = {**doc, "settings": renamed}
+        return super().from_dict(doc)
 
     def _validate(self):
         """InputError naming the first bad setting; returns the payload (kg or None)."""
         parameter_terms(self.parameters)
         one_of(self.loss, LOSSES, "loss")
-        for setting in ("position_sigma", "orientation_sigma"):
+        for setting in ("position_sigma", "orientation_sigma_deg"):
             value = getattr(self, setting)
             if not isinstance(value, (int, float)) or not value > 0:
                 raise InputError(f"{setting} must be a number > 0, got {value!r}")
@@ -319,7 +327,7 @@ class KinematicCalibration(FittedCalibration):
             raise InputError("standard deviations (sx, sy, sz) must be > 0")
         w = 1.0 / pos
         if with_orientation:
-            w = np.hstack([w, np.full((count, 3), 1.0 / np.radians(self.orientation_sigma))])
+            w = np.hstack([w, np.full((count, 3), 1.0 / np.radians(self.orientation_sigma_deg))])
         return w
 
     # ------------------------------------------------------------------ start
@@ -399,7 +407,8 @@ class KinematicCalibration(FittedCalibration):
         self.result_ = CalibrationResult(
             names=found.names, values=values,
             std_errors=found.std_errors, correlated_pairs=found.correlated_pairs,
-            identifiability=found.report, residual_before=before, residual_after=error_stats(residual[:, :3]),
+            identifiability=found.report, residual_before=before.to_dict(),
+            residual_after=error_stats(residual[:, :3]).to_dict(),
             orientation_rms_deg=(float(np.degrees(np.sqrt(np.mean(np.sum(residual[:, 3:] ** 2, axis=1)))))
                                  if rotations is not None else None),
             iterations=found.iterations, converged=found.converged,

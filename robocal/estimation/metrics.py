@@ -1,29 +1,65 @@
 """Positioning-error statistics, the same everywhere a figure is printed or saved."""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
 import numpy as np
 
 
-def error_stats(errors):
-    """Statistics of (N, 3) position errors (mm): single-point and per-axis.
+@dataclass(frozen=True)
+class ErrorStats:
+    """Statistics of position errors, in mm (the unit is in every name, as in the JSON keys).
 
-    Returns a JSON-ready dict: n, mean_mm, rms_mm, max_mm, p95_mm of the single-point error
-    |e|, and per axis the mean and max of |e_x|, |e_y|, |e_z|.
+    Attributes
+    ----------
+    n : int
+        How many errors; 0 leaves every other attribute None.
+    mean_mm, rms_mm, max_mm, p95_mm : float or None
+        Of the single-point error |e|.
+    x_mean_mm, x_max_mm, y_mean_mm, y_max_mm, z_mean_mm, z_max_mm : float or None
+        Of |e_x|, |e_y|, |e_z|.
     """
+
+    n: int
+    mean_mm: float | None = None
+    rms_mm: float | None = None
+    max_mm: float | None = None
+    p95_mm: float | None = None
+    x_mean_mm: float | None = None
+    x_max_mm: float | None = None
+    y_mean_mm: float | None = None
+    y_max_mm: float | None = None
+    z_mean_mm: float | None = None
+    z_max_mm: float | None = None
+
+    def to_dict(self):
+        """JSON-ready: ``{"n": 0}`` for no errors, else every attribute by its name."""
+        if self.n == 0:
+            return {"n": 0}
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_dict(cls, document):
+        """The statistics :meth:`to_dict` wrote (other keys, e.g. orientation figures, are left out)."""
+        names = {f.name for f in fields(cls)}
+        return cls(**{key: value for key, value in document.items() if key in names})
+
+
+def error_stats(errors) -> ErrorStats:
+    """:class:`ErrorStats` of (N, 3) position errors (mm): single-point and per-axis."""
     errors = np.asarray(errors, dtype=float).reshape(-1, 3)
     norm = np.linalg.norm(errors, axis=1)
     if norm.size == 0:
-        return {"n": 0}
-    out = {
-        "n": int(norm.size),
-        "mean_mm": float(norm.mean()),
-        "rms_mm": float(np.sqrt(np.mean(norm**2))),
-        "max_mm": float(norm.max()),
-        "p95_mm": float(np.percentile(norm, 95)),
-    }
+        return ErrorStats(n=0)
+    per_axis = {}
     for k, axis in enumerate("xyz"):
+        # Column by column, as the figures always were (a reduction along axis 0 sums in
+        # another order and can differ in the last digit).
         magnitude = np.abs(errors[:, k])
-        out[f"{axis}_mean_mm"] = float(magnitude.mean())
-        out[f"{axis}_max_mm"] = float(magnitude.max())
-    return out
+        per_axis[f"{axis}_mean_mm"] = float(magnitude.mean())
+        per_axis[f"{axis}_max_mm"] = float(magnitude.max())
+    return ErrorStats(n=int(norm.size), mean_mm=float(norm.mean()), rms_mm=float(np.sqrt(np.mean(norm**2))),
+                      max_mm=float(norm.max()), p95_mm=float(np.percentile(norm, 95)), **per_axis)
 
 
 def iso9283_position(joints, attained, commanded):

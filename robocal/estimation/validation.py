@@ -47,9 +47,9 @@ def k_fold(n_poses, fit, measured, k=5, seed=0):
         train = np.flatnonzero(fold_of != fold)
         predicted[test] = _predict(fit(train), test)
         folds.append({"fold": fold, "n_train": int(train.size),
-                      "held_out": error_stats(measured[test] - predicted[test])})
+                      "held_out": error_stats(measured[test] - predicted[test]).to_dict()})
     errors = measured - predicted
-    return {"k": k, "folds": folds, "pooled": error_stats(errors), "fold_of": fold_of,
+    return {"k": k, "folds": folds, "pooled": error_stats(errors).to_dict(), "fold_of": fold_of,
             "predicted": predicted, "errors": errors}
 
 
@@ -106,10 +106,10 @@ def learning_curve(n_poses, fit, measured, sizes, test_fraction=0.3, repeats=3, 
         for _ in range(runs):
             train = np.sort(rng.choice(pool, size=m, replace=False))
             error = measured[test] - _predict(fit(train), test)
-            per_repeat.append(error_stats(error))
+            per_repeat.append(error_stats(error).to_dict())
             errors.append(error)
         curve.append({"n_train": m, "n_test": n_test, "repeats": runs,
-                      "held_out": error_stats(np.concatenate(errors)), "per_repeat": per_repeat})
+                      "held_out": error_stats(np.concatenate(errors)).to_dict(), "per_repeat": per_repeat})
     return curve
 
 

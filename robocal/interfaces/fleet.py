@@ -253,7 +253,7 @@ def run_robot(task):
                 stats = calibrated.record.residual_after_training
                 notes.append("no test file: mean and max are on the training poses")
             else:
-                stats = evaluate_job(staged, task["test"], beyond_limits=task.get("beyond_limits", False))
+                stats = evaluate_job(staged, task["test"], beyond_limits=task.get("beyond_limits", False)).to_dict()
                 row["n_test"] = stats["n"]
                 if stats.get("outside_domain"):
                     notes.append(stats["domain_summary"])

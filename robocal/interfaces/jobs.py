@@ -1,11 +1,12 @@
-"""What each command does, as plain functions of parsed arguments that return JSON-ready
-results: read the files, call the method registry, write the files.  ``cli.py`` only parses,
-prints and maps errors to exit codes."""
-from dataclasses import dataclass
+"""What each command does, as plain functions of parsed arguments that return the command's
+result (a type of :mod:`.results` with ``to_dict()``, or a JSON-ready dict where noted): read
+the files, call the method registry, write the files.  ``cli/`` only parses, renders
+(``cli/rendering.py``) and maps errors to exit codes."""
+from dataclasses import replace
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import FileFormatError, InputError
 from ..estimation.metrics import error_stats
 from ..io.atomic import check_outputs
 from ..io.csv_writing import write_per_pose
@@ -14,7 +15,7 @@ from ..io.library import load_robot
 from ..io.model_file import load_model, save_model
 from ..io.observations import read_observations, read_target_poses, write_joint_commands
 from ..io.tables import write_measurements
-from ..methods import DEFAULT_METHOD, fitted_from_model_file, make_method
+from ..methods import DEFAULT_METHOD, REGISTRY, fitted_from_model_file, make_method
 from ..methods.evaluation import position_scores, socket_scores, with_fixture
 from ..methods.base import option_of
 from ..methods.bound import NO_BOUND, bound_of_model
@@ -24,25 +25,7 @@ from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
 from ..methods.reregistration import FRAMES  # noqa: F401  (the command line and fleet files name it here)
 from ..methods.selection import AUTO, choose, compare
 from ..methods.validation import cross_validate
-
-
-@dataclass(frozen=True)
-class Calibrated:
-    """What ``calibrate`` did: the method, the robot, the model file written, the training
-    data (``file``, ``n_poses``, ``kind``, ``fixture_file``, ``comparison`` with --method
-    auto), the fit's record and the fitted kinematics."""
-
-    method: str
-    robot: str
-    out: str
-    data: dict
-    record: object  # robocal.methods.FitRecord
-    kinematics: object = None  # the fitted method's Chain
-
-    def to_dict(self):
-        # The training rows' fingerprint is for robocal to read back, not for people.
-        data = {key: value for key, value in self.data.items() if key != "fingerprint"}
-        return {"method": self.method, "robot": self.robot, "out": self.out, **data, **self.record.to_dict()}
+from .results import Calibrated, Compensated, DatasetWritten, Evaluated, Exported, Validated
 
 
 def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=None, fixture=None, progress=None,
@@ -83,7 +66,7 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
     # The 95 % bound of the fitted model (robocal.methods.bound), computed here only: the fold
     # fits of compare and auto's comparison do not pay for it.
     fitter.bound_ = fit_model_bound(fitter, chain, observations)
-    document.bound = None if fitter.bound_ is None else fitter.bound_.to_dict()
+    document = replace(document, bound=None if fitter.bound_ is None else fitter.bound_.to_dict())
     save_model(document, out)
     return Calibrated(fitter.name, chain.name, str(out), training, fitter.record_, fitter.compensator_.chain)
 
@@ -117,7 +100,7 @@ def reregister_job(model_path, measurements, out, *, parameters=None, beyond_lim
         # The original's bound, checked (and widened where needed) on the new set-up's poses.
         moved.bound_ = reregistered_bound(fitted.bound_, fitted, moved, observations, parameters or "frames",
                                           robot=model.nominal)
-        document.bound = moved.bound_.to_dict()
+        document = replace(document, bound=moved.bound_.to_dict())
     save_model(document, out)
     return Calibrated(moved.name, model.nominal.name, str(out), training, moved.record_, moved.compensator_.chain)
 
@@ -125,10 +108,25 @@ def reregister_job(model_path, measurements, out, *, parameters=None, beyond_lim
 def load_fitted(model_path, robot=None):
     """A model file -> (ModelFile, the fitted method it holds, with ``bound_``: its 95 %
     bound, None when the file stores none)."""
-    model = load_model(model_path, robot=robot)
+    model = _with_checked_options(load_model(model_path, robot=robot), model_path)
     fitted = fitted_from_model_file(model, model_path)
     fitted.bound_ = bound_of_model(model, fitted, model_path)
     return model, fitted
+
+
+def _with_checked_options(model, path):
+    """``model`` if its settings pass their constraints (an unknown method is the registry's
+    to refuse); otherwise a FileFormatError naming the entry.  The settings were checked when
+    the model was fitted: one edited since, its checksum recomputed, is refused here, before
+    anything acts on it."""
+    for setting in getattr(REGISTRY.get(model.method), "settings", ()):
+        if setting.name in model.options:
+            try:
+                setting.check(model.options[setting.name])
+            except InputError as exc:
+                raise FileFormatError(f"{path}: 'options.{setting.name}' in the model file is not a value robocal "
+                                      f"writes ({exc}); regenerate the file with 'robocal calibrate'") from None
+    return model
 
 
 # What evaluate and compensate say of a model file written before domains were recorded.
@@ -188,7 +186,7 @@ def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False, pe
     saying why, for a model file without one), and ``per_pose`` (a path) writes one CSV line
     per pose (:func:`robocal.io.csv_writing.write_per_pose`).  ``training_poses`` counts the
     poses the model was trained on, by content (the model file's fingerprint; None for a file
-    without one): a score of them is not held out."""
+    without one): a score of them is not held out.  Returns an :class:`.results.Evaluated`."""
     if per_pose is not None:
         check_outputs([per_pose], [model_path, measurements, fixture])
     model, fitted = load_fitted(model_path)
@@ -204,29 +202,27 @@ def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False, pe
     else:
         _, after, scores = position_scores(fitted, observations, model.nominal.name)
     q = observations.joints
+    parts = {}
     if fitted.domain_ is None:
-        result = {**head, **scores, "outside_domain": None, "domain_summary": NO_DOMAIN}
-        inside = None
+        outside, summary, inside = None, NO_DOMAIN, None
     else:
         check = fitted.domain_.check(q, observations.positions, observations.placement,
                                      _uncertainty(fitted, q, np.ones(len(q), dtype=bool)), what="poses")
-        result = {**head, **scores, "outside_domain": check.n_outside, "domain_summary": _answered(fitted, check)}
-        inside = check.inside
+        outside, summary, inside = check.n_outside, _answered(fitted, check), check.inside
         if after is not None:
-            result.update(in_domain=error_stats(after[inside]), out_of_domain=error_stats(after[~inside]))
-    if after is None:
-        return result
-    error = np.linalg.norm(after, axis=1)
-    bound = None if fitted.bound_ is None else fitted.bound_.predict(q, inside=inside)
-    if bound is None:
-        result.update(bound95=None, bound_note=NO_BOUND)
-    else:
-        result["bound95"] = _bound_summary(error, bound, np.ones(len(q), dtype=bool) if inside is None else inside)
-    if per_pose is not None:
-        write_per_pose(per_pose, observations.rows, observations.positions, observations.positions - after, error,
-                       bound, inside)
-        result["per_pose"] = str(per_pose)
-    return result
+            parts.update(in_domain=error_stats(after[inside]), out_of_domain=error_stats(after[~inside]))
+    if after is not None:
+        error = np.linalg.norm(after, axis=1)
+        bound = None if fitted.bound_ is None else fitted.bound_.predict(q, inside=inside)
+        if bound is None:
+            parts["bound_note"] = NO_BOUND
+        else:
+            parts["bound95"] = _bound_summary(error, bound, np.ones(len(q), dtype=bool) if inside is None else inside)
+        if per_pose is not None:
+            write_per_pose(per_pose, observations.rows, observations.positions, observations.positions - after, error,
+                           bound, inside)
+            parts["per_pose"] = str(per_pose)
+    return Evaluated(**head, scores=scores, outside_domain=outside, domain_summary=summary, **parts)
 
 
 def compensate_job(model_path, targets_path, out, *, iterate=False):
@@ -265,17 +261,14 @@ def compensate_job(model_path, targets_path, out, *, iterate=False):
     if sigma is not None:
         extra["uncertainty_mm"] = [f"{s:.4f}" if ok else "" for s, ok in zip(sigma, reached)]
     write_joint_commands(out, model.kinematics, result.q, result.corrected, reached, extra=extra)
-    answer = {"targets": int(len(targets.poses)), "reachable": int(reached.sum()),
-              "unreachable_rows": [int(r) for r in targets.rows[~reached]], "out": str(out),
-              "predicted_error": error_stats(result.predicted_error[np.isfinite(result.predicted_error).all(axis=1)]),
-              "outside_domain": outside, "domain_summary": summary}
-    if bound is None:
-        answer["bound_note"] = NO_BOUND
-    else:
-        answer["bound95_median_mm"] = float(np.nanmedian(bound[reached]))
-        if "note" in fitted.bound_.calibration:  # what a ball-in-socket model's bound bounds
-            answer["bound_note"] = fitted.bound_.calibration["note"]
-    return answer
+    return Compensated(
+        targets=int(len(targets.poses)), reachable=int(reached.sum()),
+        unreachable_rows=[int(r) for r in targets.rows[~reached]], out=str(out),
+        predicted_error=error_stats(result.predicted_error[np.isfinite(result.predicted_error).all(axis=1)]),
+        outside_domain=outside, domain_summary=summary,
+        bound95_median_mm=None if bound is None else float(np.nanmedian(bound[reached])),
+        # A ball-in-socket model's bound says what it bounds (the socket consistency).
+        bound_note=NO_BOUND if bound is None else fitted.bound_.calibration.get("note"))
 
 
 EXPORT_FORMATS = ("toml", "urdf", "ur-yaml")
@@ -297,7 +290,7 @@ def export_job(model_path, out, *, fmt="toml", convention=None, original=None):
     if convention is not None and convention not in converters:
         raise InputError(f"convention must be one of dh, mdh, poe, got {convention!r}")
     check_outputs([out], [model_path, original])
-    model = load_model(model_path)
+    model = _with_checked_options(load_model(model_path), model_path)
     rigid = model.kinematics.rigid
     chain = rigid if convention is None else converters[convention](rigid)
     left_out = []
@@ -325,8 +318,8 @@ def export_job(model_path, out, *, fmt="toml", convention=None, original=None):
             left_out.append("the joint map (a coupling, or calibrated joint gains): the URDF's joint values are "
                             "the model variables joint_map·q, not the controller's readings (a robot file keeps it)")
         write_urdf(chain, out, allow_coupled=True)
-    return {"model": str(model_path), "format": fmt, "out": str(out), "robot": chain.name,
-            "convention": chain.convention, "left_out": left_out}
+    return Exported(model=str(model_path), format=fmt, out=str(out), robot=chain.name, convention=chain.convention,
+                    left_out=left_out)
 
 
 def _simulate_sockets(true_robot, out, fixture_path, placements, per_socket, noise, joint_noise, rng):
@@ -385,8 +378,6 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
     ``--sampling sockets`` seats a ball (the tool) in the sockets of ``fixture`` at
     ``placements`` random fixture poses, ``per_socket`` configurations each, and records
     joint angles only (``noise`` is then the seating error, ``joint_noise`` in deg)."""
-    from dataclasses import replace
-
     from ..simulation import grid, latin_hypercube_box, liu2022_plan, uniform_joints, write_truth
     from ..spatial import rpy_to_matrix
 
@@ -437,7 +428,7 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
         write_truth(truth, true_robot)
     return {"robot": chain.name, "poses": int(len(q)), "sampling": sampling, "errors": errors,
             "out": str(out), "truth": str(truth) if truth else None,
-            "true_error": error_stats(true_robot.error(q))}
+            "true_error": error_stats(true_robot.error(q)).to_dict()}
 
 
 DATASETS = {
@@ -455,7 +446,8 @@ def dataset_job(name, prefix, *, split=None, seed=0):
     """Write a real dataset shipped with robocal as robocal files: PREFIX.toml (the robot model the data were
     taken against) and PREFIX.csv, or PREFIX_train.csv / PREFIX_test.csv with ``split`` the
     training fraction of a random split; ball-in-socket data also PREFIX_fixture.toml, and
-    are split by whole fixture placements (held-out placements, as a user would test)."""
+    are split by whole fixture placements (held-out placements, as a user would test).
+    Returns a :class:`.results.DatasetWritten`."""
     from ..io import datasets
     from ..io.fixtures import write_fixture
     from ..io.robot_file import write_robot
@@ -477,29 +469,27 @@ def dataset_job(name, prefix, *, split=None, seed=0):
         written.update(write_series_d_campaign(f"{prefix}_iso.csv"))
     if split is None:
         write_measurements(f"{prefix}.csv", data)
-        written["measurements"] = f"{prefix}.csv"
-        return {"dataset": name, "poses": data.n_poses, "source": data.path, **written}
-    if chosen is not None:
-        written["train_placements"] = chosen
+        return DatasetWritten(name, data.n_poses, data.path, **written, measurements=f"{prefix}.csv")
     test = np.setdiff1d(np.arange(data.n_poses), train)
     write_measurements(f"{prefix}_train.csv", data.subset(train))
     write_measurements(f"{prefix}_test.csv", data.subset(test))
-    written.update(train=f"{prefix}_train.csv", test=f"{prefix}_test.csv", train_poses=int(len(train)),
-                   test_poses=int(len(test)))
-    return {"dataset": name, "poses": data.n_poses, "source": data.path, **written}
+    return DatasetWritten(name, data.n_poses, data.path, **written, train=f"{prefix}_train.csv",
+                          test=f"{prefix}_test.csv", train_poses=int(len(train)), test_poses=int(len(test)),
+                          train_placements=chosen)
 
 
 def validate_job(robot, measurements, *, method=DEFAULT_METHOD, settings=None, folds=5, sizes=None, seed=0,
                  fixture=None, root=None, tip=None, on_fit=None, beyond_limits=False):
     """Held-out accuracy of a method beside the registered nominal robot: k-fold
     cross-validation (and a learning curve) on position data, one fixture placement left out
-    at a time on ball-in-socket data.  ``on_fit()`` is called after every fit."""
+    at a time on ball-in-socket data.  ``on_fit()`` is called after every fit.  Returns a
+    :class:`.results.Validated`."""
     unfitted = make_method(method, **(settings or {}))
     chain = load_robot(robot, root=root, tip=tip)
     observations = read_observations(measurements, chain, fixture, beyond_limits=beyond_limits)
     result = cross_validate(unfitted, chain, observations, folds=folds, sizes=sizes, seed=seed, on_fit=on_fit)
     # The report checks a validation against its model's robot by this name.
-    return {"robot": chain.name, **result}
+    return Validated.of(chain.name, result)
 
 
 def compare_job(robot, measurements, *, folds=None, seed=0, fixture=None, network=None, root=None, tip=None,

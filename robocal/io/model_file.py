@@ -24,7 +24,9 @@ written as schema 2, so that a robocal that would ignore it refuses the file ins
 
 Robot documents are the robot-TOML structure (mm, deg) as JSON.  Loading validates all of it
 and refuses, with a message, a file of another robot, a newer schema, or one that was edited
-or truncated (checksum, missing keys, arrays of the wrong shape).  Nothing is ever unpickled.
+or truncated (checksum, missing keys, arrays of the wrong shape), and, since an editor can
+recompute the checksum, one whose entries have the wrong types (:mod:`.model_schema`, in one
+line naming the entry).  Nothing is ever unpickled.
 """
 import datetime as _dt
 import hashlib
@@ -37,7 +39,9 @@ from ..errors import FileFormatError, InputError
 from .atomic import write_text_atomic
 from .reading import read_text
 from .robot_file import chain_from_dict, chain_to_dict, robot_to_toml
+from ..kinematics.chain import Chain
 from ..kinematics.compliant import CompliantChain
+from .model_schema import check_document
 
 
 SCHEMA = "robocal.model"
@@ -57,27 +61,51 @@ def _canonical(document):
     return json.dumps(document, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
-@dataclass
+@dataclass(frozen=True)
 class ModelFile:
-    """The content of a model file, with the chains rebuilt."""
+    """The content of a model file, with the chains rebuilt.  Frozen: a changed copy is
+    ``dataclasses.replace(model, bound=...)``.
+
+    Attributes
+    ----------
+    method : str
+        The method's registry name (:mod:`robocal.methods`).
+    nominal : Chain
+        The robot the file belongs to, as its robot file describes it.
+    kinematics : Chain or CompliantChain
+        The chain compensation uses (registered or calibrated).
+    error_model : dict or None
+        The method's error-model document (e.g. ``Kriging.to_dict``), or None.
+    reference : Chain or None
+        The nominal geometry in the measurement frame ("before"); None: ``kinematics``.
+    training, options : dict
+        What the fit did and on which data (``FitRecord.to_dict`` and the data's file, poses,
+        kind); the method's settings by keyword.
+    domain : dict or None
+        The domain of validity (``Domain.to_dict``: deg, mm); None in files written before
+        robocal recorded it.
+    outside : (str, Chain, Chain) or None
+        What answers beyond the domain: its label, kinematics and reference.
+    outside_alternative : (str, Chain, Chain) or None
+        The other parametric model auto could have answered with there (the same form),
+        which a re-registration's new poses may prefer (robocal.methods.reregistration).
+    bound : dict or None
+        The 95 % bound on the position error (``PositionBound.to_dict``; for ball-in-socket
+        data, on the socket consistency); None in files written before robocal computed one.
+    created, software_version : str
+        When and by which robocal the file was written ("" for created: now, at saving).
+    """
 
     method: str
-    nominal: object  # Chain
-    kinematics: object  # Chain
+    nominal: Chain
+    kinematics: Chain
     error_model: dict | None = None
-    reference: object = None  # Chain: nominal geometry in the measurement frame ("before")
+    reference: Chain | None = None
     training: dict = field(default_factory=dict)
     options: dict = field(default_factory=dict)
-    # The domain of validity (robocal.methods.domain.Domain.to_dict: deg, mm); None in files
-    # written before robocal recorded it.
     domain: dict | None = None
-    # What answers beyond the domain: (label, kinematics Chain, reference Chain), or None.
-    outside: tuple | None = None
-    # The other parametric model auto could have answered with there (the same form), which
-    # a re-registration's new poses may prefer (robocal.methods.reregistration), or None.
-    outside_alternative: tuple | None = None
-    # The 95 % bound on the position error (robocal.methods.bound.PositionBound.to_dict), or
-    # None in files written before robocal computed one (and for ball-in-socket data).
+    outside: tuple[str, Chain, Chain] | None = None
+    outside_alternative: tuple[str, Chain, Chain] | None = None
     bound: dict | None = None
     created: str = ""
     software_version: str = __version__
@@ -170,6 +198,8 @@ def load_model(path, robot=None) -> ModelFile:
     if hashlib.sha256(canonical.encode()).hexdigest() != checksum:
         raise FileFormatError(f"{path}: the checksum does not match: the file was modified after robocal "
                               "wrote it; regenerate it with 'robocal calibrate'")
+    # A matching checksum proves nothing of the entries' types (an editor may recompute it).
+    check_document(doc, path)
     # Which methods exist is the methods registry's to say (robocal.methods.load_fitted).
     method = _require(doc, "method", str, path)
     robot_doc = _require(doc, "robot", dict, path)

@@ -95,8 +95,8 @@ class NetworkMethod(Method):
         callback = None if progress is None else (lambda generation, fitness: progress(best=fitness))
         network.fit(obs.joints, errors, progress=callback)
         record.update(base_model=self.base_model, network=network.training_,
-                      residual_after_training=error_stats(errors - network.predict(obs.joints)))
-        record.setdefault("residual_before", error_stats(errors))
+                      residual_after_training=error_stats(errors - network.predict(obs.joints)).to_dict())
+        record.setdefault("residual_before", error_stats(errors).to_dict())
         self.compensator_ = Compensator(model_chain, network, nominal=chain, error_input="joints", controller=chain,
                                         reference=reference)
         self.reference_ = reference

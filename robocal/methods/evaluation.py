@@ -43,7 +43,7 @@ def position_scores(fitted, observations, robot_name):
     """(before, after, statistics): :func:`error_stats` of the method's error with the
     nominal's under ``nominal``; warns when the error is too large to be this robot's data."""
     before, after = position_residuals(fitted, observations)
-    stats = {**error_stats(after), "nominal": error_stats(before)}
+    stats = {**error_stats(after).to_dict(), "nominal": error_stats(before).to_dict()}
     if observations.rotations is not None:
         q = observations.joints
         stats.update(orientation_stats(fitted.compensator_.chain.fk(q), observations.rotations))

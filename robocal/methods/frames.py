@@ -20,8 +20,8 @@ def measurement_frame(chain, joints, positions, register="auto"):
     """
     REGISTER.check(register)
     before = error_stats(positions - chain.fk_positions(joints))
-    do_it = register == "yes" or (register == "auto" and before["rms_mm"] > REGISTER_ABOVE_RMS_MM)
-    record = {"registered": bool(do_it), "nominal_in_given_frame": before}
+    do_it = register == "yes" or (register == "auto" and before.rms_mm > REGISTER_ABOVE_RMS_MM)
+    record = {"registered": bool(do_it), "nominal_in_given_frame": before.to_dict()}
     if do_it:
         chain, report = register_base_and_tool(chain, joints, positions)
         record["iterations"] = report.iterations

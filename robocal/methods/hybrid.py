@@ -49,6 +49,6 @@ class HybridMethod(KrigingResidual, Method):
         self.compensator_ = Compensator(calibrated, model, nominal=chain, error_input=error_input, controller=chain,
                                         reference=base.reference_)
         self.reference_ = base.reference_
-        self.record_ = base.record_.replace(residual_after_training=error_stats(residual - fitted),
+        self.record_ = base.record_.replace(residual_after_training=error_stats(residual - fitted).to_dict(),
                                             diagnostics=list(model.diagnostics_))
         return self

@@ -16,7 +16,9 @@ from .frames import registered_nominal
 
 # How the rows of 6-D data are weighed against each other: one standard deviation of a
 # measured coordinate (mm) and of a measured orientation angle (deg).  The defaults are a
-# laser tracker's (0.02 mm) and its 6-D probe's (0.01 deg).
+# laser tracker's (0.02 mm) and its 6-D probe's (0.01 deg).  The setting keeps the name users
+# write (--orientation-sigma, a fleet file's orientation_sigma, a model file's options); the
+# estimator it reaches takes it as orientation_sigma_deg, the unit in the name.
 POSITION_SIGMA = Setting("position_sigma", 0.02, "--position-sigma",
                          "one standard deviation of a measured x, y or z in mm, weighing positions against "
                          "orientations (default 0.02; a file's sx, sy, sz take precedence)", Number(between=(0, 1e3)))
@@ -54,7 +56,7 @@ class KinematicMethod(Method):
         return KinematicCalibration(parameters=self.parameters, loss=self.loss, register=self.register != "no",
                                     payload=self.payload, prior=self.prior, tolerance_scale=self.tolerance_scale,
                                     position_sigma=self.position_sigma,
-                                    orientation_sigma=self.orientation_sigma)
+                                    orientation_sigma_deg=self.orientation_sigma)
 
     def _fit(self, chain, observations, progress):
         obs = require_positions(observations, self.name)
@@ -84,6 +86,7 @@ class KinematicMethod(Method):
         self.reference_ = reference
         self.record_ = FitRecord(
             registered=self.register != "no", calibration=record,
-            residual_before=error_stats(obs.positions - reference.fk_positions(obs.joints)),
-            residual_after_training=error_stats(obs.positions - calibration.chain_.fk_positions(obs.joints)))
+            residual_before=error_stats(obs.positions - reference.fk_positions(obs.joints)).to_dict(),
+            residual_after_training=error_stats(
+                obs.positions - calibration.chain_.fk_positions(obs.joints)).to_dict())
         return self

@@ -211,7 +211,7 @@ class KrigingMethod(KrigingResidual, Method):
         self.compensator_ = Compensator(frame, model, nominal=frame, error_input=error_input, controller=chain,
                                         reference=frame)
         self.reference_ = frame
-        self.record_ = FitRecord(**record, residual_before=error_stats(errors),
-                                 residual_after_training=error_stats(errors - fitted),
+        self.record_ = FitRecord(**record, residual_before=error_stats(errors).to_dict(),
+                                 residual_after_training=error_stats(errors - fitted).to_dict(),
                                  diagnostics=list(model.diagnostics_))
         return self

@@ -415,7 +415,7 @@ def _reregister(fitted, observations, parameters, robot):
         # The pair decides by the domain the model now has.
         new.compensator_ = dataclasses.replace(new.compensator_, domain=new.domain_)
         after = error_stats(positions - new.predict(q))
-    notes = _warnings(old, chain, q, found.names, after["rms_mm"], training_rms)
+    notes = _warnings(old, chain, q, found.names, after.rms_mm, training_rms)
     for note in notes:
         warnings.warn(note, RobocalWarning, stacklevel=2)
     new.reregistration_ = _record(parameters, observations, use_rotations, problem, old, chain, found,
@@ -435,7 +435,7 @@ def _frames_posterior(fitted, found, after):
     training = fitted.record_.residual_after_training or {}
     # E|e| of an isotropic 3-D Gaussian of sigma s per axis is s * sqrt(8 / pi).
     own = before.get("mean_mm", training.get("rms_mm", 0.0) * np.sqrt(8 / np.pi / 3)) / np.sqrt(8 / np.pi)
-    residual = after.get("rms_mm", 0.0) ** 2 / 3.0
+    residual = (after.rms_mm or 0.0) ** 2 / 3.0
     covariance = found.covariance * max(1.0, own ** 2 / max(residual, 1e-300))
     return tuple(found.names), covariance, float(own)
 
@@ -561,6 +561,6 @@ def _record(parameters, observations, orientations, problem, old, chain, found, 
         tool_change_mm=tuple(float(v) for v in chain.tool[:3, 3] - old.tool[:3, 3]),
         offset_changes={n: float(v * u) for n, v, u in zip(offsets, moved, chain.parameters.file_units(offsets))},
         std_errors={n: float(s * u) for n, s, u in zip(found.names, found.std_errors, units)},
-        identifiability=found.report, residual_before=before, residual_after=after,
-        residual_reference=reference_stats, training_rms_mm=training_rms, iterations=found.iterations,
+        identifiability=found.report, residual_before=before.to_dict(), residual_after=after.to_dict(),
+        residual_reference=reference_stats.to_dict(), training_rms_mm=training_rms, iterations=found.iterations,
         converged=found.converged, warnings=tuple(notes))

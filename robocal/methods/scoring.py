@@ -117,7 +117,7 @@ def deleted_errors(fitted, observations, tests):
                                                                                  calibration.position_sigma)
     weights = 1.0 / np.asarray(sigmas, dtype=float)
     if rotations is not None:
-        weights = np.hstack([weights, np.full((len(q), 3), 1.0 / np.radians(calibration.orientation_sigma))])
+        weights = np.hstack([weights, np.full((len(q), 3), 1.0 / np.radians(calibration.orientation_sigma_deg))])
     r = residual_of(chain, q, observations.positions, rotations) * weights
     jac = chain.identification_jacobian(q, names)[:, :rows, :] * weights[:, :, None]
     flat = jac.reshape(-1, len(names))
@@ -267,7 +267,7 @@ def score(candidate, observations, split, refits, *, on_fit=None):
     fold_means = [float(d.mean()) for d in lengths]
     inside_means = [float(d[i].mean()) if i.any() else float("nan") for d, i in zip(lengths, insides)]
     inside = np.concatenate([d[i] for d, i in zip(lengths, insides)])
-    return Score(fold_means, error_stats(np.concatenate(errors)), seconds / len(split.tests), inside_means,
+    return Score(fold_means, error_stats(np.concatenate(errors)).to_dict(), seconds / len(split.tests), inside_means,
                  float(inside.mean()) if inside.size else float("nan"))
 
 

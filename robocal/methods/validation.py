@@ -140,10 +140,11 @@ def placement_validation(method, chain, observations, on_fit=None):
                                          (chain, nominal_folds, nominal_deviations)):
             held_out, _ = socket_deviations(model, held.joints, held.placement, held.socket, held.fixture)
             pooled.append(held_out)
-            fold_list.append({"fold": placement, "n_train": int((~test).sum()), "held_out": error_stats(held_out)})
+            fold_list.append({"fold": placement, "n_train": int((~test).sum()),
+                              "held_out": error_stats(held_out).to_dict()})
     return {"method": method.name, "file": obs.path, "poses": obs.n_poses, "folds": len(placements),
             "metric": "socket consistency on the placement left out",
             "cross_validation": {"k": len(placements), "folds": folds,
-                                 "pooled": error_stats(np.concatenate(deviations))},
+                                 "pooled": error_stats(np.concatenate(deviations)).to_dict()},
             "nominal_cross_validation": {"k": len(placements), "folds": nominal_folds,
-                                         "pooled": error_stats(np.concatenate(nominal_deviations))}}
+                                         "pooled": error_stats(np.concatenate(nominal_deviations)).to_dict()}}

@@ -35,7 +35,7 @@ def grouped_socket_errors(chain, data, per_placement=False):
     sizes = data.group_sizes
     means = np.stack([np.bincount(data.group, weights=p[:, c]) for c in range(3)], axis=1) / sizes[:, None]
     shared = sizes[data.group] > 1
-    out = error_stats(p[shared] - means[data.group[shared]])
+    out = error_stats(p[shared] - means[data.group[shared]]).to_dict()
     group_placement = np.zeros(len(sizes), dtype=int)
     group_socket = np.zeros(len(sizes), dtype=int)
     group_placement[data.group], group_socket[data.group] = data.placement, data.socket

@@ -71,7 +71,7 @@ def dataset(
     Example: robocal dataset ur5-tsinghua --out ur5 --split 0.5
     """
     result = dataset_job(dataset, prefix, split=split, seed=seed)
-    print_result(result, as_json, f"dataset {dataset}")
+    print_result(result.to_dict(), as_json, f"dataset {dataset}")
 
 
 @verb()

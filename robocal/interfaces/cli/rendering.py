@@ -110,14 +110,21 @@ def print_scored(result, as_json, title):
                 f"{bound['median_error_mm']:.4g} mm)")
 
 
+def print_evaluated(result, measurements, as_json):
+    """evaluate (an :class:`~robocal.interfaces.results.Evaluated`): its table, then the
+    domain's and the bound's lines."""
+    print_scored(result.to_dict(), as_json, f"{result.method} model on {measurements}")
+
+
 def print_compensated(result, out_file, as_json):
-    """compensate: a warning naming the targets it cannot reach, then the summary."""
-    if result["unreachable_rows"]:
-        rows = ", ".join(str(r) for r in result["unreachable_rows"][:10])
-        more = " ..." if len(result["unreachable_rows"]) > 10 else ""
-        say("warning", "yellow", f"{len(result['unreachable_rows'])} target(s) cannot be reached "
+    """compensate (a :class:`~robocal.interfaces.results.Compensated`): a warning naming the
+    targets it cannot reach, then the summary."""
+    if result.unreachable_rows:
+        rows = ", ".join(str(r) for r in result.unreachable_rows[:10])
+        more = " ..." if len(result.unreachable_rows) > 10 else ""
+        say("warning", "yellow", f"{len(result.unreachable_rows)} target(s) cannot be reached "
                                  f"(rows {rows}{more}): their joint cells are empty and reachable = 0")
-    print_scored(result, as_json, f"commands -> {out_file}")
+    print_scored(result.to_dict(), as_json, f"commands -> {out_file}")
 
 
 def print_filtered(result, out_dir, as_json):
@@ -129,10 +136,11 @@ def print_filtered(result, out_dir, as_json):
 
 
 def print_exported(result, out_file, as_json):
-    """export: a note per thing the robot file cannot hold, then the summary."""
-    for what in result["left_out"]:
-        say("note", "yellow", f"left out of the {result['format'].upper()} file: {what}")
-    print_result(result, as_json, f"{result['convention']} robot -> {out_file}")
+    """export (an :class:`~robocal.interfaces.results.Exported`): a note per thing the robot
+    file cannot hold, then the summary."""
+    for what in result.left_out:
+        say("note", "yellow", f"left out of the {result.format.upper()} file: {what}")
+    print_result(result.to_dict(), as_json, f"{result.convention} robot -> {out_file}")
 
 
 def _stats_row(table, label, stats):
@@ -275,24 +283,25 @@ def print_reasoning(comparison):
 
 
 def print_validation(result, method, by_placement, as_json):
-    """validate's cross-validation beside the registered nominal's, and the learning curve."""
+    """validate (a :class:`~robocal.interfaces.results.Validated`): the cross-validation beside
+    the registered nominal's, and the learning curve."""
     if as_json:
-        print_json(result)
+        print_json(result.to_dict())
         return
     kind = ("leave-one-placement-out socket consistency" if by_placement
-            else f"{result['folds']}-fold cross-validation")
-    table = Table(title=f"{method}, {kind} on {result['poses']} poses (mm)")
+            else f"{result.folds}-fold cross-validation")
+    table = Table(title=f"{method}, {kind} on {result.poses} poses (mm)")
     for col in ("model", "mean", "RMS", "max"):
         table.add_column(col, justify="right")
     nominal = "nominal" if by_placement else "nominal, registered"
-    for label, key in ((method, "cross_validation"), (nominal, "nominal_cross_validation")):
-        _stats_row(table, label, result[key].get("pooled", result[key]))
+    for label, figures in ((method, result.cross_validation), (nominal, result.nominal_cross_validation)):
+        _stats_row(table, label, figures.get("pooled", figures))
     out.print(table)
-    if "learning_curve" in result:
+    if result.learning_curve is not None:
         curve = Table(title="learning curve: held-out error against training poses (mm)")
         for col in ("training poses", "mean", "RMS", "max"):
             curve.add_column(col, justify="right")
-        for point in result["learning_curve"]:
+        for point in result.learning_curve:
             _stats_row(curve, str(point["n_train"]), point["held_out"])
         out.print(curve)
 

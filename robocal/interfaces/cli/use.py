@@ -12,7 +12,7 @@ from .app import verb
 from .options import (ACCEPT_EXTRAPOLATION, BEYOND_LIMITS, FIXTURE, ITERATE, JSON, MODEL, OUTPUT_KINDS, Output,
                       out_option, parsed)
 from ..serve import FORMATS as LINE_FORMATS
-from .rendering import print_compensated, print_exported, print_filtered, print_result, print_scored
+from .rendering import print_compensated, print_evaluated, print_exported, print_filtered, print_result
 
 
 @verb()
@@ -35,7 +35,7 @@ def evaluate(
     Example: robocal evaluate model.json test.csv --json --per-pose poses.csv
     """
     result = evaluate_job(model, measurements, fixture=fixture, beyond_limits=beyond_limits, per_pose=per_pose)
-    print_scored(result, as_json, f"{result['method']} model on {measurements}")
+    print_evaluated(result, measurements, as_json)
 
 
 @verb()

@@ -1,0 +1,268 @@
+"""What the commands' jobs return: one frozen result type per command, in the manner of
+SciPy's ``OptimizeResult`` (every field documented, set once at the job's single exit), and
+its ``to_dict()``: the JSON object ``--json`` prints, key for key and in the same order as
+before the types existed.  Rendering them is :mod:`robocal.interfaces.cli.rendering`'s.
+
+``compare`` returns its :class:`~robocal.methods.selection.Comparison`.  The results still
+JSON-ready dicts are simulate's (rendered in ``cli/plan.py``), report's, filter's, demo's and
+those of the planning and acceptance jobs (design, iso9283).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..estimation.metrics import ErrorStats
+
+
+@dataclass(frozen=True)
+class Calibrated:
+    """What ``calibrate`` (and re-registration) did.
+
+    Attributes
+    ----------
+    method, robot, out : str
+        The method's name, the robot's name, the model file written.
+    data : dict
+        The training data: ``file``, ``n_poses``, ``kind``, ``fixture_file``, ``comparison``
+        with --method auto, ``fingerprint`` (left out of :meth:`to_dict`).
+    record : FitRecord
+        The fit's record (:class:`robocal.methods.FitRecord`).
+    kinematics : Chain or None
+        The fitted method's chain.
+    """
+
+    method: str
+    robot: str
+    out: str
+    data: dict
+    record: object  # robocal.methods.FitRecord: interfaces may not name a method's types here
+    kinematics: object = None
+
+    def to_dict(self):
+        # The training rows' fingerprint is for robocal to read back, not for people.
+        data = {key: value for key, value in self.data.items() if key != "fingerprint"}
+        return {"method": self.method, "robot": self.robot, "out": self.out, **data, **self.record.to_dict()}
+
+
+@dataclass(frozen=True)
+class Compensated:
+    """What ``compensate`` wrote.
+
+    Attributes
+    ----------
+    targets, reachable : int
+        How many targets the file holds, and how many the calibrated robot reaches.
+    unreachable_rows : list of int
+        The file lines of the targets it cannot reach.
+    out : str
+        The commands file written.
+    predicted_error : ErrorStats
+        The model's predicted correction over the reachable targets (mm).
+    outside_domain : int or None
+        Reachable targets outside the model's domain of validity (None: the file records no
+        domain).
+    domain_summary : str
+        The domain check in one line.
+    bound95_median_mm : float or None
+        The median 95 % bound over the reachable targets (None when the file stores no bound,
+        and ``bound_note`` says so).
+    bound_note : str or None
+    """
+
+    targets: int
+    reachable: int
+    unreachable_rows: list
+    out: str
+    predicted_error: ErrorStats
+    outside_domain: int | None
+    domain_summary: str
+    bound95_median_mm: float | None = None
+    bound_note: str | None = None
+
+    def to_dict(self):
+        out = {"targets": self.targets, "reachable": self.reachable, "unreachable_rows": list(self.unreachable_rows),
+               "out": self.out, "predicted_error": self.predicted_error.to_dict(),
+               "outside_domain": self.outside_domain, "domain_summary": self.domain_summary}
+        if self.bound_note is not None:
+            out["bound_note"] = self.bound_note
+        else:
+            out["bound95_median_mm"] = self.bound95_median_mm
+        return out
+
+
+@dataclass(frozen=True)
+class Exported:
+    """What ``export`` wrote.
+
+    Attributes
+    ----------
+    model, format, out : str
+        The model file read, ``toml`` or ``urdf``, the file written.
+    robot, convention : str
+        The exported robot's name and its convention (dh, mdh, poe).
+    left_out : list of str
+        What the robot file cannot hold (the compliance, an error model, a joint map).
+    """
+
+    model: str
+    format: str
+    out: str
+    robot: str
+    convention: str
+    left_out: list
+
+    def to_dict(self):
+        return {"model": self.model, "format": self.format, "out": self.out, "robot": self.robot,
+                "convention": self.convention, "left_out": list(self.left_out)}
+
+
+@dataclass(frozen=True)
+class Evaluated:
+    """What ``evaluate`` measured.
+
+    Attributes
+    ----------
+    model, method, file : str
+        The model file, its method, the measurement file.
+    training_poses : int or None
+        How many of the poses the model was trained on, by content (None: the file keeps no
+        fingerprint): a score of them is not held out.
+    scores : dict
+        The method's statistics, JSON-ready: on position data :class:`ErrorStats` keys (mm),
+        the orientation's ``rot_*_deg`` with 6-D data, and the nominal robot's under
+        ``nominal``; on ball-in-socket data the socket consistency and distances.
+    outside_domain : int or None
+        Poses outside the model's domain of validity (None: the file records no domain).
+    domain_summary : str
+        The domain check in one line.
+    in_domain, out_of_domain : ErrorStats or None
+        Position data with a domain: the statistics of each part.
+    bound95 : dict or None
+        Position data: the share of poses within their 95 % bound (``poses``,
+        ``within_share``, ``median_bound_mm``, ``median_error_mm``, ``inside``, ``outside``);
+        None with ``bound_note`` saying why for a file that stores no bound.
+    bound_note : str or None
+    per_pose : str or None
+        The per-pose CSV written (``--per-pose``).
+    """
+
+    model: str
+    method: str
+    file: str
+    training_poses: int | None
+    scores: dict
+    outside_domain: int | None
+    domain_summary: str
+    in_domain: ErrorStats | None = None
+    out_of_domain: ErrorStats | None = None
+    bound95: dict | None = None
+    bound_note: str | None = None
+    per_pose: str | None = None
+
+    @property
+    def on_positions(self):
+        """Whether the data were positions (else ball-in-socket joint readings)."""
+        return self.bound95 is not None or self.bound_note is not None
+
+    def to_dict(self):
+        out = {"model": self.model, "method": self.method, "file": self.file, "training_poses": self.training_poses,
+               **self.scores, "outside_domain": self.outside_domain, "domain_summary": self.domain_summary}
+        if self.in_domain is not None:
+            out.update(in_domain=self.in_domain.to_dict(), out_of_domain=self.out_of_domain.to_dict())
+        if self.on_positions:
+            out["bound95"] = self.bound95
+            if self.bound_note is not None:
+                out["bound_note"] = self.bound_note
+        if self.per_pose is not None:
+            out["per_pose"] = self.per_pose
+        return out
+
+
+@dataclass(frozen=True)
+class Validated:
+    """What ``validate`` measured (:func:`robocal.methods.validation.cross_validate`).
+
+    Attributes
+    ----------
+    robot, method, file : str
+        The robot's name (the report checks a validation against its model's robot by it),
+        the method, the measurement file.
+    poses, folds : int
+        How many poses; how many folds (placements, on ball-in-socket data).
+    cross_validation, nominal_cross_validation : dict
+        The method's and the registered nominal's held-out figures: ``k``, ``folds`` (per
+        fold ``fold``, ``n_train``, ``held_out``: ErrorStats keys, mm), ``pooled``.
+    metric : str or None
+        On ball-in-socket data, what the figures measure.
+    learning_curve : list of dict or None
+        With ``--sizes``: per training size ``n_train``, ``n_test``, ``repeats``, ``held_out``,
+        ``per_repeat``.
+    """
+
+    robot: str
+    method: str
+    file: str
+    poses: int
+    folds: int
+    cross_validation: dict
+    nominal_cross_validation: dict
+    metric: str | None = None
+    learning_curve: list | None = None
+
+    @classmethod
+    def of(cls, robot, result):
+        """From the robot's name and :func:`~robocal.methods.validation.cross_validate`'s dict."""
+        return cls(robot=robot, **result)
+
+    def to_dict(self):
+        out = {"robot": self.robot, "method": self.method, "file": self.file, "poses": self.poses,
+               "folds": self.folds}
+        if self.metric is not None:
+            out["metric"] = self.metric
+        out.update(cross_validation=self.cross_validation, nominal_cross_validation=self.nominal_cross_validation)
+        if self.learning_curve is not None:
+            out["learning_curve"] = self.learning_curve
+        return out
+
+
+@dataclass(frozen=True)
+class DatasetWritten:
+    """What ``dataset`` wrote.
+
+    Attributes
+    ----------
+    dataset : str
+        The dataset's name; ``poses`` its size; ``source`` the file (or folder) it was read from.
+    robot : str
+        The robot file written (PREFIX.toml); ``fixture`` the fixture file of ball-in-socket
+        data (None for the others).
+    measurements : str or None
+        The one measurement file, without a split.
+    train, test : str or None
+        With a split: the two measurement files, ``train_poses`` and ``test_poses`` their
+        sizes and, on ball-in-socket data, ``train_placements`` the placements trained on.
+    """
+
+    dataset: str
+    poses: int
+    source: str
+    robot: str
+    fixture: str | None = None
+    measurements: str | None = None
+    train: str | None = None
+    test: str | None = None
+    train_poses: int | None = None
+    test_poses: int | None = None
+    train_placements: list | None = None
+
+    def to_dict(self):
+        out = {"dataset": self.dataset, "poses": self.poses, "source": self.source, "robot": self.robot}
+        if self.fixture is not None:
+            out["fixture"] = self.fixture
+        if self.train is None:
+            out["measurements"] = self.measurements
+            return out
+        if self.train_placements is not None:
+            out["train_placements"] = self.train_placements
+        out.update(train=self.train, test=self.test, train_poses=self.train_poses, test_poses=self.test_poses)
+        return out
