@@ -116,11 +116,11 @@ def test_the_new_poses_choose_what_answers_outside_between_the_fallback_and_its_
             alone.compensator_ = dataclasses.replace(model.compensator_, outside=compensator, label=label)
             each[label] = error_stats(test.positions - reregister(alone, poses, robot=chain).predict(test.joints))
     choice = chosen.reregistration_.outside_choice
-    better = min(each, key=lambda label: each[label]["mean_mm"])
+    better = min(each, key=lambda label: each[label].mean_mm)
     assert choice["answers_outside"] == better == chosen.compensator_.label
     assert chosen.outside_alternative_[0] == choice["alternative"] != better
-    assert error_stats(test.positions - chosen.predict(test.joints))["mean_mm"] <= each[better]["mean_mm"] * 1.001
-    assert each["kinematic full+compliance"]["mean_mm"] != pytest.approx(each["kinematic full"]["mean_mm"], rel=0.05)
+    assert error_stats(test.positions - chosen.predict(test.joints)).mean_mm <= each[better].mean_mm * 1.001
+    assert each["kinematic full+compliance"].mean_mm != pytest.approx(each["kinematic full"].mean_mm, rel=0.05)
 
 
 def test_the_fallbacks_alternative_survives_the_model_file(pair, tmp_path):

@@ -67,6 +67,7 @@ class Compensated:
         The median 95 % bound over the reachable targets (None when the file stores no bound,
         and ``bound_note`` says so).
     bound_note : str or None
+        Why there is no bound, or what the bound bounds when it is not the position error.
     """
 
     targets: int
@@ -83,10 +84,11 @@ class Compensated:
         out = {"targets": self.targets, "reachable": self.reachable, "unreachable_rows": list(self.unreachable_rows),
                "out": self.out, "predicted_error": self.predicted_error.to_dict(),
                "outside_domain": self.outside_domain, "domain_summary": self.domain_summary}
-        if self.bound_note is not None:
-            out["bound_note"] = self.bound_note
-        else:
+        if self.bound95_median_mm is not None:
             out["bound95_median_mm"] = self.bound95_median_mm
+        if self.bound_note is not None:
+            # No bound, or what a ball-in-socket model's bound bounds (the socket consistency).
+            out["bound_note"] = self.bound_note
         return out
 
 

@@ -212,6 +212,12 @@ def print_reregistration(result, measurements, out_file, as_json):
         out.print(f"predicted error: {cell(result.record.predicted_error)}")
     for name, reason in ident["fixed"].items():
         out.print(f"kept {name}: {reason}")
+    choice = record.get("outside_choice")
+    if choice is not None and choice["poses"]:
+        rms = choice["rms_mm"]
+        out.print(f"outside the domain {choice['answers_outside']} answers ({rms[choice['answers_outside']]:.4f} mm "
+                  f"RMS on the {choice['poses']} new poses it answers for, against {rms[choice['alternative']]:.4f} "
+                  f"for {choice['alternative']})")
     out.print(f"-> {out_file}")
 
 
