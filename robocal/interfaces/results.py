@@ -256,11 +256,19 @@ class DatasetWritten:
     train_poses: int | None = None
     test_poses: int | None = None
     train_placements: list | None = None
+    # ipa-ur10-d: the ISO 9283 campaign written beside it, and how well its tracker frame
+    # registered to the commanded poses (robocal.io.ipa_iso).
+    iso_campaign: str | None = None
+    registration_rms_mm: float | None = None
+    probe_mm: list | None = None
 
     def to_dict(self):
         out = {"dataset": self.dataset, "poses": self.poses, "source": self.source, "robot": self.robot}
         if self.fixture is not None:
             out["fixture"] = self.fixture
+        if self.iso_campaign is not None:
+            out.update(iso_campaign=self.iso_campaign, registration_rms_mm=self.registration_rms_mm,
+                       probe_mm=self.probe_mm)
         if self.train is None:
             out["measurements"] = self.measurements
             return out

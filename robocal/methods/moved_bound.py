@@ -19,7 +19,7 @@ inside factor q, the residual scale r, the growth outside the domain.  Two thing
   unlike them keep the old bound's shape: its growth away from the original training data.
 
 On the ipa UR10 (series B calibrated, re-registered on 25 random poses of series A, tested
-on the rest of A; ``python bench/small_campaigns.py --no-small --bound``) every test pose
+on the rest of A; ``bench/small_campaigns.py``, with its bound option) every test pose
 lies outside B's domain, where the old bound grows with the distance from B's poses; the
 new poses bring it down to what A's errors are.
 """

@@ -3,32 +3,55 @@ the robot's joint log) and iso9283 (the standard's acceptance test: plan and fig
 import typer
 
 from ...errors import InputError
-from ...settings import Choice, Number, Numbers
+from ...settings import Choice, Number, Numbers, Setting
 from .app import verb
-from .options import JSON, ROOT, TIP, out_option, parsed
+from .options import JSON, ROOT, TIP, declared, out_option
 from .rendering import print_iso9283, print_json, print_result, say
 
 ISO_ACTIONS = ("plan",)
 
+# import's options.
+IMPORT = (
+    Setting("points", ..., "--points", "The tracker's point export: a name and x, y, z per line; any of ; tab , or "
+            "spaces between fields, decimal commas, // or # comments; the unit from its header, a comment or "
+            "--units."),
+    Setting("joints", ..., "--joints", "The robot's joint log (CSV): q1..qN (deg, or tagged such as q1[rad]) and "
+            "the point's name, or a time column."),
+    Setting("units", None, "--units", "The points' length unit when the file does not state it: mm, m, cm, in or "
+            "um (default mm; a contradiction is refused).", Choice(("mm", "m", "cm", "in", "um"))),
+    Setting("by", None, "--by", "Join by point name (default when the log has a name column) or by time (the "
+            "nearest timestamp within --max-dt).", Choice(("name", "time"))),
+    Setting("max_dt", 0.5, "--max-dt", "By time: the largest gap between a joint row and its point, in seconds.",
+            Number(at_least=0, at_most=3600)),
+)
+# iso9283's options (plan, and a measured campaign's figures).
+ISO9283 = (
+    Setting("out_file", None, "--out", "With plan: the campaign CSV to write."),
+    Setting("centre", None, "--centre", "With plan: the cube's centre x,y,z (mm, robot base frame; default where "
+            "the robot works most).", Numbers(count=3)),
+    Setting("edge", None, "--edge", "With plan: the cube's edge in mm (default the largest one reachable).",
+            Number(at_least=1)),
+    Setting("rpy", None, "--rpy", "With plan: the TCP orientation rx,ry,rz in deg (default 180,0,0).",
+            Numbers(count=3)),
+    Setting("cycles", 30, "--cycles", "With plan: cycles (the standard: 30).",
+            Number(whole=True, at_least=2, at_most=1000)),
+    Setting("match_mm", 2.0, "--match-mm", "Without a pose column: visits whose commands lie within this (mm) are "
+            "of one pose.", Number(at_least=1e-6, at_most=1000)),
+    Setting("model", None, "--model", "With a campaign: a model file; the figures the compensated robot is "
+            "predicted to reach, beside the measured ones (needs the joint command q1..qN in the campaign)."),
+    Setting("report", None, "--report", "With a campaign: write the ISO page (test conditions, instrument, before "
+            "and after) to this .html file."),
+    Setting("instrument", None, "--instrument", "With --report: the instrument that measured the campaign (e.g. "
+            "'Leica AT960, SMR 1.5 in')."),
+    Setting("conditions", None, "--conditions", "With --report: the test conditions (load, speed, temperature, "
+            "warm-up)."),
+)
+
 
 @verb(name="import")
-def import_points(
-    points: str = typer.Option(..., "--points", help="The tracker's point export: a name and x, y, z per line; any of "
-                                                     "; tab , or spaces between fields, decimal commas, // or # "
-                                                     "comments; the unit from its header, a comment or --units."),
-    joints: str = typer.Option(..., "--joints", help="The robot's joint log (CSV): q1..qN (deg, or tagged such as "
-                                                     "q1[rad]) and the point's name, or a time column."),
-    out_file: str = out_option("Measurement CSV to write.", ".csv"),
-    units: str = typer.Option(None, "--units", help="The points' length unit when the file does not state it: mm, "
-                                                    "m, cm, in or um (default mm; a contradiction is refused).",
-                              **parsed(Choice(("mm", "m", "cm", "in", "um")))),
-    by: str = typer.Option(None, "--by", help="Join by point name (default when the log has a name column) or by "
-                                              "time (the nearest timestamp within --max-dt).",
-                           **parsed(Choice(("name", "time")))),
-    max_dt: float = typer.Option(0.5, "--max-dt", help="By time: the largest gap between a joint row and its point, "
-                                                       "in seconds.", **parsed(Number(at_least=0, at_most=3600))),
-    as_json: bool = JSON,
-):
+@declared(IMPORT)
+def import_points(*, points: str, joints: str, out_file: str = out_option("Measurement CSV to write.", ".csv"),
+                  units: str, by: str, max_dt: float, as_json: bool = JSON):
     """Join a tracker's named points to the robot's joint log into a measurement file.
 
     A joint row with no point, or a point with no joint row, is reported and left out, never
@@ -55,36 +78,13 @@ def import_points(
 
 
 @verb()
-def iso9283(
-    target: str = typer.Argument(..., help="A campaign CSV to compute the figures of (pose, cycle, x_cmd..z_cmd, "
-                                           "x..z, optionally rx_cmd..rz_cmd and rx..rz), or 'plan'."),
-    robot: str = typer.Argument(None, help="With plan: the robot (built-in name, .toml or .urdf)."),
-    out_file: str = typer.Option(None, "--out", help="With plan: the campaign CSV to write."),
-    centre: str = typer.Option(None, "--centre", help="With plan: the cube's centre x,y,z (mm, robot base frame; "
-                                                      "default where the robot works most).",
-                               **parsed(Numbers(count=3))),
-    edge: float = typer.Option(None, "--edge", help="With plan: the cube's edge in mm (default the largest one "
-                                                    "reachable).", **parsed(Number(at_least=1))),
-    rpy: str = typer.Option(None, "--rpy", help="With plan: the TCP orientation rx,ry,rz in deg (default 180,0,0).",
-                            **parsed(Numbers(count=3))),
-    cycles: int = typer.Option(30, "--cycles", help="With plan: cycles (the standard: 30).",
-                               **parsed(Number(whole=True, at_least=2, at_most=1000))),
-    match_mm: float = typer.Option(2.0, "--match-mm", help="Without a pose column: visits whose commands lie within "
-                                                           "this (mm) are of one pose.",
-                                   **parsed(Number(at_least=1e-6, at_most=1000))),
-    model: str = typer.Option(None, "--model", help="With a campaign: a model file; the figures the compensated "
-                                                    "robot is predicted to reach, beside the measured ones (needs "
-                                                    "the joint command q1..qN in the campaign)."),
-    report: str = typer.Option(None, "--report", help="With a campaign: write the ISO page (test conditions, "
-                                                      "instrument, before and after) to this .html file."),
-    instrument: str = typer.Option(None, "--instrument", help="With --report: the instrument that measured the "
-                                                              "campaign (e.g. 'Leica AT960, SMR 1.5 in')."),
-    conditions: str = typer.Option(None, "--conditions", help="With --report: the test conditions (load, speed, "
-                                                              "temperature, warm-up)."),
-    tip: str = TIP,
-    root: str = ROOT,
-    as_json: bool = JSON,
-):
+@declared(ISO9283)
+def iso9283(target: str = typer.Argument(..., help="A campaign CSV to compute the figures of (pose, cycle, "
+                                                    "x_cmd..z_cmd, x..z, optionally rx_cmd..rz_cmd and rx..rz), "
+                                                    "or 'plan'."),
+            robot: str = typer.Argument(None, help="With plan: the robot (built-in name, .toml or .urdf)."), *,
+            out_file: str, centre: str, edge: float, rpy: str, cycles: int, match_mm: float, model: str, report: str,
+            instrument: str, conditions: str, tip: str = TIP, root: str = ROOT, as_json: bool = JSON):
     """ISO 9283 pose accuracy and repeatability (AP, RP), distance accuracy (AD, RD).
 
     Plan: robocal iso9283 plan ur10 --out campaign.csv  (P1..P5 on a cube, 30 cycles)
