@@ -9,7 +9,7 @@ whatever is asked for to the model it wraps.
 
 An error model is anything with :meth:`ErrorModel.predict` (Kriging, the network, the
 Kriging over joints, an error model moved to another measurement frame:
-:class:`robocal.methods.reframed.ReframedErrorModel`).
+:class:`robocal.estimation.reregistration.ReframedErrorModel`).
 """
 from typing import Protocol, runtime_checkable
 

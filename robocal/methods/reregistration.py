@@ -8,19 +8,10 @@ in the flange frame are identified again, optionally with the joint offsets
 joins them when the data carry orientations and the model was calibrated with them:
 positions alone do not see it (turning the tool about the TCP moves no TCP).
 
-The error model moves with the frame.  A Cartesian model ê(p) learned in the old
-measurement frame predicts, in the new frame related to the old one by T (old → new,
-rotation R), the error R·ê(T⁻¹p): T⁻¹p is the old frame's name for the same point of the
-robot and R turns the predicted vector into the new axes.  A joint-space model predicts
-R·ê(q), at the joint readings the old model knew (shifted when the joint offsets changed).
-:class:`ReframedErrorModel` does that around the model it wraps.
-
-The frames are fitted to what the whole model predicts (kinematics plus moved error model),
-so that a residual model's mean correction is not counted twice.  Steps are Gauss–Newton
-with the chain's analytic identification Jacobian; the error model's own change with the
-frames is left out of the Jacobian (a rotation ω of the base moves the predicted error by
-ω × ê, a thousandth of what it moves the TCP at a metre's reach), which slows the steps a
-little but leaves the residual they minimise exact.
+The estimator (:mod:`robocal.estimation.reregistration`) fits the frames to what the whole
+model predicts, its error model moved with the frame (:class:`ReframedErrorModel`); this
+module is the method around it: the checks, the auto model's pair and its choice of what
+answers outside the domain, the domain and the record.
 """
 from __future__ import annotations
 
@@ -34,16 +25,16 @@ import numpy as np
 from ..compensation import Compensator
 from ..errors import FileFormatError, InputError, RobocalWarning
 from ..estimation.calibration import IMPLAUSIBLE_ANGLE_DEG, IMPLAUSIBLE_REACH_FRACTION
-from ..estimation.identifiability import IdentifiabilityReport, analyse
-from ..estimation.identification import BASE, TOOL_POSITION, Analysis, identify, tolerance_prior
-from ..estimation.least_squares import damped_least_squares
+from ..estimation.identifiability import IdentifiabilityReport
+from ..estimation.identification import BASE, TOOL_POSITION, identify, tolerance_prior
 from ..estimation.metrics import error_stats
 from ..estimation.registration import kabsch, register_base_and_tool
 from ..io.model_file import robot_hash
 from ..settings import Choice, Setting
-from ..spatial import invert, make_transform, pose_to_xyz_rpy, so3_log
+from ..spatial import make_transform, pose_to_xyz_rpy, so3_log
+from ..estimation.reregistration import FrameProblem, ReframedErrorModel  # noqa: F401  (ReframedErrorModel: for callers)
 from .fallback import DomainFallback
-from .reframed import ReframedErrorModel, is_reframed, reframed_document, reframed_from_document  # noqa: F401
+from .reframed import is_reframed, reframed_document, reframed_from_document  # noqa: F401
 from .plausibility import check_robot_data
 
 # calibrate MODEL.json NEW.csv --method frames: a model file re-registered on a new set-up.
@@ -158,126 +149,6 @@ class ReregistrationRecord:
                                   "regenerate the model file") from None
 
 
-# ----------------------------------------------------------------- the problem
-class _Problem:
-    """The re-registration of one model on one set of poses: what it predicts for a
-    candidate chain and the weighted residual the fit minimises.
-
-    A model of ``calibrate --method auto`` that answers with a fallback outside its training
-    domain (:class:`~robocal.methods.fallback.DomainFallback`) moves as one: the fallback's
-    chain takes the same change of frames (and joint offsets) as the chosen model's, and each
-    pose is predicted by the model that answers for it."""
-
-    def __init__(self, compensator, joints, positions, rotations, weights):
-        self.old = compensator.chain
-        self.error_model = compensator.error_model
-        self.error_input = compensator.error_input
-        self.q = joints
-        self.positions = positions
-        self.rotations = rotations
-        self.weights = weights
-        self.rows = weights.shape[1]
-        self.offsets = [self.old.rigid.offset_parameter(k) for k in range(self.old.n_joints)]
-        fallback = getattr(compensator, "outside", None)
-        self.fallback = None if fallback is None else fallback.chain
-        self.answered_outside = (np.zeros(len(joints), dtype=bool) if fallback is None
-                                 else compensator.outside_mask(joints))
-
-    def moved_fallback(self, chain):
-        """The fallback's chain with the change of frames (and joint offsets) that takes the
-        chosen model's chain to ``chain``: the same new base, and the same change of the tool
-        in the flange frame (the fallback keeps its own calibrated TCP offset)."""
-        frame = self.frame(chain)
-        turn = chain.tool @ invert(self.old.tool)
-        moved = self.fallback.replace(base=frame @ self.fallback.base, tool=turn @ self.fallback.tool)
-        change = chain.parameter_values(self.offsets) - self.old.parameter_values(self.offsets)
-        return moved.perturbed(self.offsets, change) if np.any(change) else moved
-
-    def frame(self, chain):
-        """T, old measurement frame → the one of ``chain``: the robot base stays put."""
-        return chain.base @ invert(self.old.base)
-
-    def joint_shift(self, chain):
-        """The change of the old readings for the same configuration when ``chain``'s joint
-        offsets differ from the old model's (rad, mm), or None when they do not."""
-        change = chain.parameter_values(self.offsets) - self.old.parameter_values(self.offsets)
-        if not np.any(change):
-            return None
-        return np.linalg.solve(chain.joint_map, change)
-
-    def moved_error_model(self, chain):
-        """The error model as ``chain``'s frame sees it (None without one)."""
-        if self.error_model is None:
-            return None
-        shift = self.joint_shift(chain) if self.error_input == "joints" else None
-        frame = self.frame(chain)
-        if isinstance(self.error_model, ReframedErrorModel):
-            return self.error_model.moved(frame, shift)
-        return ReframedErrorModel(self.error_model, frame, self.error_input, shift)
-
-    def predicted(self, chain):
-        """(positions (N, 3) mm, rotations (N, 3, 3) or None) that the model with ``chain``'s
-        frames predicts at the poses."""
-        if self.rotations is None:
-            pose_positions, pose_rotations = chain.fk_positions(self.q), None
-        else:
-            pose = chain.fk(self.q)
-            pose_positions, pose_rotations = pose[:, :3, 3], pose[:, :3, :3]
-        model = self.moved_error_model(chain)
-        if model is not None:
-            inputs = pose_positions if self.error_input == "position" else self.q
-            pose_positions = pose_positions + model.predict(inputs)
-        out = self.answered_outside
-        if out.any():
-            fallback = self.moved_fallback(chain)
-            pose_positions = pose_positions.copy()
-            if pose_rotations is None:
-                pose_positions[out] = fallback.fk_positions(self.q[out])
-            else:
-                pose = fallback.fk(self.q[out])
-                pose_positions[out], pose_rotations = pose[:, :3, 3], pose_rotations.copy()
-                pose_rotations[out] = pose[:, :3, :3]
-        return pose_positions, pose_rotations
-
-    def residual(self, chain):
-        """Measured minus predicted, (N, 3) mm, or (N, 6) with the rotation vector (rad)."""
-        positions, rotations = self.predicted(chain)
-        out = self.positions - positions
-        if self.rotations is not None:
-            out = np.hstack([out, so3_log(self.rotations @ np.swapaxes(rotations, 1, 2))])
-        return out
-
-    def jacobian(self, chain, names):
-        """The weighted derivative of the prediction, (N·rows, P): the chain's analytic
-        identification Jacobian (the error model's change is second order, see the module notes)."""
-        jac = chain.identification_jacobian(self.q, names)[:, :self.rows, :]
-        out = self.answered_outside
-        if out.any():
-            jac[out] = self.moved_fallback(chain).identification_jacobian(self.q[out], names)[:, :self.rows, :]
-        return (jac * self.weights[:, :, None]).reshape(-1, len(names))
-
-    def steps(self, prior=None):
-        """The analyse / fit / linearise steps :func:`~robocal.estimation.identification.identify`
-        takes; ``prior``: the joint offsets' tolerances (frames have none)."""
-
-        def weighted(chain):
-            return (self.residual(chain) * self.weights).reshape(-1)
-
-        def analyse_at(chain, candidates):
-            scaled = self.jacobian(chain, candidates)
-            _, report = analyse(chain, scaled, candidates, explain=False)
-            return Analysis(report.identified, lambda: analyse(chain, scaled, candidates)[1])
-
-        def fit(chain, names):
-            return damped_least_squares(chain, names, lambda c: (weighted(c), -self.jacobian(c, names)), weighted,
-                                        max_iterations=MAX_ITERATIONS, tolerance=1e-10, prior=prior)
-
-        def linearise(found, names):
-            return weighted(found.chain), -self.jacobian(found.chain, names)
-
-        return {"analyse": analyse_at, "fit": fit, "linearise": linearise}
-
-
 # ---------------------------------------------------------------- the function
 def reregister(fitted, observations, parameters="frames", *, robot=None):
     """The fitted method carried to the set-up of ``observations``: its frames identified
@@ -375,7 +246,8 @@ def _reregister(fitted, observations, parameters, robot):
     # The one data check every method meets: can these be this robot's poses, in mm and degrees?
     check_robot_data(compensator.controller if compensator.controller is not None else compensator.nominal,
                      observations)
-    problem = _Problem(compensator, q, positions, rotations, _weights(observations, use_rotations))
+    problem = FrameProblem(compensator, q, positions, rotations, _weights(observations, use_rotations),
+                           max_iterations=MAX_ITERATIONS)
     before = error_stats(positions - fitted.predict(q))
     # The tracker may have moved by metres and turned by anything: a rigid fit of the model's
     # positions onto the measured ones starts the Gauss-Newton steps near the answer.
