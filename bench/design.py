@@ -297,7 +297,7 @@ def curve(name, case, draws, floor_count, sizes=SIZES):
         designs = [design_poses(case.chain, n, case.candidates, parameters=case.parameters, seed=seed)
                    for seed in range(DESIGN_SEEDS)]
         noisy = [design_poses(case.chain, n, case.candidates, parameters=case.parameters, seed=seed,
-                              joint_noise=JOINT_NOISE, sag=SAG) for seed in range(DESIGN_SEEDS)]
+                              joint_noise_deg=JOINT_NOISE, sag_deg=SAG) for seed in range(DESIGN_SEEDS)]
         d_optimal = design_poses(case.chain, n, case.candidates, criterion="d-optimal", parameters=case.parameters)
         bound = bound_set(oracle, n, [d.indices for d in designs[:BOUND_STARTS] + noisy[:BOUND_STARTS]])
         found = [case.repeated([d.indices for d in designs], draws),
@@ -340,7 +340,7 @@ def speed():
             start = time.process_time()
             cand = joint_candidates(chain, 10_000, seed=0)
             drawn = time.process_time()
-            design = design_poses(chain, 30, cand, joint_noise=joint_noise, sag=sag)
+            design = design_poses(chain, 30, cand, joint_noise_deg=joint_noise, sag_deg=sag)
             runs.append((drawn - start, time.process_time() - drawn))
         best = min(runs, key=sum)
         print(f"\n== speed: 30 of 10,000 candidates, KR 150-2 full set ({len(design.names)} identifiable parameters), "

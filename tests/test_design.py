@@ -234,14 +234,14 @@ def test_the_sag_counts_for_parameters_without_compliance_only():
     chain = builtin("kr150-2")
     candidates = joint_candidates(chain, 2000, seed=0)
     plain = design_poses(chain, 20, candidates)
-    sagging = design_poses(chain, 20, candidates, sag=0.05)
-    assert sagging.sag == 0.05 and sagging.to_dict()["sag_deg"] == 0.05
+    sagging = design_poses(chain, 20, candidates, sag_deg=0.05)
+    assert sagging.sag_deg == 0.05 and sagging.to_dict()["sag_deg"] == 0.05
     assert sagging.model_rms > plain.model_rms and sagging.model_rms < sagging.random_model_rms
     assert not np.array_equal(np.sort(sagging.indices), np.sort(plain.indices))
     compliant = design_poses(chain, 20, candidates, parameters="full+compliance")
-    ignored = design_poses(chain, 20, candidates, parameters="full+compliance", sag=0.05)
+    ignored = design_poses(chain, 20, candidates, parameters="full+compliance", sag_deg=0.05)
     np.testing.assert_array_equal(compliant.indices, ignored.indices)
-    assert ignored.sag == 0.0 and ignored.model_rms == compliant.model_rms
+    assert ignored.sag_deg == 0.0 and ignored.model_rms == compliant.model_rms
     # The predicted error of the sagging design is the criterion recomputed from scratch.
     info = information_model(chain, candidates)
     shapes = sag_columns(chain, candidates, 0.05)
@@ -267,7 +267,7 @@ def test_the_joint_noise_design_predicts_the_held_out_error_that_backlash_gives(
     test_q = chain.random_configurations(400, np.random.default_rng(9))
     test_p = truth.measure(test_q, np.random.default_rng(10))
     plain = design_poses(chain, 20, candidates, order="random")
-    noisy = design_poses(chain, 20, candidates, order="random", joint_noise=0.01)
+    noisy = design_poses(chain, 20, candidates, order="random", joint_noise_deg=0.01)
     measured = []
     for s in range(4):
         q = noisy.joints[np.random.default_rng(s).permutation(20)]
@@ -280,7 +280,7 @@ def test_the_joint_noise_design_predicts_the_held_out_error_that_backlash_gives(
     C = joint_covariance(chain, candidates, info.sigma, 0.01)
     direct = np.sqrt(-_sandwich_direct(info, list(noisy.indices), target_weight(info), C))
     assert noisy.model_rms == pytest.approx(direct, rel=1e-6)
-    assert noisy.joint_noise == 0.01 and noisy.to_dict()["joint_noise_deg"] == 0.01
+    assert noisy.joint_noise_deg == 0.01 and noisy.to_dict()["joint_noise_deg"] == 0.01
     assert noisy.model_rms < noisy.random_model_rms
 
 

@@ -13,12 +13,12 @@ that learn the error as a function of the joints; ``variance`` serves them too, 
 pose at a time where a Gaussian-process prior over the joints' sines and cosines is least
 certain given the poses before.  See :mod:`robocal.planning.criteria`.
 
-A joint noise (``joint_noise``, deg: gear backlash or play at every joint, which no
+A joint noise (``joint_noise_deg``, deg: gear backlash or play at every joint, which no
 calibration models) makes a pose's reading noisier the further the arm reaches
 (:func:`robocal.planning.information.joint_covariance`); ``prediction`` then minimises the
 sandwich covariance of the least-squares fit at the targets
 (:class:`robocal.planning.criteria.SandwichState`), and the predicted held-out error counts
-the targets' own joint noise.  A sag (``sag``, deg: how far gravity bends the most loaded
+the targets' own joint noise.  A sag (``sag_deg``: how far gravity bends the most loaded
 joint) is, for a parameter set without compliances, a systematic error of unknown size that
 the fit leaves out (:func:`robocal.planning.information.sag_columns`); ``prediction`` then
 also minimises its expected effect at the targets, which favours poses whose sag the
@@ -65,8 +65,8 @@ class Design:
     their rows among the candidates; criterion; exchanges: exchange steps after the greedy
     selection; names: the identifiable parameters; std_errors: (P,) predicted standard errors
     (rad, mm, ...; file_units converts to units, as files show them); fixed: {name: reason} for those the candidates
-    cannot determine; noise: (mean) standard deviation of a reading, mm; joint_noise: deg at
-    every revolute joint (0: none); sag: deg, the gravity bending the parameters leave out
+    cannot determine; noise: (mean) standard deviation of a reading, mm; joint_noise_deg: deg at
+    every revolute joint (0: none); sag_deg: deg, the gravity bending the parameters leave out
     (0: none, or the parameter set has compliances); model_rms: predicted
     RMS error of the calibrated TCP over the targets (mm, without the reading's own noise);
     held_out_rms / held_out_mean: the same with the noise of a held-out reading added;
@@ -102,14 +102,14 @@ class Design:
     n_existing: int
     max_variance: float | None = None
     variance_prior: str | None = None
-    joint_noise: float = 0.0
-    sag: float = 0.0
+    joint_noise_deg: float = 0.0
+    sag_deg: float = 0.0
 
     def to_dict(self):
         return {
             "poses": int(len(self.joints)), "candidates": self.n_candidates, "existing": self.n_existing,
             "criterion": self.criterion, "exchanges": self.exchanges, "noise_mm": self.noise,
-            "joint_noise_deg": self.joint_noise, "sag_deg": self.sag,
+            "joint_noise_deg": self.joint_noise_deg, "sag_deg": self.sag_deg,
             "predicted": {"model_rms_mm": self.model_rms, "held_out_rms_mm": self.held_out_rms,
                           "held_out_mean_mm": self.held_out_mean, "random_model_rms_mm": self.random_model_rms},
             "o1": self.o1, "noise_amplification": self.noise_amplification,
@@ -207,7 +207,7 @@ class _Prediction:
 
 def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, parameters="full", noise=0.02,
                  tracker=None, targets=None, existing=None, payload=None, refine=True, seed=0, order="tour",
-                 kernel=None, joint_noise=0.0, sag=0.0, progress=None):
+                 kernel=None, joint_noise_deg=0.0, sag_deg=0.0, progress=None):
     """Choose ``count`` of ``candidates`` (N, n) rad to measure for a calibration of
     ``parameters`` (a parameter set) and predict the result.
 
@@ -218,10 +218,10 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
     model will not explain (tracker noise plus the robot's unmodelled errors, e.g. an earlier
     calibration's residual RMS / sqrt(3)) and the predicted errors become held-out figures.
     tracker: its position (mm, robot base frame) when its noise grows with distance.
-    joint_noise: standard deviation (deg) of an error at every revolute joint that the
+    joint_noise_deg: standard deviation (deg) of an error at every revolute joint that the
     calibration does not model, gear backlash or play (module notes; 0: none): the
     ``prediction`` criterion and the summary count it, the other criteria choose as
-    without it.  sag: how far gravity bends the most loaded joint (deg), for a parameter set
+    without it.  sag_deg: how far gravity bends the most loaded joint (deg), for a parameter set
     without compliances (module notes; 0: none; ignored with compliances), counted as the
     joint noise is.  targets: (T, n) rad, where the robot will work (default: the candidates).  existing:
     (k, n) rad poses measured before, which the design complements (the tour starts next to
@@ -251,19 +251,19 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
         raise InputError(f"{count} poses{f' and {n_before} measured before' if n_before else ''} give "
                          f"{3 * (count + n_before)} equations for the {p} parameters the calibration identifies: "
                          f"ask for at least {need} poses (2 to 3 times as many is better), or a smaller parameter set")
-    C = joint_covariance(chain, q, info.sigma, joint_noise)
+    C = joint_covariance(chain, q, info.sigma, joint_noise_deg)
     before_sigma = None if before is None else noise_of(chain, before, noise, tracker)
     before_blocks = None if before is None else info.rows_of(before, before_sigma)
     start = information_start(info.blocks, before_blocks)
     B_start = start
     if C is not None and before is not None:
-        excess = joint_covariance(chain, before, before_sigma, joint_noise) - np.eye(3)
+        excess = joint_covariance(chain, before, before_sigma, joint_noise_deg) - np.eye(3)
         B_start = start + np.einsum("kip,kij,kjq->pq", before_blocks, excess, before_blocks)
     target_q = None if targets is None else _check_joints(chain, targets, "target")
     W = target_weight(info, target_q)
     prediction = _Prediction(info, W, start, B_start, C)
     if "compliance" not in parameter_terms(parameters):
-        prediction = _with_sag(prediction, chain, q, before, before_blocks, before_sigma, target_q, sag, payload)
+        prediction = _with_sag(prediction, chain, q, before, before_blocks, before_sigma, target_q, sag_deg, payload)
     if criterion == "space-filling":
         points, points_before = spacing_points(chain, q, before)
         state = SpacingState(points, points_before)
@@ -294,35 +294,35 @@ def design_poses(chain, count, candidates, *, criterion=DEFAULT_CRITERION, param
     chosen_in_order = chosen[order]
     progress(stage="predicting the result")
     design = _summary(chain, info, q, chosen_in_order, chosen, criterion, steps, prediction, before, before_blocks,
-                      seed, joint_noise, target_q)
-    design = replace(design, sag=float(sag) if prediction.bias is not None else 0.0)
+                      seed, joint_noise_deg, target_q)
+    design = replace(design, sag_deg=float(sag_deg) if prediction.bias is not None else 0.0)
     if criterion == "variance":
         design = replace(design, max_variance=-state.score, variance_prior=kernel.source)
     return design
 
 
-def _with_sag(prediction, chain, q, before, before_blocks, before_sigma, target_q, sag, payload):
+def _with_sag(prediction, chain, q, before, before_blocks, before_sigma, target_q, sag_deg, payload):
     """``prediction`` with the sag's shapes (:func:`sag_columns`) for a parameter set that
     leaves it out; as it was when the sag is 0 or no joint is loaded."""
     info = prediction.info
-    columns = sag_columns(chain, q, sag, payload=payload)
+    columns = sag_columns(chain, q, sag_deg, payload=payload)
     if columns is None:
         return prediction
     where = q if target_q is None else target_q
-    at_targets = columns if target_q is None else sag_columns(chain, where, sag, reference=q, payload=payload)
+    at_targets = columns if target_q is None else sag_columns(chain, where, sag_deg, reference=q, payload=payload)
     rows = info.blocks * info.sigma[:, None, None] if target_q is None else info.rows_of(target_q)
     r = np.einsum("tip,tim->pm", rows, at_targets) / len(rows)
     floor = float(np.mean(np.sum(at_targets ** 2, axis=(1, 2))))
     g_start = np.zeros((info.n_parameters, columns.shape[2]))
     if before is not None:
-        weighted = sag_columns(chain, before, sag, reference=q, payload=payload) / before_sigma[:, None, None]
+        weighted = sag_columns(chain, before, sag_deg, reference=q, payload=payload) / before_sigma[:, None, None]
         g_start = np.einsum("kip,kim->pm", before_blocks, weighted)
     return _Prediction(info, prediction.W, prediction.start, prediction.B_start, prediction.C,
                        bias=columns / info.sigma[:, None, None], r=r, g_start=g_start, floor=floor)
 
 
 def _summary(chain, info, q, chosen, order_of_choice, criterion, steps, prediction, before, before_blocks, seed,
-             joint_noise, target_q):
+             joint_noise_deg, target_q):
     C = prediction.C
     p = info.n_parameters
     blocks = info.blocks[chosen]
@@ -339,7 +339,7 @@ def _summary(chain, info, q, chosen, order_of_choice, criterion, steps, predicti
     if C is not None:
         where = q if target_q is None else target_q
         jac = chain.rigid.jacobian(where)[:, :3, :] * np.where(chain.revolute, 1.0, 0.0)
-        reading += np.radians(joint_noise) ** 2 * float(np.mean(np.sum(jac ** 2, axis=(1, 2))))
+        reading += np.radians(joint_noise_deg) ** 2 * float(np.mean(np.sum(jac ** 2, axis=(1, 2))))
     held_out = float(np.sqrt(model_rms ** 2 + reading))
     random_rms = None
     count = len(chosen)
@@ -357,7 +357,7 @@ def _summary(chain, info, q, chosen, order_of_choice, criterion, steps, predicti
         condition_number=report.condition_number,
         tour_length=_degrees(chain, path_length(q[chosen], start=start_pose)),
         given_length=_degrees(chain, path_length(q[order_of_choice], start=start_pose)),
-        n_candidates=len(q), n_existing=0 if before is None else len(before), joint_noise=float(joint_noise))
+        n_candidates=len(q), n_existing=0 if before is None else len(before), joint_noise_deg=float(joint_noise_deg))
 
 
 def _degrees(chain, length):

@@ -97,30 +97,30 @@ def noise_of(chain, joints, noise, tracker=None, per_metre=TRACKER_PER_METRE):
     return np.sqrt(noise ** 2 + (per_metre * distance / 1000.0) ** 2)
 
 
-def joint_covariance(chain, joints, sigma, joint_noise):
+def joint_covariance(chain, joints, sigma, joint_noise_deg):
     """(N, 3, 3) covariance of each pose's position reading relative to sigma^2 (``sigma``
     (N,) mm, the reading's own noise): I + (b / sigma)^2 J_q J_q^T over the revolute joints,
-    b = ``joint_noise`` deg (module notes).  None when the joint noise is 0."""
-    joint_noise = float(joint_noise)
-    if not np.isfinite(joint_noise) or joint_noise < 0:
-        raise InputError(f"the joint noise must be a standard deviation >= 0 deg, got {joint_noise}")
-    if joint_noise == 0:
+    b = ``joint_noise_deg`` deg (module notes).  None when the joint noise is 0."""
+    joint_noise_deg = float(joint_noise_deg)
+    if not np.isfinite(joint_noise_deg) or joint_noise_deg < 0:
+        raise InputError(f"the joint noise must be a standard deviation >= 0 deg, got {joint_noise_deg}")
+    if joint_noise_deg == 0:
         return None
     jac = chain.rigid.jacobian(np.asarray(joints, dtype=float))[:, :3, :] * np.where(chain.revolute, 1.0, 0.0)
-    relative = np.radians(joint_noise) / np.asarray(sigma, dtype=float)
+    relative = np.radians(joint_noise_deg) / np.asarray(sigma, dtype=float)
     return np.eye(3) + relative[:, None, None] ** 2 * np.einsum("kij,klj->kil", jac, jac)
 
 
-def sag_columns(chain, joints, sag, *, reference=None, payload=None):
+def sag_columns(chain, joints, sag_deg, *, reference=None, payload=None):
     """(N, 3, k) mm: the TCP displacement at ``joints`` (N, n) rad of each of the k loaded
-    joints (:func:`~robocal.kinematics.compliant.with_compliance`) bending by ``sag`` deg
+    joints (:func:`~robocal.kinematics.compliant.with_compliance`) bending by ``sag_deg`` deg
     times its gravity torque over the largest torque of any joint over ``reference`` (default
     ``joints``): the shapes of the sag a parameter set without compliances leaves out (module
     notes).  None when the sag is 0."""
-    sag = float(sag)
-    if not np.isfinite(sag) or sag < 0:
-        raise InputError(f"the sag must be an angle >= 0 deg, got {sag}")
-    if sag == 0:
+    sag_deg = float(sag_deg)
+    if not np.isfinite(sag_deg) or sag_deg < 0:
+        raise InputError(f"the sag must be an angle >= 0 deg, got {sag_deg}")
+    if sag_deg == 0:
         return None
     q = np.asarray(joints, dtype=float)
     compliant, names = with_compliance(chain, q if reference is None else reference, payload)
@@ -130,7 +130,7 @@ def sag_columns(chain, joints, sag, *, reference=None, payload=None):
         return None
     torque = compliant.gravity_torque(q)[:, loaded] / largest
     jac = chain.rigid.jacobian(q)[:, :3, :][:, :, loaded]
-    return jac * torque[:, None, :] * np.radians(sag)
+    return jac * torque[:, None, :] * np.radians(sag_deg)
 
 
 def information_model(chain, joints, parameters="full", *, noise=0.02, tracker=None, payload=None):

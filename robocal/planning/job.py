@@ -100,7 +100,7 @@ def _variance_kernel(path, chain, parameters, payload):
 def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters="full", candidates=None,
                pool=DEFAULT_COUNT, sampling="uniform", box=None, rpy=None, hint=None, tool=None,
                margin=MARGIN_DEG, existing=None, targets=None, noise=None, tracker=None, payload=None,
-               order="tour", root=None, tip=None, joint_noise=0.0, sag=0.0, volume=None, progress=None):
+               order="tour", root=None, tip=None, joint_noise_deg=0.0, sag_deg=0.0, volume=None, progress=None):
     """Design ``n`` poses for ``robot`` and write them to ``out`` (module notes); returns the
     JSON-ready result: the design's :meth:`~robocal.planning.Design.to_dict` and where the
     candidates, the noise and the poses came from and went.  ``volume``: the
@@ -155,7 +155,7 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
     design = design_poses(chain, n, q, criterion=criterion, parameters=parameters,
                           noise=0.02 if noise is None else noise, tracker=tracker, targets=target_q,
                           existing=before, payload=payload, seed=seed, order=order, kernel=kernel,
-                          joint_noise=joint_noise, sag=sag, progress=progress)
+                          joint_noise_deg=joint_noise_deg, sag_deg=sag_deg, progress=progress)
     write_poses(out, chain, design.joints)
     return {"robot": chain.name, "out": str(out), "candidates_from": source, "noise_from": noise_note,
             "working_volume": ("your candidates, as given" if candidates is not None else volume.describe()),

@@ -216,7 +216,8 @@ def design(robot: str = ROBOT, *, n: int,
                                 candidates=candidates, pool=pool, sampling=sampling, box=box, rpy=rpy, hint=hint,
                                 tool=tool, margin=margin, existing=existing, targets=targets, noise=noise,
                                 tracker=tracker, payload=payload, order=order, root=root, tip=tip,
-                                joint_noise=joint_noise, sag=sag, volume=WorkingVolume(parse_floor(floor), walls),
+                                joint_noise_deg=joint_noise, sag_deg=sag,
+                                volume=WorkingVolume(parse_floor(floor), walls),
                                 progress=lambda **info: advance(steps=0, **info))
     if as_json:
         print_json(result)
