@@ -109,11 +109,3 @@ def test_a_calibrated_urdf_export_is_a_robot_file(tmp_path):
     outcome = invoke(tmp_path, ["evaluate", "again.json", "ur5.csv", "--json"])
     assert json.loads(outcome.result.stdout)["mean_mm"] < 0.1
 
-
-def test_exporting_an_error_model_says_what_the_file_leaves_out(tmp_path):
-    prepare(tmp_path)
-    outcome = invoke(tmp_path, ["calibrate", "ur5", "ur5.csv", "--method", "hybrid", "--out", "h.json"])
-    assert outcome.code == 0, outcome.output
-    outcome = invoke(tmp_path, ["export", "h.json", "--out", "e.toml"])
-    assert outcome.code == 0, outcome.output
-    assert "left out of the TOML file: the kriging model" in outcome.output
