@@ -40,7 +40,7 @@ def _plain(lines):
 RUNS = [
     ("simulate", ["simulate", "ur5", "--n", "30", "--seed", "4", "--out", "s.csv"]),
     ("calibrate", ["calibrate", "ur5", "ur5.csv", "--out", "o.json"]),
-    ("calibrate-ann", ["calibrate", "ur5", "ur5.csv", "--method", "ann", "--generations", "20", "--hidden", "4,4", "--accept-extrapolation", "--out", "a.json"]),
+    ("calibrate-ann", ["calibrate", "ur5", "ur5.csv", "--method", "ann", "--generations", "5", "--hidden", "4,4", "--accept-extrapolation", "--out", "a.json"]),
     ("evaluate", ["evaluate", "ur5_model.json", "ur5.csv"]),
     ("compensate", ["compensate", "ur5_model.json", "targets.csv", "--out", "c.csv"]),
     ("design", ["design", "ur5", "--n", "12", "--pool", "200", "--out", "p.csv"]),
