@@ -33,7 +33,7 @@ def _ok(*args):
     return result
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def base_files():
     """A folder of the files a user has after the README's first steps (read-only for the
     tables: each row runs in a copy)."""

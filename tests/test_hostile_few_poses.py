@@ -1,10 +1,11 @@
+# ruff: noqa: E501  (one input per table row)
 """Hostile inputs: too few poses and clustered poses, for every method. Each is refused in one
 line saying how many poses (or configurations per socket) the method needs, and nothing is
 written."""
 import numpy as np
 import pytest
 
-from hostile import refuse, text
+from hostile import refuse
 
 
 def first(n, name="ur5.csv"):

@@ -1,3 +1,4 @@
+# ruff: noqa: E501  (one input per table row)
 """Hostile inputs: broken files. Wrong encodings, truncated or corrupted CSV / JSON / TOML /
 URDF, wrong types inside valid files, NaN and inf, empty files, duplicate columns, BOMs, CRLF,
 semicolons and decimal commas. Each is refused in one line naming the file (and row, column or

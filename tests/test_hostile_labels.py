@@ -1,3 +1,4 @@
+# ruff: noqa: E501  (one input per table row)
 """Hostile inputs: labels that claim what was not checked. evaluate and report given the
 training file itself, or the training poses reordered, subset, duplicated, with columns
 moved or rounded, count them as training poses (never as held-out ones), and the report says

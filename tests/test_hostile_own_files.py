@@ -1,3 +1,4 @@
+# ruff: noqa: E501  (one input per table row)
 """Hostile inputs: robocal's own files given back to it as the wrong kind (a model as
 measurements, compensate's commands as targets, a design plan as a fleet file, a report as a
 model...), data of one robot given as another's, and ball-in-socket data given to the position

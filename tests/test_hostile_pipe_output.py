@@ -1,3 +1,4 @@
+# ruff: noqa: E501  (one input per table row)
 """Hostile reading: what a user sees in a pipe or an 80-column log. Help text that fits 80
 columns without a word broken or an option name cut, command output without control
 characters (carriage returns, escape sequences) or repeated lines, and a refusal that is one

@@ -1,3 +1,4 @@
+# ruff: noqa: E501  (one input per table row)
 """Hostile inputs: plans the robot cannot execute. design, simulate and iso9283 plan options
 that put every pose below the floor, beyond the reach or outside the walls are refused in one
 line saying what to change, and nothing is written."""

@@ -1,3 +1,4 @@
+# ruff: noqa: E501  (one input per table row)
 """Hostile inputs: outputs that cannot be written, or commands that fail after choosing them.
 Each is refused in one line before any work, and leaves no file or folder behind (nor a
 partial program in a filter's output folder)."""

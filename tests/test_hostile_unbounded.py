@@ -1,3 +1,4 @@
+# ruff: noqa: E501  (one input per table row)
 """Hostile inputs: unbounded work. Endless inputs (/dev/zero, a FIFO nobody writes, stdin),
 lines of megabytes, and option values that would take hours or terabytes are refused in one
 line at once, before any work, and nothing is written."""

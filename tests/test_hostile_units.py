@@ -1,3 +1,4 @@
+# ruff: noqa: E501  (one input per table row)
 """Hostile inputs: wrong units on the numbers a user types or a file carries: metres, cm,
 inches or micrometres for mm, radians for degrees, in CSV columns, options (--box, --tool,
 --rpy, --hint, --tracker, --walls, --region), fixture spacings and robot files. Untagged, each
