@@ -1,0 +1,142 @@
+"""Shared by the tests/test_hostile_*.py tables: realistic robocal files made once per run
+(simulated, calibrated, compensated, evaluated, designed, reported, exported, as a new user
+would make them with the CLI), and one way to run a hostile input against them and judge the
+outcome: a clean refusal (non-zero exit, one line, no traceback, nothing written) or a
+correct answer.
+
+The inputs of these tables were written from the README and each verb's --help, without
+reading robocal's source; each row is an input a user could plausibly give."""
+import atexit
+import functools
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import warnings
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from robocal.interfaces.cli import app
+
+REPO = Path(__file__).resolve().parents[1]
+EXAMPLES = REPO / "examples"
+runner = CliRunner()
+
+
+def _ok(*args):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = runner.invoke(app, [str(a) for a in args])
+    assert result.exit_code == 0, result.output
+    return result
+
+
+@functools.cache
+def base_files():
+    """A folder of the files a user has after the README's first steps (read-only for the
+    tables: each row runs in a copy)."""
+    root = Path(tempfile.mkdtemp(prefix="robocal-hostile-"))
+    atexit.register(shutil.rmtree, root, True)
+    old = os.getcwd()
+    os.chdir(root)
+    try:
+        shutil.copy(EXAMPLES / "plate-fixture.toml", "plate.toml")
+        shutil.copy(EXAMPLES / "ur5-targets.csv", "targets.csv")
+        _ok("simulate", "ur5", "--n", "60", "--errors", "typical", "--seed", "1",
+            "--out", "ur5.csv", "--truth", "ur5_truth.json")
+        _ok("simulate", "kr150-2", "--n", "60", "--errors", "typical", "--seed", "2", "--out", "kr.csv")
+        _ok("calibrate", "ur5", "ur5.csv", "--out", "ur5_model.json")
+        _ok("calibrate", "kr150-2", "kr.csv", "--out", "kr_model.json")
+        _ok("compensate", "ur5_model.json", "targets.csv", "--out", "cmds.csv")
+        _ok("evaluate", "ur5_model.json", "ur5.csv", "--per-pose", "perpose.csv")
+        _ok("design", "ur5", "--n", "12", "--pool", "300", "--out", "plan.csv")
+        _ok("simulate", "kr150-2", "--sampling", "sockets", "--fixture", "plate.toml",
+            "--placements", "4", "--per-socket", "6", "--out", "sockets.csv")
+        _ok("calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "plate.toml",
+            "--out", "sock_model.json")
+        _ok("report", "ur5_model.json", "ur5.csv", "--out", "report.html")
+        _ok("export", "ur5_model.json", "--out", "ur5_cal.toml")
+        _ok("export", "ur5_model.json", "--out", "ur5_cal.urdf")
+        _ok("iso9283", "plan", "ur5", "--out", "iso.csv")
+    finally:
+        os.chdir(old)
+    for path in root.iterdir():
+        path.chmod(0o444)
+    return root
+
+
+def text(name):
+    return (base_files() / name).read_text()
+
+
+def prepare(folder, files=None):
+    """Copy the base files into ``folder`` and write ``files`` (name -> str, bytes, or a
+    callable of the base folder giving either)."""
+    folder = Path(folder)
+    for path in base_files().iterdir():
+        shutil.copy(path, folder / path.name)
+        (folder / path.name).chmod(0o644)
+    for name, content in (files or {}).items():
+        if callable(content):
+            content = content(base_files())
+        if isinstance(content, bytes):
+            (folder / name).write_bytes(content)
+        else:
+            with open(folder / name, "w", newline="") as stream:
+                stream.write(content)
+    return folder
+
+
+class Outcome:
+    def __init__(self, result, lines, new):
+        self.result, self.lines, self.new = result, lines, new
+        self.code = result.exit_code
+        self.output = result.output
+
+
+def invoke(folder, args):
+    """Run ``robocal ARGS`` in ``folder``; the outcome with every line a user would read
+    (robocal's warnings included) and the files it left."""
+    folder = Path(folder)
+    before = {p.name for p in folder.iterdir()}
+    old = os.getcwd()
+    os.chdir(folder)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = runner.invoke(app, [str(a) for a in args])
+    finally:
+        os.chdir(old)
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    lines += [f"warning: {w.message}" for w in caught if "robocal" in str(w.filename)]
+    new = sorted({p.name for p in folder.iterdir()} - before)
+    return Outcome(result, lines, new)
+
+
+def assert_clean_refusal(outcome, says):
+    out = outcome.output
+    assert outcome.code not in (0, None), out
+    assert "Traceback" not in out, out
+    exc = outcome.result.exception
+    assert exc is None or isinstance(exc, SystemExit), repr(exc)
+    assert len(outcome.lines) == 1, outcome.lines
+    assert outcome.lines[0].startswith("error:"), outcome.lines
+    assert says in outcome.lines[0], outcome.lines[0]
+    assert outcome.new == [], outcome.new
+
+
+def refuse(folder, args, files, says):
+    prepare(folder, files)
+    outcome = invoke(folder, args)
+    assert_clean_refusal(outcome, says)
+    return outcome
+
+
+def run_process(folder, args, timeout=30, env=None, stdin=subprocess.DEVNULL):
+    """``python -m robocal ARGS`` in ``folder`` as a user runs it, output in a pipe."""
+    environment = dict(os.environ, PYTHONPATH=str(REPO), COLUMNS="80", **(env or {}))
+    return subprocess.run([sys.executable, "-m", "robocal", *map(str, args)], cwd=folder,
+                          env=environment, capture_output=True, text=True, timeout=timeout,
+                          stdin=stdin)

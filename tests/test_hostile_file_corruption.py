@@ -1,0 +1,286 @@
+# ruff: noqa: E501  (one input per table row)
+"""Hostile inputs: broken files. Wrong encodings, truncated or corrupted CSV / JSON / TOML /
+URDF, wrong types inside valid files, NaN and inf, empty files, duplicate columns, BOMs, CRLF,
+semicolons and decimal commas. Each is refused in one line naming the file (and row, column or
+key) and what to do, never a traceback; the harmless variants (a BOM, CRLF, UTF-16, quoted
+numbers, trailing commas) give the same answer as the clean file."""
+import gzip
+import json
+
+import pytest
+
+from hostile import invoke, prepare, refuse, text
+
+
+def ur5(change):
+    return lambda base: change((base / "ur5.csv").read_text())
+
+
+def row(n, column):
+    """The text of cell (data row n, column index) of ur5.csv."""
+    return text("ur5.csv").splitlines()[n].split(",")[column]
+
+
+def with_header(change):
+    def make(base):
+        header, *body = (base / "ur5.csv").read_text().splitlines()
+        return change(header) + "\n" + "\n".join(body) + "\n"
+    return make
+
+
+CSV_REFUSED = [
+    ("utf-16-without-bom", ur5(lambda t: t.encode("utf-16-le")), "is not a text CSV file"),
+    ("semicolons", ur5(lambda t: t.replace(",", ";")), "is not comma-separated"),
+    ("semicolons-and-decimal-commas", ur5(lambda t: t.replace(",", ";").replace(".", ",")), "is not comma-separated"),
+    ("tabs", ur5(lambda t: t.replace(",", "\t")), "is not comma-separated"),
+    ("empty", lambda b: "", "is empty"),
+    ("blank-lines-only", lambda b: "\n\n\n", "is empty"),
+    ("header-only", ur5(lambda t: t.splitlines()[0] + "\n"), "has a header but no data rows"),
+    ("truncated-mid-row", ur5(lambda t: t[: len(t) // 2]), "cells but the header has 12 columns"),
+    ("nan-cell", ur5(lambda t: t.replace(row(4, 6), "nan", 1)), "'nan' is not a finite number"),
+    ("inf-cell", ur5(lambda t: t.replace(row(4, 7), "inf", 1)), "'inf' is not a finite number"),
+    ("empty-cell", ur5(lambda t: t.replace(row(4, 8), "", 1)), "the cell is empty"),
+    ("text-cell", ur5(lambda t: t.replace(row(4, 0), "abc", 1)), "'abc' is not a number"),
+    ("hex-float", ur5(lambda t: t.replace(row(3, 0), "0x1p3", 1)), "'0x1p3' is not a number"),
+    ("huge-number", ur5(lambda t: t.replace(row(3, 6), "1e308", 1)), "1e308 is beyond"),
+    ("duplicate-x", with_header(lambda h: h.replace(",y,", ",x,")), "column 'x' appears twice"),
+    ("duplicate-q1", with_header(lambda h: h.replace("q2", "q1")), "column 'q1' appears twice"),
+    ("upper-case-header", with_header(str.upper), "did you mean 'q1'?"),
+    ("five-joint-columns", ur5(lambda t: "\n".join(",".join(v for i, v in enumerate(r.split(",")) if i != 5) for r in t.splitlines()) + "\n"), "has 5 joint columns"),
+    ("seven-joint-columns", ur5(lambda t: "\n".join([t.splitlines()[0].replace("q6,", "q6,q7,")] + [",".join(r.split(",")[:6] + ["0"] + r.split(",")[6:]) for r in t.splitlines()[1:]]) + "\n"), "has 7 joint columns"),
+    ("nul-bytes", ur5(lambda t: t.replace("\n", "\x00\n", 3)), "is not a text CSV file"),
+    ("gzip", ur5(lambda t: gzip.compress(t.encode())), "is not a text CSV file"),
+    ("comment-line", ur5(lambda t: "# measured 2026\n" + t), "line 1 is a comment"),
+    ("negative-sigma", ur5(lambda t: t.replace(",0.02,0.02,0.02", ",-0.02,0.02,0.02", 2)), "a standard deviation must be > 0"),
+    ("zero-sigma", ur5(lambda t: t.replace(",0.02,0.02,0.02", ",0,0,0", 2)), "a standard deviation must be > 0"),
+]
+
+
+@pytest.mark.parametrize("verb", ["calibrate", "evaluate"])
+@pytest.mark.parametrize("content, says", [r[1:] for r in CSV_REFUSED], ids=[r[0] for r in CSV_REFUSED])
+def test_broken_measurement_file_is_refused(tmp_path, verb, content, says):
+    args = ["calibrate", "ur5", "f.csv", "--out", "o.json"] if verb == "calibrate" else ["evaluate", "ur5_model.json", "f.csv"]
+    refuse(tmp_path, args, {"f.csv": content}, says)
+
+
+CSV_SAME = [
+    ("utf-16", ur5(lambda t: t.encode("utf-16"))),
+    ("utf-32", ur5(lambda t: t.encode("utf-32"))),
+    ("bom", ur5(lambda t: ("\ufeff" + t).encode())),
+    ("bom-and-crlf", ur5(lambda t: ("\ufeff" + t).replace("\n", "\r\n").encode())),
+    ("crlf", ur5(lambda t: t.replace("\n", "\r\n"))),
+    ("cr-only", ur5(lambda t: t.replace("\n", "\r"))),
+    ("trailing-blank-lines", ur5(lambda t: t + "\n\n\n")),
+    ("trailing-commas", ur5(lambda t: "\n".join(r + "," for r in t.splitlines()) + "\n")),
+    ("spaces-after-commas-in-header", with_header(lambda h: h.replace(",", ", "))),
+    ("quoted-numbers", ur5(lambda t: "\n".join([t.splitlines()[0]] + [",".join(f'"{v}"' for v in r.split(",")) for r in t.splitlines()[1:]]) + "\n")),
+    ("extra-comment-column-latin-1", ur5(lambda t: ("\n".join([t.splitlines()[0] + ",comment"] + [r + ",café" for r in t.splitlines()[1:]]) + "\n").encode("latin-1"))),
+]
+
+
+@pytest.mark.parametrize("content", [r[1] for r in CSV_SAME], ids=[r[0] for r in CSV_SAME])
+def test_harmless_variant_evaluates_as_the_clean_file(tmp_path, content):
+    prepare(tmp_path, {"f.csv": content})
+    got = invoke(tmp_path, ["evaluate", "ur5_model.json", "f.csv", "--json"])
+    want = invoke(tmp_path, ["evaluate", "ur5_model.json", "ur5.csv", "--json"])
+    assert got.code == 0, got.output
+    assert json.loads(got.result.stdout)["mean_mm"] == pytest.approx(json.loads(want.result.stdout)["mean_mm"], rel=1e-9)
+
+
+@pytest.mark.parametrize("content", [CSV_SAME[0][1], CSV_SAME[3][1]], ids=["utf-16", "bom-and-crlf"])
+def test_harmless_variant_calibrates_as_the_clean_file(tmp_path, content):
+    prepare(tmp_path, {"f.csv": content})
+    assert invoke(tmp_path, ["calibrate", "ur5", "f.csv", "--out", "o.json"]).code == 0
+    got = invoke(tmp_path, ["evaluate", "o.json", "ur5.csv", "--json"])
+    want = invoke(tmp_path, ["evaluate", "ur5_model.json", "ur5.csv", "--json"])
+    assert json.loads(got.result.stdout)["mean_mm"] == pytest.approx(json.loads(want.result.stdout)["mean_mm"], rel=1e-6)
+
+
+def targets(change):
+    return lambda base: change((base / "targets.csv").read_text())
+
+
+TARGETS_REFUSED = [
+    ("empty", lambda b: "", "is empty"),
+    ("header-only", targets(lambda t: t.splitlines()[0] + "\n"), "has a header but no data rows"),
+    ("nan", targets(lambda t: t.replace("78.439", "nan")), "'nan' is not a finite number"),
+    ("inf", targets(lambda t: t.replace("-38.323", "inf")), "'inf' is not a finite number"),
+    ("semicolons-decimal-commas", targets(lambda t: t.replace(",", ";").replace(".", ",")), "is not comma-separated"),
+    ("duplicate-rx", targets(lambda t: t.replace("ry", "rx", 1)), "column 'rx' appears twice"),
+    ("truncated", targets(lambda t: t[: len(t) // 2]), "cells but the header has 12 columns"),
+]
+
+
+@pytest.mark.parametrize("content, says", [r[1:] for r in TARGETS_REFUSED], ids=[r[0] for r in TARGETS_REFUSED])
+def test_broken_targets_file_is_refused(tmp_path, content, says):
+    refuse(tmp_path, ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": content}, says)
+
+
+def model(change):
+    return lambda base: change((base / "ur5_model.json").read_text())
+
+
+def edited(key, value):
+    def change(t):
+        data = json.loads(t)
+        if value is KeyError:
+            data.pop(key)
+        else:
+            data[key] = value
+        return json.dumps(data)
+    return model(change)
+
+
+MODEL_KEYS = ["software_version", "created", "method", "robot", "kinematics", "reference", "error_model",
+              "training", "options", "domain", "bound"]
+MODEL_REFUSED = [
+    ("truncated", model(lambda t: t[: len(t) // 2]), "not JSON"),
+    ("empty", lambda b: "", "not JSON"),
+    ("empty-object", lambda b: "{}", 'no "schema": "robocal.model"'),
+    ("a-list", lambda b: "[]", 'no "schema": "robocal.model"'),
+    ("null", lambda b: "null", 'no "schema": "robocal.model"'),
+    ("nan-literal", model(lambda t: t.replace("89.159", "NaN", 1)), "holds NaN or infinite numbers"),
+    ("infinity-literal", model(lambda t: t.replace("89.159", "Infinity", 1)), "holds NaN or infinite numbers"),
+    ("trailing-garbage", model(lambda t: t + "xyz"), "Extra data"),
+    ("no-schema-version", edited("schema_version", KeyError), "has no 'schema_version'"),
+    ("schema-version-text", edited("schema_version", "x"), "'schema_version' in the model file has the wrong type"),
+    ("schema-version-from-the-future", edited("schema_version", 7), "schema version 7 is newer"),
+    ("no-checksum", edited("checksum", KeyError), "has no 'checksum'"),
+    ("checksum-a-number", edited("checksum", 7), "'checksum' in the model file has the wrong type"),
+    ("schema-a-number", edited("schema", 7), 'no "schema": "robocal.model"'),
+] + [(f"{key}-removed", edited(key, KeyError), "the checksum does not match") for key in MODEL_KEYS] + [
+    (f"{key}-a-text", edited(key, "x"), "the checksum does not match") for key in MODEL_KEYS]
+
+
+@pytest.mark.parametrize("content, says", [r[1:] for r in MODEL_REFUSED], ids=[r[0] for r in MODEL_REFUSED])
+def test_broken_model_file_is_refused(tmp_path, content, says):
+    refuse(tmp_path, ["evaluate", "m.json", "ur5.csv"], {"m.json": content}, says)
+
+
+@pytest.mark.parametrize("content", [model(lambda t: t.encode("utf-16")), model(lambda t: ("\ufeff" + t).encode()),
+                                     model(lambda t: t.replace("\n", "\r\n"))], ids=["utf-16", "bom", "crlf"])
+def test_re_encoded_model_file_still_loads(tmp_path, content):
+    prepare(tmp_path, {"m.json": content})
+    assert invoke(tmp_path, ["evaluate", "m.json", "ur5.csv"]).code == 0
+
+
+def robot(change):
+    return lambda base: change((base / "ur5_cal.toml").read_text())
+
+
+ROBOT_REFUSED = [
+    ("truncated", robot(lambda t: t[: len(t) // 2]), "is not valid TOML"),
+    ("empty", lambda b: "", "the robot file is empty"),
+    ("nan-length", robot(lambda t: t.replace("a = -424.88699409195016", "a = nan")), "joint 2 a must be finite"),
+    ("inf-length", robot(lambda t: t.replace("d = 89.159", "d = inf")), "joint 1 d must be finite"),
+    ("length-in-quotes", robot(lambda t: t.replace("a = -424.88699409195016", 'a = "-424.9"')), "joint 2 a must be a number"),
+    ("decimal-comma", robot(lambda t: t.replace("d = 89.159", "d = 89,159")), "is not valid TOML"),
+    ("boolean-twist", robot(lambda t: t.replace("alpha = 89.974877506513", "alpha = true")), "joint 1 alpha must be a number"),
+    ("min-above-max", robot(lambda t: t.replace("min = -360.0", "min = 400.0", 1)), "min 400.0 is above max 360.0"),
+    ("no-joints", robot(lambda t: t.split("[[joints]]")[0] + "[tool]\nxyz=[0,0,0]\n"), "no [[joints]] tables"),
+    ("one-joint", robot(lambda t: "[[joints]]".join(t.split("[[joints]]")[:2]) + "\n"), "but the robot has 1 joints"),
+    ("duplicate-key", robot(lambda t: t.replace("d = 89.159", "d = 89.159\nd = 90.0")), "Cannot overwrite a value"),
+    ("unknown-convention", robot(lambda t: t.replace('convention = "dh"', 'convention = "xyz"')), "convention must be one of 'dh', 'mdh', 'poe'"),
+    ("joints-single-brackets", robot(lambda t: t.replace("[[joints]]", "[joints]", 1)), "is not valid TOML"),
+    ("nul-bytes", robot(lambda t: t.replace("\n", "\x00\n", 2)), "is not a text file"),
+    ("negative-mass", robot(lambda t: t.replace("mass = 3.7", "mass = -3.7")), "masses must be 6 finite values >= 0 kg"),
+    ("twists-in-radians", robot(lambda t: t.replace("alpha = 89.974877506513", "alpha = 1.5703").replace("alpha = 89.98016539628473", "alpha = 1.5705").replace("alpha = -90.00040673157542", "alpha = -1.5708")), "explains 10% of the error"),
+]
+
+
+@pytest.mark.parametrize("content, says", [r[1:] for r in ROBOT_REFUSED], ids=[r[0] for r in ROBOT_REFUSED])
+def test_broken_robot_file_is_refused(tmp_path, content, says):
+    refuse(tmp_path, ["calibrate", "r.toml", "ur5.csv", "--out", "o.json"], {"r.toml": content}, says)
+
+
+def urdf(change):
+    return lambda base: change((base / "ur5_cal.urdf").read_text())
+
+
+BOMB = ('<?xml version="1.0"?><!DOCTYPE r [<!ENTITY a "aaaaaaaaaa">'
+        + "".join(f'<!ENTITY {n} "{("&" + p + ";") * 10}">' for p, n in zip("abcdefg", "bcdefgh"))
+        + ']><robot name="&h;"></robot>')
+URDF_REFUSED = [
+    ("truncated", urdf(lambda t: t[: len(t) // 2]), "is not well-formed XML"),
+    ("empty", lambda b: "", "is not well-formed XML"),
+    ("not-xml", lambda b: "hello", "is not well-formed XML"),
+    ("no-joints", lambda b: '<robot name="x"><link name="a"/></robot>', "no movable joint"),
+    ("billion-laughs", lambda b: BOMB, "is not well-formed XML"),
+    ("nan-origin", urdf(lambda t: t.replace('xyz="0.0 0.0 1.0"', 'xyz="nan 0.0 1.0"', 1)), "is not three numbers"),
+    ("decimal-comma", urdf(lambda t: t.replace('xyz="0.0 0.0 1.0"', 'xyz="0,0 0.0 1.0"', 1)), "is not three numbers"),
+    ("two-numbers", urdf(lambda t: t.replace('xyz="0.0 0.0 1.0"', 'xyz="0.0 1.0"', 1)), "is not three numbers"),
+]
+
+
+@pytest.mark.parametrize("content, says", [r[1:] for r in URDF_REFUSED], ids=[r[0] for r in URDF_REFUSED])
+def test_broken_urdf_is_refused(tmp_path, content, says):
+    refuse(tmp_path, ["calibrate", "r.urdf", "ur5.csv", "--out", "o.json"], {"r.urdf": content}, says)
+
+
+def fixture(change):
+    return lambda base: change((base / "plate.toml").read_text())
+
+
+FIXTURE_REFUSED = [
+    ("empty", lambda b: "", "has no [sockets] table"),
+    ("truncated", fixture(lambda t: t[:-20]), "is not valid TOML"),
+    ("no-sockets", lambda b: 'name = "x"\n', "has no [sockets] table"),
+    ("one-socket", lambda b: "[sockets]\nA = [0.0, 0.0, 0.0]\n", "needs at least two"),
+    ("nan", fixture(lambda t: t.replace("150.0", "nan")), "is not three finite numbers"),
+    ("two-coordinates", fixture(lambda t: t.replace("[150.0, 0.0, 0.0]", "[150.0, 0.0]")), "is not three finite numbers"),
+    ("coordinate-in-quotes", fixture(lambda t: t.replace("150.0", '"150"')), "is not three finite numbers"),
+    ("coincident-sockets", fixture(lambda t: t.replace("[150.0, 0.0, 0.0]", "[0.0, 0.0, 0.0]")), "are both at"),
+    ("sockets-an-array", lambda b: "sockets = [1,2,3]\n", "has no [sockets] table"),
+    ("socket-ids-not-in-data", fixture(lambda t: t.replace("A = ", "X = ")), "socket id(s) A are not in fixture"),
+    ("kilometre-spacing", fixture(lambda t: t.replace("150.0", "150000.0")), "150000.0 mm in fixture"),
+]
+
+
+@pytest.mark.parametrize("content, says", [r[1:] for r in FIXTURE_REFUSED], ids=[r[0] for r in FIXTURE_REFUSED])
+def test_broken_fixture_is_refused(tmp_path, content, says):
+    refuse(tmp_path, ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "f.toml", "--out", "o.json"],
+           {"f.toml": content}, says)
+
+
+FLEET = '[[robot]]\nname = "a"\nrobot = "ur5"\ntrain = "ur5.csv"\n'
+FLEET_REFUSED = [
+    ("empty", "", "lists no robots"),
+    ("unknown-top-key", 'title = "x"\n', "unknown key 'title' at the top"),
+    ("single-brackets", FLEET.replace("[[robot]]", "[robot]"), "must be [[robot]] tables (double brackets)"),
+    ("no-train", '[[robot]]\nname = "a"\nrobot = "ur5"\n', "no train"),
+    ("name-climbs-out", FLEET.replace('"a"', '"../evil"'), "is not a plain file name"),
+    ("name-empty", FLEET.replace('"a"', '""'), "name must be a non-empty text in quotes"),
+    ("name-a-number", FLEET.replace('"a"', "3"), "name must be a non-empty text in quotes"),
+    ("two-robots-one-name", FLEET + FLEET, "are both named 'a'"),
+    ("unknown-option", FLEET + "options = { foo = 1 }\n", "calibrate has no option --foo"),
+    ("option-of-wrong-type", FLEET + 'options = { seed = "x" }\n', "options.seed must be a whole number"),
+    ("option-nested", FLEET + "options = { parameters = { a = 1 } }\n", "options.parameters must be a text"),
+    ("option-out", FLEET + 'options = { out = "x.json" }\n', "calibrate has no option --out"),
+    ("unknown-method", FLEET + 'method = "magic"\n', "method must be one of"),
+    ("unknown-robot", FLEET.replace('"ur5"', '"ur99"'), "robot 'ur99' is neither a built-in robot"),
+    ("truncated", FLEET[:30], "is not valid TOML"),
+]
+
+
+@pytest.mark.parametrize("content, says", [r[1:] for r in FLEET_REFUSED], ids=[r[0] for r in FLEET_REFUSED])
+def test_broken_fleet_file_is_refused(tmp_path, content, says):
+    refuse(tmp_path, ["fleet", "fl.toml", "--out", "FO", "--jobs", "1"], {"fl.toml": content}, says)
+
+
+def truth(change):
+    return lambda base: change((base / "ur5_truth.json").read_text())
+
+
+TRUTH_REFUSED = [
+    ("empty", lambda b: "", "is not a JSON truth file"),
+    ("truncated", truth(lambda t: t[: len(t) // 2]), "is not a JSON truth file"),
+    ("a-list", lambda b: "[]", "not a robocal truth file"),
+    ("no-format", truth(lambda t: json.dumps({k: v for k, v in json.loads(t).items() if k != "format"})), "not a robocal truth file"),
+    ("format-a-text", truth(lambda t: json.dumps(dict(json.loads(t), format="x"))), "not a robocal truth file"),
+    ("version-a-text", truth(lambda t: json.dumps(dict(json.loads(t), version="x"))), "this robocal reads version 1"),
+]
+
+
+@pytest.mark.parametrize("content, says", [r[1:] for r in TRUTH_REFUSED], ids=[r[0] for r in TRUTH_REFUSED])
+def test_broken_truth_file_is_refused(tmp_path, content, says):
+    refuse(tmp_path, ["simulate", "ur5", "--n", "10", "--errors", "t.json", "--out", "s.csv"], {"t.json": content}, says)

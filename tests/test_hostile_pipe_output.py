@@ -1,0 +1,68 @@
+# ruff: noqa: E501  (one input per table row)
+"""Hostile reading: what a user sees in a pipe or an 80-column log. Help text that fits 80
+columns without a word broken or an option name cut, command output without control
+characters (carriage returns, escape sequences) or repeated lines, and a refusal that is one
+line on stderr with nothing on stdout."""
+import collections
+import re
+
+import pytest
+from typer.testing import CliRunner
+
+from hostile import invoke, prepare, run_process
+from robocal.interfaces.cli import app
+
+VERBS = ["simulate", "evaluate", "compensate", "filter", "serve", "report", "export", "compare", "validate",
+         "dataset", "design", "import", "iso9283", "demo", "fleet", "robots", "show", "methods", None]
+BOX = re.compile(r"[│╭╮╰╯─┃┏┓┗┛━┌┐└┘├┤┬┴┼╇┡┩┳┻╋]")
+
+
+def _help(verb, columns):
+    args = [verb, "--help"] if verb else ["--help"]
+    result = CliRunner().invoke(app, args, env={"COLUMNS": str(columns)})
+    assert result.exit_code == 0
+    return result.output
+
+
+@pytest.mark.parametrize("verb", VERBS, ids=[v or "robocal" for v in VERBS])
+def test_help_fits_80_columns_without_a_broken_word(verb):
+    narrow, wide = _help(verb, 80), _help(verb, 1000)
+    assert all(len(line) <= 80 for line in narrow.splitlines())
+    assert not [c for c in narrow if ord(c) < 32 and c != "\n"]
+    words = lambda t: set(BOX.sub(" ", t).split())  # noqa: E731
+    assert words(narrow) <= words(wide), sorted(words(narrow) - words(wide))
+
+
+def _plain(lines):
+    """The message lines (warnings, notes), not the rows of a table."""
+    return [line for line in lines if line.strip() and not BOX.match(line.strip()[0])]
+
+
+RUNS = [
+    ("simulate", ["simulate", "ur5", "--n", "30", "--seed", "4", "--out", "s.csv"]),
+    ("calibrate", ["calibrate", "ur5", "ur5.csv", "--out", "o.json"]),
+    ("calibrate-ann", ["calibrate", "ur5", "ur5.csv", "--method", "ann", "--generations", "5", "--hidden", "4,4", "--accept-extrapolation", "--out", "a.json"]),
+    ("evaluate", ["evaluate", "ur5_model.json", "ur5.csv"]),
+    ("compensate", ["compensate", "ur5_model.json", "targets.csv", "--out", "c.csv"]),
+    ("design", ["design", "ur5", "--n", "12", "--pool", "200", "--out", "p.csv"]),
+    ("validate", ["validate", "ur5", "ur5.csv", "--folds", "3"]),
+    ("iso-plan", ["iso9283", "plan", "ur5", "--out", "i.csv"]),
+    ("export", ["export", "ur5_model.json", "--out", "e.urdf"]),
+]
+
+
+@pytest.mark.parametrize("args", [r[1] for r in RUNS], ids=[r[0] for r in RUNS])
+def test_output_in_a_pipe_has_no_control_characters_or_repeated_lines(tmp_path, args):
+    prepare(tmp_path)
+    outcome = invoke(tmp_path, args)
+    assert outcome.code == 0, outcome.output
+    assert not [c for c in outcome.output if ord(c) < 32 and c != "\n"]
+    repeated = [line for line, n in collections.Counter(_plain(outcome.lines)).items() if n > 1]
+    assert repeated == []
+
+
+def test_refusal_in_a_pipe_is_one_line_on_stderr(tmp_path):
+    prepare(tmp_path)
+    done = run_process(tmp_path, ["calibrate", "ur5", "cmds.csv", "--out", "o.json"])
+    assert done.returncode == 2 and done.stdout == ""
+    assert len(done.stderr.splitlines()) == 1 and done.stderr.startswith("error: cmds.csv")

@@ -1,0 +1,58 @@
+# ruff: noqa: E501  (one input per table row)
+"""Hostile inputs: plans the robot cannot execute. design, simulate and iso9283 plan options
+that put every pose below the floor, beyond the reach or outside the walls are refused in one
+line saying what to change, and nothing is written."""
+import csv
+
+import pytest
+
+from hostile import invoke, prepare, refuse
+
+D = ["design", "ur5", "--n", "12", "--pool", "200"]
+REFUSED = [
+    ("design-floor-above-the-robot", [*D, "--floor", "2000", "--out", "p.csv"], None, "keeps the arm in the working volume"),
+    ("design-box-below-the-floor", [*D, "--box", "-400,400,-400,400,-900,-600", "--out", "p.csv"], None, "only 0 of 200 points of the box"),
+    ("design-box-out-of-reach", [*D, "--box", "3000,3500,-200,200,0,400", "--out", "p.csv"], None, "only 0 of 200 points of the box"),
+    ("design-walls-around-the-base", [*D, "--walls", "-10,10,-10,10", "--out", "p.csv"], None, "within x -10..10, y -10..10 mm (--walls)"),
+    ("design-walls-inverted", [*D, "--walls", "500,-500,-500,500", "--out", "p.csv"], None, "with each min below its max"),
+    ("design-kr150-box-below-the-floor", ["design", "kr150-2", "--n", "12", "--pool", "200", "--box", "1000,1800,-400,400,-1500,-1000", "--out", "p.csv"], None, "z >= 0 mm"),
+    ("design-fixture-below-the-floor", ["design", "kr150-2", "--n", "72", "--fixture", "plate.toml", "--region", "1000,1500,-300,300,-2000,-1800", "--out", "p.csv"], None, "at none of the placements"),
+    ("design-fixture-out-of-reach", ["design", "kr150-2", "--n", "72", "--fixture", "plate.toml", "--region", "9000,9500,-300,300,0,200", "--out", "p.csv"], None, "at none of the placements"),
+    ("design-targets-out-of-reach", [*D, "--targets", "tf.csv", "--out", "p.csv"], {"tf.csv": "x,y,z,rx,ry,rz\n5000,0,0,180,0,0\n5100,0,0,180,0,0\n"}, "none of the targets of tf.csv can be reached"),
+    ("design-candidates-beyond-limits", ["design", "ur5", "--n", "12", "--candidates", "c.csv", "--out", "p.csv"], {"c.csv": "q1,q2,q3,q4,q5,q6\n" + "".join(f"{400 + i},0,0,0,0,0\n" for i in range(30))}, "lies beyond joint 1's limits"),
+    ("design-too-few-poses", ["design", "ur5", "--n", "5", "--pool", "200", "--out", "p.csv"], None, "ask for at least 9 poses"),
+    ("design-fixture-too-few-poses", ["design", "kr150-2", "--n", "6", "--fixture", "plate.toml", "--region", "1000,1500,-300,300,0,200", "--out", "p.csv"], None, "leave fewer than 2 per socket"),
+    ("iso-centre-below-the-floor", ["iso9283", "plan", "ur5", "--centre", "400,0,-800", "--out", "i.csv"], None, "about 400, 0, -800 mm is reachable"),
+    ("iso-centre-out-of-reach", ["iso9283", "plan", "ur5", "--centre", "3000,0,300", "--out", "i.csv"], None, "about 3000, 0, 300 mm is reachable"),
+    ("iso-edge-beyond-reach", ["iso9283", "plan", "ur5", "--edge", "5000", "--out", "i.csv"], None, "no ISO 9283 cube of edge 5000 mm"),
+    ("iso-cube-at-the-base", ["iso9283", "plan", "ur5", "--centre", "0,0,0", "--edge", "200", "--out", "i.csv"], None, "no ISO 9283 cube of edge 200 mm"),
+    ("iso-kr150-cube-through-the-floor", ["iso9283", "plan", "kr150-2", "--centre", "1500,0,100", "--edge", "1000", "--out", "i.csv"], None, "no ISO 9283 cube of edge 1000 mm"),
+    ("iso-zero-cycles", ["iso9283", "plan", "ur5", "--cycles", "0", "--out", "i.csv"], None, "--cycles must be a whole number >= 2"),
+    ("iso-negative-cycles", ["iso9283", "plan", "ur5", "--cycles", "-3", "--out", "i.csv"], None, "--cycles must be a whole number >= 2"),
+    ("simulate-box-below-the-floor", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", "--box", "-400,400,-400,400,-900,-600", "--out", "s.csv"], None, "cannot be reached by robot"),
+    ("simulate-box-out-of-reach", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", "--box", "3000,3500,-200,200,0,400", "--out", "s.csv"], None, "10 of 10 points in the box"),
+    ("simulate-grid-below-the-floor", ["simulate", "ur5", "--sampling", "grid", "--n", "8", "--box", "-400,400,-400,400,-900,-600", "--out", "s.csv"], None, "cannot be reached by robot"),
+    ("compensate-targets-out-of-reach", ["compensate", "ur5_model.json", "tf.csv", "--out", "o.csv"], {"tf.csv": "x,y,z,rx,ry,rz\n5000,0,0,180,0,0\n"}, "nothing was written"),
+]
+
+
+@pytest.mark.parametrize("args, files, says", [row[1:] for row in REFUSED], ids=[row[0] for row in REFUSED])
+def test_plan_the_robot_cannot_execute_is_refused(tmp_path, args, files, says):
+    refuse(tmp_path, args, files, says)
+
+
+def test_designed_tool_far_from_the_flange_keeps_the_tcp_above_the_floor(tmp_path):
+    prepare(tmp_path)
+    outcome = invoke(tmp_path, [*D, "--tool", "0,0,900", "--out", "p.csv"])
+    assert outcome.code == 0, outcome.output
+    rows = list(csv.DictReader(open(tmp_path / "p.csv")))
+    assert len(rows) == 12 and min(float(r["z_nominal"]) for r in rows) >= 0
+
+
+def test_one_unreachable_target_among_reachable_ones_is_flagged_not_answered(tmp_path):
+    prepare(tmp_path, {"tf.csv": "x,y,z,rx,ry,rz\n5000,0,0,180,0,0\n-506.815,-242.645,-38.323,78.439,-9.785,-81.802\n"})
+    outcome = invoke(tmp_path, ["compensate", "ur5_model.json", "tf.csv", "--out", "o.csv"])
+    assert outcome.code == 0, outcome.output
+    rows = list(csv.DictReader(open(tmp_path / "o.csv")))
+    assert [r["reachable"] for r in rows] == ["0", "1"]
+    assert rows[0]["q1"] in ("", "nan")

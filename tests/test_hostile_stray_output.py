@@ -1,0 +1,71 @@
+# ruff: noqa: E501  (one input per table row)
+"""Hostile inputs: outputs that cannot be written, or commands that fail after choosing them.
+Each is refused in one line before any work, and leaves no file or folder behind (nor a
+partial program in a filter's output folder)."""
+import os
+
+import pytest
+
+from hostile import invoke, prepare, refuse
+
+URSCRIPT = "def prog():\n  movel(p[0.4,0.1,0.3,3.14,0,0])\nend\n"
+REFUSED = [
+    ("calibrate-into-missing-folder", ["calibrate", "ur5", "ur5.csv", "--out", "nodir/o.json"], None, "directory nodir does not exist"),
+    ("calibrate-out-is-a-folder", ["calibrate", "ur5", "ur5.csv", "--out", "o.json"], {"o.json/keep": "x"}, "o.json is a directory"),
+    ("calibrate-out-named-csv", ["calibrate", "ur5", "ur5.csv", "--out", "o.csv"], None, "name it o.json"),
+    ("calibrate-out-over-its-input", ["calibrate", "ur5", "ur5.csv", "--out", "ur5.csv"], None, "name it ur5.json"),
+    ("simulate-truth-into-missing-folder", ["simulate", "ur5", "--n", "10", "--out", "s.csv", "--truth", "nodir/t.json"], None, "directory nodir does not exist"),
+    ("simulate-truth-over-its-out", ["simulate", "ur5", "--n", "10", "--out", "s.csv", "--truth", "s.csv"], None, "name it s.json"),
+    ("simulate-truth-named-csv", ["simulate", "ur5", "--n", "10", "--out", "s.csv", "--truth", "t.csv"], None, "name it t.json"),
+    ("report-pdf-into-missing-folder", ["report", "ur5_model.json", "ur5.csv", "--out", "r.html", "--pdf", "nodir/r.pdf"], None, "directory nodir does not exist"),
+    ("report-pdf-over-its-html", ["report", "ur5_model.json", "ur5.csv", "--out", "r.html", "--pdf", "r.html"], None, "name it r.pdf"),
+    ("report-pdf-named-txt", ["report", "ur5_model.json", "ur5.csv", "--out", "r.html", "--pdf", "r.txt"], None, "--pdf needs a .pdf file name"),
+    ("evaluate-per-pose-into-missing-folder", ["evaluate", "ur5_model.json", "ur5.csv", "--per-pose", "nodir/p.csv"], None, "directory nodir does not exist"),
+    ("evaluate-per-pose-of-bad-measurements", ["evaluate", "ur5_model.json", "cmds.csv", "--per-pose", "p.csv"], None, "not a measurement file"),
+    ("compensate-into-missing-folder", ["compensate", "ur5_model.json", "targets.csv", "--out", "nodir/o.csv"], None, "directory nodir does not exist"),
+    ("compensate-nothing-reachable", ["compensate", "ur5_model.json", "tf.csv", "--out", "o.csv"], {"tf.csv": "x,y,z,rx,ry,rz\n5000,0,0,180,0,0\n"}, "nothing was written"),
+    ("export-into-missing-folder", ["export", "ur5_model.json", "--out", "nodir/e.toml"], None, "directory nodir does not exist"),
+    ("export-format-against-name", ["export", "ur5_model.json", "--format", "urdf", "--out", "e.toml"], None, "name it e.urdf or drop --format"),
+    ("export-ur-yaml-of-a-kuka", ["export", "kr_model.json", "--format", "ur-yaml", "--out", "e.yaml"], None, "is not a UR arm"),
+    ("design-into-missing-folder", ["design", "ur5", "--n", "12", "--pool", "200", "--out", "nodir/p.csv"], None, "directory nodir does not exist"),
+    ("design-out-over-existing", ["design", "ur5", "--n", "12", "--pool", "200", "--existing", "ur5.csv", "--out", "ur5.csv"], None, "is also an input of this command"),
+    ("iso-plan-with-report", ["iso9283", "plan", "ur5", "--out", "i.csv", "--report", "nodir/r.html"], None, "not a plan"),
+    ("iso-plan-without-out", ["iso9283", "plan", "ur5"], None, "iso9283 plan needs the robot and --out"),
+    ("dataset-into-missing-folder", ["dataset", "ur5-tsinghua", "--out", "nodir/u"], None, "directory nodir does not exist"),
+    ("dataset-split-above-one", ["dataset", "ur5-tsinghua", "--out", "u", "--split", "1.5"], None, "--split must be a number between 0 and 1"),
+    ("dataset-split-zero", ["dataset", "ur5-tsinghua", "--out", "u", "--split", "0"], None, "--split must be a number between 0 and 1"),
+    ("dataset-unknown", ["dataset", "ur6-nowhere", "--out", "u"], None, "'ur6-nowhere' is not available"),
+    ("filter-out-is-a-file", ["filter", "ur5_model.json", "p.script", "--out", "afile"], {"afile": "x", "p.script": URSCRIPT}, "--out afile is not a directory"),
+    ("filter-out-missing", ["filter", "ur5_model.json", "p.script", "--out", "FO"], {"p.script": URSCRIPT}, "--out FO is not a directory"),
+    ("filter-over-its-program", ["filter", "ur5_model.json", "p.script", "--out", "."], {"p.script": URSCRIPT}, "is also an input of this command"),
+    ("import-into-missing-folder", ["import", "--points", "pts.txt", "--joints", "j.csv", "--out", "nodir/i.csv"], {"pts.txt": "P1 1 2 3\n", "j.csv": "name,q1,q2,q3,q4,q5,q6\nP1,0,0,0,0,0,0\n"}, "directory nodir does not exist"),
+    ("validate-size-zero", ["validate", "ur5", "ur5.csv", "--folds", "3", "--sizes", "0,10"], None, "--sizes must be comma-separated whole numbers >= 1"),
+]
+
+
+@pytest.mark.parametrize("args, files, says", [r[1:] for r in REFUSED], ids=[r[0] for r in REFUSED])
+def test_failed_command_leaves_nothing(tmp_path, args, files, says):
+    prepare(tmp_path, {k: v for k, v in (files or {}).items() if "/" not in k})
+    for name in files or {}:
+        if "/" in name:
+            (tmp_path / name).parent.mkdir()
+    refuse(tmp_path, args, None, says)
+
+
+PROGRAMS = [
+    ("unreachable-target", {"p.script": "def prog():\n  movel(p[5.4,0.1,0.3,3.14,0,0])\n  movel(p[0.4,0.1,0.3,3.14,0,0])\nend\n"}, ["p.script"], "cannot be reached by the calibrated robot"),
+    ("computed-at-run-time", {"p.script": "def prog():\n  a = p[0.4,0.1,0.3,3.14,0,0]\n  movel(pose_trans(a, p[0,0,0.1,0,0,0]))\nend\n"}, ["p.script"], "computed at run time"),
+    ("urscript-in-mm", {"p.script": "def prog():\n  movel(p[400,100,300,180,0,0])\nend\n"}, ["p.script"], "cannot be reached by the calibrated robot"),
+    ("krl-without-dat", {"p.src": "DEF p()\nPTP XP1\nEND\n"}, ["p.src"], "no literal value in the program"),
+    ("second-program-unreachable", {"a.script": URSCRIPT.replace("prog", "a"), "b.script": "def b():\n  movel(p[9.4,0.1,0.3,3.14,0,0])\nend\n"}, ["a.script", "b.script"], "b.script line 2"),
+]
+
+
+@pytest.mark.parametrize("files, programs, says", [r[1:] for r in PROGRAMS], ids=[r[0] for r in PROGRAMS])
+def test_refused_filter_writes_no_program(tmp_path, files, programs, says):
+    prepare(tmp_path, files)
+    (tmp_path / "FO").mkdir()
+    model = "kr_model.json" if programs[0].endswith(".src") else "ur5_model.json"
+    outcome = invoke(tmp_path, ["filter", model, *programs, "--out", "FO"])
+    assert outcome.code == 2 and len(outcome.lines) == 1 and says in outcome.lines[0], outcome.lines
+    assert os.listdir(tmp_path / "FO") == []

@@ -1,0 +1,82 @@
+# ruff: noqa: E501  (one input per table row)
+"""Hostile inputs: unbounded work. Endless inputs (/dev/zero, a FIFO nobody writes, stdin),
+lines of megabytes, and option values that would take hours or terabytes are refused in one
+line at once, before any work, and nothing is written."""
+import os
+
+import pytest
+
+from hostile import prepare, refuse, run_process
+
+HUGE = [
+    ("simulate-n", ["simulate", "ur5", "--n", "1000000000", "--out", "s.csv"], "--n must be a whole number >= 1 and <= 1,000,000"),
+    ("simulate-n-ten-million", ["simulate", "ur5", "--n", "10000000", "--out", "s.csv"], "<= 1,000,000"),
+    ("simulate-placements", ["simulate", "kr150-2", "--sampling", "sockets", "--fixture", "plate.toml", "--placements", "100000000", "--out", "s.csv"], "--placements must be a whole number >= 1 and <= 1,000"),
+    ("simulate-per-socket", ["simulate", "kr150-2", "--sampling", "sockets", "--fixture", "plate.toml", "--per-socket", "100000000", "--out", "s.csv"], "--per-socket must be a whole number >= 2 and <= 10,000"),
+    ("design-n", ["design", "ur5", "--n", "1000000000", "--out", "p.csv"], "--n must be a whole number >= 1 and <= 100,000"),
+    ("design-pool", ["design", "ur5", "--n", "12", "--pool", "1000000000000", "--out", "p.csv"], "--pool must be a whole number >= 10 and <= 200,000"),
+    ("design-pool-ten-million", ["design", "ur5", "--n", "12", "--pool", "10000000", "--out", "p.csv"], "<= 200,000"),
+    ("design-per-socket", ["design", "kr150-2", "--n", "72", "--fixture", "plate.toml", "--region", "1000,1500,-300,300,0,200", "--per-socket", "100000000", "--out", "p.csv"], "--per-socket must be"),
+    ("ann-generations", ["calibrate", "ur5", "ur5.csv", "--method", "ann", "--generations", "1000000000", "--out", "o.json"], "--generations must be a whole number >= 0 and <= 10,000"),
+    ("ann-hidden", ["calibrate", "ur5", "ur5.csv", "--method", "ann", "--hidden", "100000,100000", "--out", "o.json"], "--hidden must be at least 2 comma-separated whole numbers"),
+    ("auto-folds", ["calibrate", "ur5", "ur5.csv", "--method", "auto", "--folds", "1000000", "--out", "o.json"], "--folds must be a whole number >= 2 and <= 1,000"),
+    ("validate-folds", ["validate", "ur5", "ur5.csv", "--folds", "1000000"], "use --folds <= 60"),
+    ("validate-sizes", ["validate", "ur5", "ur5.csv", "--sizes", "10,1000000000"], "use sizes <= 42"),
+    ("compare-folds", ["compare", "ur5", "ur5.csv", "--folds", "100000000"], "--folds must be a whole number >= 2 and <= 1,000"),
+    ("iso-cycles", ["iso9283", "plan", "ur5", "--cycles", "1000000000", "--out", "i.csv"], "--cycles must be a whole number >= 2 and <= 1,000"),
+    ("jobs", ["calibrate", "ur5", "ur5.csv", "--jobs", "100000", "--out", "o.json"], "--jobs must be a whole number >= 1 and <= 1,024"),
+    ("seed", ["calibrate", "ur5", "ur5.csv", "--method", "kriging", "--seed", "999999999999999999999999", "--out", "o.json"], "--seed must be a whole number >= 0"),
+    ("calibrate-dash-as-stdin", ["calibrate", "ur5", "-", "--out", "o.json"], "- does not exist"),
+    ("calibrate-dev-zero-robot", ["calibrate", "/dev/zero", "ur5.csv", "--out", "o.json"], "a robot file must end in .toml or .urdf"),
+]
+
+
+@pytest.mark.parametrize("args, says", [row[1:] for row in HUGE], ids=[row[0] for row in HUGE])
+def test_unbounded_option_is_refused_at_once(tmp_path, args, says):
+    refuse(tmp_path, args, None, says)
+
+
+LONG = [
+    ("a-line-of-ten-megabytes", lambda b: "q1,q2,q3,q4,q5,q6,x,y,z\n" + "1," * 5_000_000 + "1\n", "line 2 is over 1 MiB long"),
+    ("a-header-of-twenty-megabytes", lambda b: "q" * 20_000_000 + "\n1\n", "line 1 is over 1 MiB long"),
+    ("a-number-of-a-hundred-thousand-digits", lambda b: "q1,q2,q3,q4,q5,q6,x,y,z\n" + ("1" * 100000 + ",0,0,0,0,0,1,2,3\n") * 10, "row 2, column 'q1'"),
+]
+
+
+@pytest.mark.parametrize("content, says", [row[1:] for row in LONG], ids=[row[0] for row in LONG])
+def test_endless_lines_are_refused(tmp_path, content, says):
+    refuse(tmp_path, ["calibrate", "ur5", "l.csv", "--out", "o.json"], {"l.csv": content}, says)
+
+
+def _fifo(folder, name):
+    os.mkfifo(folder / name)
+
+
+ENDLESS = [
+    ("calibrate-dev-zero", ["calibrate", "ur5", "/dev/zero", "--out", "o.json"], None, "/dev/zero is not a regular file"),
+    ("compensate-dev-urandom", ["compensate", "ur5_model.json", "/dev/urandom", "--out", "o.csv"], None, "/dev/urandom is not a regular file"),
+    ("evaluate-fifo-model", ["evaluate", "f.json", "ur5.csv"], "f.json", "f.json is not a regular file"),
+    ("calibrate-fifo-measurements", ["calibrate", "ur5", "f.csv", "--out", "o.json"], "f.csv", "f.csv is not a regular file"),
+    ("calibrate-fifo-fixture", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "f.toml", "--out", "o.json"], "f.toml", "f.toml is not a regular file"),
+]
+
+
+@pytest.mark.parametrize("args, fifo, says", [row[1:] for row in ENDLESS], ids=[row[0] for row in ENDLESS])
+def test_endless_input_is_refused_without_reading_it(tmp_path, args, fifo, says):
+    prepare(tmp_path)
+    if fifo:
+        _fifo(tmp_path, fifo)
+    before = set(os.listdir(tmp_path))
+    done = run_process(tmp_path, args, timeout=30)
+    lines = [line for line in (done.stdout + done.stderr).splitlines() if line.strip()]
+    assert done.returncode == 2 and len(lines) == 1 and says in lines[0], lines
+    assert set(os.listdir(tmp_path)) == before
+
+
+def test_stdin_of_zeros_is_refused(tmp_path):
+    prepare(tmp_path)
+    with open("/dev/zero", "rb") as zeros:
+        done = run_process(tmp_path, ["calibrate", "ur5", "/dev/stdin", "--out", "o.json"], stdin=zeros)
+    lines = [line for line in (done.stdout + done.stderr).splitlines() if line.strip()]
+    assert done.returncode == 2 and lines == [lines[0]] and "is not a regular file" in lines[0]
+    assert not (tmp_path / "o.json").exists()

@@ -1,0 +1,129 @@
+# ruff: noqa: E501  (one input per table row)
+"""Hostile inputs: wrong units on the numbers a user types or a file carries: metres, cm,
+inches or micrometres for mm, radians for degrees, in CSV columns, options (--box, --tool,
+--rpy, --hint, --tracker, --walls, --region), fixture spacings and robot files. Untagged, each
+is refused in one line naming the unit it looks like; tagged in the header (x[m], q1[rad]),
+it gives the same answer as the file in mm and degrees."""
+import csv
+import io
+import json
+import math
+
+import pytest
+
+from hostile import invoke, prepare, refuse, text
+
+Q = [f"q{i}" for i in range(1, 7)]
+XYZ = ["x", "y", "z"]
+RPY = ["rx", "ry", "rz"]
+
+
+def scaled(name, columns, factor, unit=None):
+    """The base file ``name`` with ``columns`` multiplied by ``factor`` (and tagged [unit])."""
+    def make(base):
+        rows = list(csv.reader(io.StringIO((base / name).read_text())))
+        header = rows[0]
+        out = io.StringIO()
+        writer = csv.writer(out, lineterminator="\n")
+        writer.writerow([f"{c}[{unit}]" if unit and c in columns else c for c in header])
+        for row in rows[1:]:
+            writer.writerow([repr(float(v) * factor) if header[i] in columns else v for i, v in enumerate(row)])
+        return out.getvalue()
+    return make
+
+
+FIX_M = 'name = "plate m"\n[sockets]\nA = [0.0, 0.0, 0.0]\nB = [0.15, 0.0, 0.0]\nC = [0.0, 0.12, 0.0]\n'
+
+
+def robot_in_metres(base):
+    import re
+    return re.sub(r"(\n[ad] = )(-?[0-9.]+)", lambda m: m.group(1) + str(float(m.group(2)) / 1000),
+                  (base / "ur5_cal.toml").read_text())
+
+
+def robot_limits_in_radians(base):
+    return (base / "ur5_cal.toml").read_text().replace("min = -360.0", "min = -6.283").replace("max = 360.0", "max = 6.283")
+
+
+BOX = ["--box", "-400,400,-400,-100,100,500"]
+REFUSED = [
+    ("measurements-metres", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres"),
+    ("measurements-cm", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", XYZ, 0.1)}, "they look like cm"),
+    ("measurements-inches", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", XYZ, 1 / 25.4)}, "they look like inches"),
+    ("measurements-micrometres", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", XYZ, 1000)}, "they look like micrometres"),
+    ("measurements-mm-tagged-metres", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", XYZ, 1, "m")}, "they look like micrometres"),
+    ("joints-degrees-tagged-radians", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", Q, 1, "rad")}, "lies beyond joint 1's limits"),
+    ("unknown-unit-tag", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", XYZ, 1, "furlong")}, "has the unit 'furlong', which robocal does not know"),
+    ("evaluate-metres", ["evaluate", "ur5_model.json", "m.csv"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres"),
+    ("report-metres", ["report", "ur5_model.json", "m.csv", "--out", "r.html"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres"),
+    ("validate-metres", ["validate", "ur5", "m.csv", "--folds", "3"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres"),
+    ("targets-metres", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1e-3)}, "in mm and degrees"),
+    ("targets-orientation-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", RPY, math.pi / 180)}, "look like radians"),
+    ("targets-hint-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", Q, math.pi / 180)}, "the posture hints q1..q6 look like radians"),
+    ("simulate-box-metres", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", "--box", "-0.4,0.4,-0.4,0.4,0.1,0.5", "--out", "s.csv"], None, "they look like metres"),
+    ("simulate-rpy-radians", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", *BOX, "--rpy", "3.1416,0,0", "--out", "s.csv"], None, "the angles of --rpy look like radians"),
+    ("simulate-hint-radians", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", *BOX, "--hint", "0,-1.57,1.57,-1.57,-1.57,0", "--out", "s.csv"], None, "--hint look like radians"),
+    ("simulate-box-min-above-max", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", "--box", "400,-400,-400,-100,100,500", "--out", "s.csv"], None, "must not exceed high"),
+    ("design-box-metres", ["design", "ur5", "--n", "12", "--pool", "200", "--box", "-0.4,0.4,-0.4,0.4,0.1,0.5", "--out", "p.csv"], None, "they look like metres"),
+    ("design-tool-metres", ["design", "ur5", "--n", "12", "--pool", "200", "--tool", "0,0,0.1", "--out", "p.csv"], None, "--tool: largest 0.1"),
+    ("design-tracker-metres", ["design", "ur5", "--n", "12", "--pool", "200", "--tracker", "2,0,0.5", "--out", "p.csv"], None, "--tracker: largest 2.06"),
+    ("design-rpy-radians", ["design", "ur5", "--n", "12", "--pool", "200", *BOX, "--rpy", "3.1416,0,0", "--out", "p.csv"], None, "the angles of --rpy look like radians"),
+    ("design-hint-radians", ["design", "ur5", "--n", "12", "--pool", "200", *BOX, "--hint", "0,-1.57,1.57,-1.57,-1.57,0", "--out", "p.csv"], None, "--hint look like radians"),
+    ("design-walls-metres", ["design", "ur5", "--n", "12", "--pool", "200", "--walls", "-0.8,0.8,-0.8,0.8", "--out", "p.csv"], None, "--walls: largest 0.8"),
+    ("design-joint-noise-too-big", ["design", "ur5", "--n", "12", "--pool", "200", "--joint-noise", "5", "--out", "p.csv"], None, "--joint-noise must be a number >= 0 and <= 1"),
+    ("design-sag-too-big", ["design", "ur5", "--n", "12", "--pool", "200", "--sag", "30", "--out", "p.csv"], None, "--sag must be a number >= 0 and <= 1"),
+    ("design-margin-huge", ["design", "ur5", "--n", "12", "--pool", "200", "--margin", "400", "--out", "p.csv"], None, "--margin must be a number >= 0 and <= 45"),
+    ("design-region-metres", ["design", "kr150-2", "--n", "6", "--fixture", "plate.toml", "--region", "1,1.5,-0.3,0.3,0,0.2", "--out", "p.csv"], None, "--region: largest 1.5"),
+    ("calibrate-negative-tolerance-scale", ["calibrate", "ur5", "ur5.csv", "--tolerance-scale", "-1", "--out", "o.json"], None, "--tolerance-scale must be a number between 0"),
+    ("iso-edge-metres", ["iso9283", "plan", "ur5", "--edge", "0.3", "--out", "i.csv"], None, "--edge must be a number >= 1"),
+    ("fixture-metres-calibrate", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "fm.toml", "--out", "o.json"], {"fm.toml": FIX_M}, "they look like metres"),
+    ("fixture-metres-simulate", ["simulate", "kr150-2", "--sampling", "sockets", "--fixture", "fm.toml", "--placements", "3", "--per-socket", "5", "--out", "s.csv"], {"fm.toml": FIX_M}, "they look like metres"),
+    ("fixture-metres-evaluate", ["evaluate", "sock_model.json", "sockets.csv", "--fixture", "fm.toml"], {"fm.toml": FIX_M}, "they look like metres"),
+    ("fixture-metres-with-unit-key", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "fm.toml", "--out", "o.json"], {"fm.toml": FIX_M.replace("[sockets]", 'unit = "m"\n[sockets]')}, "they look like metres"),
+    ("fixture-inches", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "fi.toml", "--out", "o.json"], {"fi.toml": lambda b: (b / "plate.toml").read_text().replace("150.0", "5.9").replace("120.0", "4.72")}, "but 5.9 mm in fixture"),
+    ("robot-file-metres", ["calibrate", "r.toml", "ur5.csv", "--out", "o.json"], {"r.toml": robot_in_metres}, "its robot file looks like metres"),
+    ("robot-file-limits-radians", ["calibrate", "r.toml", "ur5.csv", "--out", "o.json"], {"r.toml": robot_limits_in_radians}, "lies beyond joint 1's limits -6.283 to 6.283"),
+]
+
+
+@pytest.mark.parametrize("args, files, says", [row[1:] for row in REFUSED], ids=[row[0] for row in REFUSED])
+def test_wrong_unit_is_refused(tmp_path, args, files, says):
+    refuse(tmp_path, args, files, says)
+
+
+def _mean(folder, model, data):
+    outcome = invoke(folder, ["evaluate", model, data, "--json"])
+    assert outcome.code == 0, outcome.output
+    return json.loads(outcome.result.stdout)["mean_mm"]
+
+
+@pytest.mark.parametrize("columns, factor, unit", [
+    (XYZ, 1e-3, "m"), (XYZ, 1 / 25.4, "in"), (Q, math.pi / 180, "rad"),
+], ids=["metres", "inches", "radians"])
+def test_tagged_units_calibrate_to_the_same_model(tmp_path, columns, factor, unit):
+    prepare(tmp_path, {"m.csv": scaled("ur5.csv", columns, factor, unit)})
+    outcome = invoke(tmp_path, ["calibrate", "ur5", "m.csv", "--out", "o.json"])
+    assert outcome.code == 0, outcome.output
+    assert _mean(tmp_path, "o.json", "ur5.csv") == pytest.approx(_mean(tmp_path, "ur5_model.json", "ur5.csv"), rel=1e-6)
+
+
+@pytest.mark.parametrize("columns, factor, unit", [
+    (XYZ, 1e-3, "m"), (XYZ, 10, "um"), (Q, math.pi / 180, "rad"),
+], ids=["metres", "micrometres", "radians"])
+def test_tagged_units_evaluate_the_same(tmp_path, columns, factor, unit):
+    prepare(tmp_path, {"m.csv": scaled("ur5.csv", columns, factor if unit != "um" else 1000, unit)})
+    assert _mean(tmp_path, "ur5_model.json", "m.csv") == pytest.approx(_mean(tmp_path, "ur5_model.json", "ur5.csv"), rel=1e-6)
+
+
+@pytest.mark.parametrize("columns, factor, unit", [
+    (XYZ, 1e-3, "m"), (RPY, math.pi / 180, "rad"), (Q, math.pi / 180, "rad"),
+], ids=["position-metres", "orientation-radians", "hint-radians"])
+def test_tagged_targets_give_the_same_commands(tmp_path, columns, factor, unit):
+    prepare(tmp_path, {"t.csv": scaled("targets.csv", columns, factor, unit)})
+    outcome = invoke(tmp_path, ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"])
+    assert outcome.code == 0, outcome.output
+    got = list(csv.reader(open(tmp_path / "o.csv")))
+    want = list(csv.reader(io.StringIO(text("cmds.csv"))))
+    assert got[0] == want[0]
+    for a, b in zip(got[1:], want[1:]):
+        assert [float(v) for v in a[:12]] == pytest.approx([float(v) for v in b[:12]], abs=1e-6)
