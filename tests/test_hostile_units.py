@@ -127,3 +127,23 @@ def test_tagged_targets_give_the_same_commands(tmp_path, columns, factor, unit):
     assert got[0] == want[0]
     for a, b in zip(got[1:], want[1:]):
         assert [float(v) for v in a[:12]] == pytest.approx([float(v) for v in b[:12]], abs=1e-6)
+
+
+# iso9283 plan's typed numbers meet the same units check as design's and simulate's.
+ISO_PLAN_UNITS = [
+    ("--rpy", "3.1416,0,0", "look like radians"),
+    ("--centre", "0.3,-0.3,0.4", "look like metres"),
+]
+
+
+@pytest.mark.parametrize("option, value, says", ISO_PLAN_UNITS)
+def test_iso9283_plan_refuses_typed_numbers_in_other_units(option, value, says, tmp_path):
+    from typer.testing import CliRunner
+
+    from robocal.interfaces.cli import app
+
+    out = tmp_path / "plan.csv"
+    result = CliRunner().invoke(app, ["iso9283", "plan", "ur5", option, value, "--out", str(out)])
+    assert result.exit_code != 0 and says in result.output
+    assert "Traceback" not in result.output and len(result.output.strip().splitlines()) == 1
+    assert not out.exists()

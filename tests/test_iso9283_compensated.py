@@ -137,7 +137,7 @@ def refusal_folder(campaign, tmp_path_factory):
     ("iso9283 measured.csv --report iso.pdf", "give --report a .html file name"),
     ("iso9283 measured.csv --report nofolder/iso.html", "nofolder"),
     ("iso9283 measured.csv --instrument tracker", "give --report iso.html too"),
-    ("iso9283 plan ur5 --out p.csv --model model.json", "concern a measured campaign, not a plan"),
+    ("iso9283 plan ur5 --out p.csv --model model.json", "concerns a measured campaign, not a plan"),
 ])
 def test_iso9283_model_and_report_refuse_in_one_line(args, says, refusal_folder, tmp_path, monkeypatch):
     before = copy_inputs(refusal_folder, tmp_path, monkeypatch)

@@ -6,6 +6,7 @@ import numpy as np
 from ..io.atomic import check_outputs
 from ..io.iso_campaign import read_iso_campaign, write_plan
 from ..io.library import load_robot
+from ..io.units import check_robot_lengths, check_typed_units
 from .iso9283 import CYCLES, DEFAULT_MATCH_MM, characteristics, plan_campaign
 
 
@@ -15,6 +16,12 @@ def plan_job(robot, out, *, centre=None, edge=None, rpy=None, cycles=CYCLES, roo
     in every cycle.  Returns the JSON-ready summary."""
     check_outputs([out], [robot])
     chain = load_robot(robot, root=root, tip=tip)
+    # Typed numbers meet the one units check every verb's options meet (robocal.io.units).
+    check_typed_units(chain, rpy=rpy)
+    if centre is not None:
+        check_robot_lengths(chain, centre, "--centre", position=True)
+    if edge is not None:
+        check_robot_lengths(chain, [edge], "--edge")
     plan = plan_campaign(chain, centre=centre, edge_mm=edge, rpy_deg=(180.0, 0.0, 0.0) if rpy is None else rpy,
                          cycles=cycles)
     write_plan(out, plan, chain)

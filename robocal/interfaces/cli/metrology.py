@@ -98,7 +98,8 @@ def iso9283(target: str = typer.Argument(..., help="A campaign CSV to compute th
         given = [name for name, value in (("--model", model), ("--report", report), ("--instrument", instrument),
                                           ("--conditions", conditions)) if value is not None]
         if given:
-            raise InputError(f"{', '.join(given)} concern a measured campaign, not a plan: robocal iso9283 "
+            raise InputError(f"{', '.join(given)} {'concern' if len(given) > 1 else 'concerns'} a measured campaign, "
+                             "not a plan: robocal iso9283 "
                              "CAMPAIGN.csv --model MODEL.json --report iso.html")
         if robot is None or out_file is None:
             raise InputError("iso9283 plan needs the robot and --out: robocal iso9283 plan ROBOT --out campaign.csv")
