@@ -284,3 +284,34 @@ TRUTH_REFUSED = [
 @pytest.mark.parametrize("content, says", [r[1:] for r in TRUTH_REFUSED], ids=[r[0] for r in TRUTH_REFUSED])
 def test_broken_truth_file_is_refused(tmp_path, content, says):
     refuse(tmp_path, ["simulate", "ur5", "--n", "10", "--errors", "t.json", "--out", "s.csv"], {"t.json": content}, says)
+
+
+TRUTH_ENTRIES = ["backlash", "noise", "compliance", "deviations", "seed", "robot", "noise_orientation"]
+
+
+@pytest.fixture(scope="module")
+def truth_file(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("truth")
+    from typer.testing import CliRunner
+
+    from robocal.interfaces.cli import app
+
+    CliRunner().invoke(app, ["simulate", "ur5", "--n", "10", "--out", str(folder / "a.csv"),
+                             "--truth", str(folder / "t.json")])
+    return folder, json.loads((folder / "t.json").read_text())
+
+
+@pytest.mark.parametrize("entry", TRUTH_ENTRIES)
+def test_a_truth_file_entry_of_the_wrong_type_is_refused_naming_it(entry, truth_file):
+    from typer.testing import CliRunner
+
+    from robocal.interfaces.cli import app
+
+    folder, document = truth_file
+    (folder / f"bad_{entry}.json").write_text(json.dumps({**document, entry: "x"}))
+    out = folder / f"s_{entry}.csv"
+    result = CliRunner().invoke(app, ["simulate", "ur5", "--n", "10", "--errors", str(folder / f"bad_{entry}.json"),
+                                      "--out", str(out)])
+    assert result.exit_code != 0 and f"{entry} must be" in result.output
+    assert "Traceback" not in result.output and len(result.output.strip().splitlines()) == 1
+    assert not out.exists()

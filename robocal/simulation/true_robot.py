@@ -215,23 +215,37 @@ class TrueRobot:
                 f"{where}: truth file version {doc.get('version')!r}; this robocal reads version {TRUTH_VERSION}"
             )
         try:
-            nominal = chain_from_dict(tomllib.loads(schema.text(doc["robot"], f"{where}: robot")), f"{where} (robot)")
+            # Every entry through the one schema helper: a value of the wrong type is one line
+            # naming it (robocal.io.schema), never Python's own message.
+            robot = schema.text(doc["robot"], f"{where}: robot")
+            try:
+                nominal = chain_from_dict(tomllib.loads(robot), f"{where} (robot)")
+            except tomllib.TOMLDecodeError as why:
+                raise FileFormatError(f"{where}: robot must be a robot file's TOML text ({why}); write the truth "
+                                      "file again with robocal simulate --truth") from None
             compliance = doc.get("compliance")
             if compliance is not None:
+                compliance = schema.table(compliance, f"{where}: compliance")
                 compliance = Compliance(
-                    stiffness=[np.inf if k is None else k for k in compliance["stiffness"]],
-                    link_masses=compliance["link_masses"],
-                    payload=compliance["payload"],
+                    stiffness=[np.inf if k is None else schema.number(k, f"{where}: compliance stiffness")
+                               for k in _listed(compliance, "stiffness", where)],
+                    link_masses=schema.numbers(compliance.get("link_masses"), f"{where}: compliance link_masses"),
+                    payload=schema.number(compliance.get("payload"), f"{where}: compliance payload"),
                 )
+            deviations = schema.table(doc.get("deviations", {}), f"{where}: deviations")
+            seed = doc.get("seed")
+            if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
+                raise FileFormatError(f"{where}: seed must be a whole number or null, got {schema.shown(seed)}")
+            backlash = doc.get("backlash")
             return cls(
                 nominal=nominal,
-                deviations=doc.get("deviations", {}),
+                deviations={str(k): schema.number(v, f"{where}: deviations {k}") for k, v in deviations.items()},
                 compliance=compliance,
-                backlash=doc.get("backlash"),
-                noise=doc.get("noise", 0.0),
-                noise_orientation=doc.get("noise_orientation", 0.0),
-                seed=doc.get("seed"),
-                preset=doc.get("preset", "custom"),
+                backlash=None if backlash is None else schema.numbers(backlash, f"{where}: backlash"),
+                noise=schema.number(doc.get("noise", 0.0), f"{where}: noise"),
+                noise_orientation=schema.number(doc.get("noise_orientation", 0.0), f"{where}: noise_orientation"),
+                seed=seed,
+                preset=schema.text(doc.get("preset", "custom"), f"{where}: preset"),
             )
         except FileFormatError:
             raise
@@ -239,6 +253,16 @@ class TrueRobot:
             raise FileFormatError(f"{where}: missing entry {missing}") from None
         except (TypeError, ValueError, OverflowError, tomllib.TOMLDecodeError) as why:
             raise FileFormatError(f"{where}: {why}") from None
+
+
+def _listed(table, key, where):
+    """``table[key]`` if it is a list (a compliance's stiffness: numbers, or null for a rigid
+    joint), else a one-line refusal."""
+    value = table.get(key)
+    if not isinstance(value, list):
+        raise FileFormatError(f"{where}: compliance {key} must be a list of numbers (null: rigid), "
+                              f"got {schema.shown(value)}")
+    return value
 
 
 def write_truth(path, truth):
