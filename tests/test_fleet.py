@@ -193,10 +193,14 @@ def test_a_failed_robot_keeps_the_files_of_an_earlier_run(tmp_path, data):
     fleet = write_fleet(tmp_path / "fleet.toml", [robot])
     fleet_job(fleet, tmp_path / "out")
     before = (tmp_path / "out" / "r1" / "model.json").read_text()
+    summary_before = (tmp_path / "out" / "summary.csv").read_text()
     write_fleet(fleet, [{**robot, "test": str(data / "damaged.csv")}])
-    result = fleet_job(fleet, tmp_path / "out")
-    assert result["failed"] == 1 and "keeps the files of an earlier run" in result["robots"][0]["message"]
+    # Its only robot failing, the fleet writes nothing, and says why in one line.
+    with pytest.raises(InputError, match="every robot of the fleet failed, nothing written .*keeps the files of an "
+                                         "earlier run"):
+        fleet_job(fleet, tmp_path / "out")
     assert (tmp_path / "out" / "r1" / "model.json").read_text() == before
+    assert (tmp_path / "out" / "summary.csv").read_text() == summary_before
 
 
 @pytest.mark.slow

@@ -69,3 +69,26 @@ def test_refused_filter_writes_no_program(tmp_path, files, programs, says):
     outcome = invoke(tmp_path, ["filter", model, *programs, "--out", "FO"])
     assert outcome.code == 2 and len(outcome.lines) == 1 and says in outcome.lines[0], outcome.lines
     assert os.listdir(tmp_path / "FO") == []
+
+
+# A fleet whose every robot fails at run time writes nothing (no summary, no folder).
+FLEET_ALL_FAIL = [
+    ('train = "nope.csv"', "does not exist"),
+    ('train = "."', ""),
+    ('train = "/dev/zero"', ""),
+]
+
+
+@pytest.mark.parametrize("entry, says", FLEET_ALL_FAIL)
+def test_a_fleet_whose_every_robot_fails_leaves_no_output(entry, says, tmp_path):
+    from typer.testing import CliRunner
+
+    from robocal.interfaces.cli import app
+
+    fleet = tmp_path / "fleet.toml"
+    fleet.write_text(f'[[robot]]\nname = "a"\nrobot = "ur5"\n{entry}\n')
+    out = tmp_path / "FO"
+    result = CliRunner().invoke(app, ["fleet", str(fleet), "--out", str(out)])
+    assert result.exit_code != 0 and "Traceback" not in result.output
+    assert says in result.output
+    assert not out.exists()

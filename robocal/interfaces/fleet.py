@@ -352,8 +352,14 @@ def _run_fleet(fleet_file, out_dir, jobs, scheduler, on_robot):
         for folder in created:  # a robot that failed before writing anything leaves no folder
             with contextlib.suppress(OSError):
                 folder.rmdir()
-    written = write_summary(out, rows, fleet_file)
     failed = sum(row["status"] != OK for row in rows)
+    if rows and failed == len(rows):
+        # No robot's work succeeded: nothing is written (outputs_together removes what was
+        # made), and the one line says why, robot by robot.
+        reasons = [f"{row['name']}: {row['message']}" for row in rows]
+        more = f"; and {len(reasons) - 2} more" if len(reasons) > 2 else ""
+        raise InputError(f"every robot of the fleet failed, nothing written ({'; '.join(reasons[:2])}{more})")
+    written = write_summary(out, rows, fleet_file)
     return {"fleet": str(fleet_file), "out": str(out), "ran_on": where, "workers": workers,
             "robots": rows, "ok": len(rows) - failed, "failed": failed, **written}
 
