@@ -61,3 +61,12 @@ def test_run_time_poses_are_refused_then_listed(models, tmp_path):
     assert (tmp_path / "a" / "filter-summary.csv").read_text().count("unfiltered (run time)") == 3
     with pytest.raises(InputError, match="written by robocal filter already"):
         filter_job(models["true"], [tmp_path / "a" / SCRIPT.name], tmp_path / "b", allow_unfiltered=True)
+
+
+def test_a_pose_in_degrees_is_refused_not_read_as_radians(models, tmp_path):
+    program = tmp_path / "degrees.script"
+    program.write_text("def prog():\n  movel(p[0.4, 0.1, 0.3, 180, 0, 0], a=1.2, v=0.25)\nend\n")
+    (tmp_path / "out").mkdir()
+    with pytest.raises(InputError, match="degrees.script, line 2: .* more than a full turn: URScript poses take rad"):
+        filter_job(models["true"], [program], tmp_path / "out")
+    assert not list((tmp_path / "out").iterdir())

@@ -16,6 +16,7 @@ import re
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ...errors import InputError
 from .core import (
     JointTarget,
     RunTime,
@@ -100,9 +101,23 @@ def poses_of(values):
     return poses
 
 
+# A rotation vector turns by its length in radians; one beyond a full turn is not URScript's
+# (its poses are canonical, within half a turn): p[..., 180, 0, 0] written in degrees.
+LONGEST_ROTATION_RAD = 2.0 * np.pi
+
+
 def parse(files):
-    """[ProgramFile] of the program's files, targets found and their poses filled."""
-    return parse_each(files, NAME, COMMENT, _parse, poses_of)
+    """[ProgramFile] of the program's files, targets found and their poses filled; InputError
+    for a pose whose rotation vector is longer than a turn (degrees where radians belong)."""
+    programs = parse_each(files, NAME, COMMENT, _parse, poses_of)
+    for program in programs:
+        for target in program.targets:
+            turn = float(np.linalg.norm([n.value for n in target.numbers[3:6]]))
+            if turn > LONGEST_ROTATION_RAD:
+                raise InputError(f"{program.path}, line {target.line}: the rotation vector of {target.name} turns "
+                                 f"{turn:.4g} rad, more than a full turn: URScript poses take radians (these look "
+                                 "like degrees); convert them with d2r()")
+    return programs
 
 
 def _literal(text, match):
