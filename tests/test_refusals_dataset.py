@@ -15,6 +15,8 @@ REFUSED = [
     ("dataset ur5-tsinghua --out d --split abc", "--split"),
     ("dataset ur5-tsinghua --out d --split 0.5 --seed -1", "--seed"),
     ("dataset ur5-tsinghua --out nodir/d", "nodir"),
+    ("dataset ur5-tsinghua --out ./", "is a folder: give a prefix"),
+    ("dataset ur5-tsinghua --out .", "is a folder: give a prefix"),
     ("dataset ur5-tsinghua", "--out"),
     ("dataset", "dataset"),
 ]

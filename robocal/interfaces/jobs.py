@@ -2,6 +2,7 @@
 result (a type of :mod:`.results` with ``to_dict()``, or a JSON-ready dict where noted): read
 the files, call the method registry, write the files.  ``cli/`` only parses, renders
 (``cli/rendering.py``) and maps errors to exit codes."""
+import os
 from dataclasses import replace
 
 import numpy as np
@@ -454,6 +455,11 @@ def dataset_job(name, prefix, *, split=None, seed=0):
 
     if name not in DATASETS:
         raise InputError(f"unknown dataset {name!r}; available: {', '.join(DATASETS)}")
+    # --out is a prefix of file names: a folder (or a name ending in a separator) would give
+    # hidden files '.csv' and '.toml' in it.
+    if str(prefix).endswith(("/", os.sep)) or os.path.isdir(str(prefix)) or not os.path.basename(str(prefix)):
+        raise InputError(f"--out {prefix} is a folder: give a prefix of file names, e.g. --out "
+                         f"{os.path.join(str(prefix), name)} writes {name}.toml and {name}.csv there")
     loader, kwargs = DATASETS[name]
     chain, data, *fixture = getattr(datasets, loader)(**kwargs)
     # The split is checked before anything is written: a refused split leaves no files.
