@@ -7,6 +7,17 @@ from robocal.methods.fallback import wrap
 from robocal.simulation import make_true_robot, uniform_joints
 
 
+def with_deviations(truth, changes):
+    """The same true robot with some parameters changed further (file units: mm, deg), as a
+    new set-up or a changed robot would have them."""
+    import dataclasses
+
+    deviations = dict(truth.deviations)
+    for name, value in changes.items():
+        deviations[name] = deviations.get(name, 0.0) + value
+    return dataclasses.replace(truth, deviations=deviations)
+
+
 def ur5_auto_model(seed=5):
     """A UR5 with the typical errors measured with q1 in the lower half of its range (90 poses)
     and an auto-like model fitted there: full+gains inside its domain, full+compliance

@@ -15,19 +15,13 @@ from robocal.methods.reregistration import reregister
 from robocal.simulation import make_true_robot, uniform_joints
 
 from refusals import run_ok
+from simulated_models import with_deviations
 
 MOVE = {"base_x": 1800.0, "base_y": -600.0, "base_z": 250.0, "base_rz": 35.0, "tool_z": 20.0}
 # What frames cannot take up: a link 1.5 mm longer and a joint zero moved by 0.15 deg.
 ROBOT_CHANGE = {"a2": 1.5, "theta3": 0.15}
 NEW_POSES = 25
 TEST_POSES = 400
-
-
-def changed(truth, changes):
-    deviations = dict(truth.deviations)
-    for name, value in changes.items():
-        deviations[name] = deviations.get(name, 0.0) + value
-    return dataclasses.replace(truth, deviations=deviations)
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +39,7 @@ def calibrated():
 
 def new_set_up(chain, truth, changes, seed):
     rng = np.random.default_rng(seed)
-    new_truth = changed(truth, changes)
+    new_truth = with_deviations(truth, changes)
     data = new_truth.observations(uniform_joints(chain, NEW_POSES + TEST_POSES, rng), rng)
     return data.subset(np.arange(NEW_POSES)), data.subset(np.arange(NEW_POSES, NEW_POSES + TEST_POSES))
 

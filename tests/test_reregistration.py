@@ -1,6 +1,5 @@
 """Re-registration of a calibrated model on a new set-up (the tracker moved, the tool changed,
 the robot re-mastered): simulated robots whose frame changes are known."""
-import dataclasses
 import warnings
 
 import numpy as np
@@ -17,19 +16,12 @@ from robocal.methods.reregistration import (ReframedErrorModel, ReregistrationRe
                                             reframed_from_document, reregister)
 from robocal.simulation import make_true_robot, uniform_joints
 from robocal.spatial import invert, make_transform, so3_exp, so3_log
+from simulated_models import with_deviations
 
 # The tracker of the new set-up stands 2.4 m away and turned by 40 deg about its vertical
 # and 3 deg about x; the new tool reaches 25 mm further and 4 mm aside.
 MOVE = {"base_x": 2400.0, "base_y": -900.0, "base_z": 350.0, "base_rz": 40.0, "base_rx": 3.0}
 TOOL_CHANGE = {"tool_x": 4.0, "tool_z": 25.0}
-
-
-def moved(truth, changes):
-    """The same robot with some parameters changed further (file units: mm, deg)."""
-    deviations = dict(truth.deviations)
-    for name, value in changes.items():
-        deviations[name] = deviations.get(name, 0.0) + value
-    return dataclasses.replace(truth, deviations=deviations)
 
 
 @pytest.fixture(scope="module")
@@ -38,7 +30,7 @@ def setup():
     truth = make_true_robot(chain, "typical", seed=3)
     rng = np.random.default_rng(7)
     train = truth.observations(uniform_joints(chain, 150, rng), rng)
-    new_truth = moved(truth, {**MOVE, **TOOL_CHANGE})
+    new_truth = with_deviations(truth, {**MOVE, **TOOL_CHANGE})
     q_new = uniform_joints(chain, 315, rng)
     new = new_truth.observations(q_new, rng)
     return chain, truth, new_truth, train, new.subset(np.arange(15)), new.subset(np.arange(15, 315))
@@ -183,7 +175,7 @@ def test_frames_and_offsets_recover_a_remastered_joint(setup):
     chain, truth, _, train, _, _ = setup
     fitted = make_method("kinematic").fit(chain, train)
     injected = {"theta2": 0.30, "theta3": -0.20, "theta4": 0.25, "theta5": -0.15}
-    remastered = moved(truth, {**MOVE, **injected})
+    remastered = with_deviations(truth, {**MOVE, **injected})
     rng = np.random.default_rng(5)
     new = remastered.observations(uniform_joints(chain, 225, rng), rng)
     poses, test = new.subset(np.arange(25)), new.subset(np.arange(25, 225))
@@ -203,11 +195,11 @@ def test_implausible_results_warn(setup):
     fitted = make_method("kinematic").fit(chain, train)
     rng = np.random.default_rng(9)
     q = uniform_joints(chain, 20, rng)
-    long_tool = moved(truth, {**MOVE, "tool_z": 150.0}).observations(q, rng)
+    long_tool = with_deviations(truth, {**MOVE, "tool_z": 150.0}).observations(q, rng)
     with pytest.warns(RobocalWarning, match="the TCP moved by 15[0-9] mm on the flange"):
         again = reregister(fitted, long_tool)
     assert again.reregistration_.warnings
-    bent = moved(truth, {**MOVE, "a2": 3.0, "a3": -2.5, "d4": 2.0}).observations(q, rng)
+    bent = with_deviations(truth, {**MOVE, "a2": 3.0, "a3": -2.5, "d4": 2.0}).observations(q, rng)
     with pytest.warns(RobocalWarning, match="misses these poses by .* where its kinematics fitted"):
         reregister(fitted, bent)
 

@@ -312,8 +312,9 @@ def export_job(model_path, out, *, fmt="toml", convention=None, original=None):
     elif original is not None:
         from ..io.urdf_update import write_calibrated_urdf
 
-        return {"model": str(model_path), "format": fmt, "out": str(out), "robot": chain.name, "convention":
-                chain.convention, "left_out": left_out, **write_calibrated_urdf(original, model.nominal, rigid, out)}
+        return Exported(model=str(model_path), format=fmt, out=str(out), robot=chain.name,
+                        convention=chain.convention, left_out=left_out,
+                        into_original=write_calibrated_urdf(original, model.nominal, rigid, out))
     else:
         if not np.array_equal(np.abs(chain.joint_map), np.eye(chain.n_joints)):
             left_out.append("the joint map (a coupling, or calibrated joint gains): the URDF's joint values are "

@@ -9,7 +9,7 @@ those of the planning and acceptance jobs (design, iso9283).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..estimation.metrics import ErrorStats
 
@@ -104,6 +104,9 @@ class Exported:
         The exported robot's name and its convention (dh, mdh, poe).
     left_out : list of str
         What the robot file cannot hold (the compliance, an error model, a joint map).
+    into_original : dict
+        Written into the robot's own URDF (``--urdf``): what changed in it
+        (:func:`robocal.io.urdf_update.write_calibrated_urdf`); empty otherwise.
     """
 
     model: str
@@ -112,10 +115,11 @@ class Exported:
     robot: str
     convention: str
     left_out: list
+    into_original: dict = field(default_factory=dict)
 
     def to_dict(self):
         return {"model": self.model, "format": self.format, "out": self.out, "robot": self.robot,
-                "convention": self.convention, "left_out": list(self.left_out)}
+                "convention": self.convention, "left_out": list(self.left_out), **self.into_original}
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ import hashlib
 import numpy as np
 
 from ..errors import InputError
-from ..spatial import invert, matrix_to_rpy, so3_exp
+from ..spatial import chained, invert, matrix_to_rpy, so3_exp
 from .atomic import write_text_atomic
 from .urdf import MM_PER_M, _joint_origins
 
@@ -122,12 +122,7 @@ def write_ur_yaml(path, nominal, calibrated):
 
 def _frames(chain):
     """Joint frames at zero (6, 4, 4) mm from the base, offsets folded in, base excluded."""
-    origins, _ = _joint_origins(chain)
-    frames, current = [], np.eye(4)
-    for origin in origins:
-        current = current @ origin
-        frames.append(current)
-    return np.array(frames)
+    return chained(_joint_origins(chain)[0])
 
 
 def _along_z(lengths):

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..spatial import invert, so3_exp
+from ..spatial import chained, invert, so3_exp
 from .atomic import write_text_atomic
 from .reading import read_bytes
 from .urdf import MM_PER_M, _axis, _joint_origins, _joint_type, _LinkTree, _name, _numbers, _origin, _parse, read_urdf
@@ -59,7 +59,7 @@ def write_calibrated_urdf(original, nominal, calibrated, out):
     root, tip = _nominal_path(tree, original, nominal)
     joints = tree.path(root, tip)
     origins, last = _joint_origins(calibrated)
-    frames = _cumulative(origins)
+    frames = chained(origins)
     flange = frames[-1] @ last @ calibrated.flange
     changed = _rewrite_origins(joints, frames, diagonal, flange, original)
     added = []
@@ -92,15 +92,6 @@ def _prolog(path):
     if head.lstrip().startswith("<?xml"):
         head = head[head.find("?>") + 2:]
     return head.lstrip("\n")
-
-
-def _cumulative(origins):
-    """Joint frames at zero (n, 4, 4) mm in the base frame from the consecutive origins."""
-    frames, current = [], np.eye(4)
-    for origin in origins:
-        current = current @ origin
-        frames.append(current)
-    return np.array(frames)
 
 
 def _is_identity(transform):

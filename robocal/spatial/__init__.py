@@ -6,6 +6,7 @@ element or a leading batch axis.
 """
 from .rotations import matrix_to_rpy, rot_x, rot_y, rot_z, rpy_to_matrix
 from .transforms import (
+    chained,
     compose_pose,
     invert,
     make_transform,
@@ -16,7 +17,7 @@ from .transforms import (
 from .lie import adjoint, hat, se3_exp, se3_log, so3_exp, so3_log, vee
 
 __all__ = [
-    "adjoint", "compose_pose", "hat", "invert", "make_transform", "matrix_to_rpy",
+    "adjoint", "chained", "compose_pose", "hat", "invert", "make_transform", "matrix_to_rpy",
     "pose_to_xyz_rpy", "rot_x", "rot_y", "rot_z", "rpy_to_matrix", "se3_exp", "se3_log",
     "so3_exp", "so3_log", "transform_points", "translation", "vee",
 ]

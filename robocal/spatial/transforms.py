@@ -30,6 +30,18 @@ def translation(x=0.0, y=0.0, z=0.0):
     return make_transform(position=[x, y, z])
 
 
+def chained(transforms):
+    """(n, 4, 4): the running products T1, T1·T2, ..., T1···Tn of consecutive transforms
+    ``transforms`` (n, 4, 4), each given in the frame of the one before (a chain's joint
+    origins -> its joint frames in the base frame)."""
+    out = np.empty((len(transforms), 4, 4))
+    current = np.eye(4)
+    for k, transform in enumerate(transforms):
+        current = current @ transform
+        out[k] = current
+    return out
+
+
 def invert(transform):
     """Inverse of rigid transforms (..., 4, 4), using R^T rather than a general inverse."""
     transform = np.asarray(transform, dtype=float)
