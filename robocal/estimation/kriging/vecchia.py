@@ -128,10 +128,11 @@ BLOCK_SEARCH_ABOVE = 1000
 BLOCK_POINTS = 500
 BLOCK_STARTS = 4
 BLOCK_STARTS_UP_TO = 1500
-BLOCK_STARTS_ABOVE = 2
+BLOCK_STARTS_ABOVE = 1
 # The refinement on the exact likelihood: ftol 1e-5 (OPTIONS) stopped it 2 log-units short on
 # the bench field (L-BFGS-B's first steps from a new start are short), held out 1.032 times.
-EXACT_REFINE_OPTIONS = {"maxiter": 30, "ftol": 1e-6, "gtol": 1e-4, "maxls": 5}
+BLOCK_OPTIONS = {"maxiter": 200, "ftol": 1e-5, "gtol": 1e-4, "maxls": 5}
+EXACT_REFINE_OPTIONS = {"evaluations": 8, "tolerance": 0.001, "longest": 2.0, "apart": 0.5}
 
 
 # ------------------------------------------------------------------------ ordering
@@ -282,6 +283,7 @@ class VecchiaProblem:
             if self._blocks is None:
                 self._blocks = _BlockProblem(self.X, self.F, self.correlation, self.rows,
                                              spatial_blocks(self.X, -(-n // BLOCK_POINTS)))
+                self._blocks.search_options = BLOCK_OPTIONS
             return self._blocks
         count = min(SEARCH_POINTS, n)
         if count == n:
