@@ -135,8 +135,7 @@ class HyperparameterSearch:
         # The stand-in's optima are judged by the likelihood they stand in for: the runs land
         # in different local optima, and the stand-in's ranking of them is not that one's.
         refine, options = plan
-        ends = self.minimise(search, Y, starts, unpack, getattr(search, "search_options", None) or OPTIONS,
-                             every=True)
+        ends = self.minimise(search, Y, starts, unpack, OPTIONS, every=True)
         if "evaluations" in options:
             return unpack(self._refine_quasi_newton(search, refine, Y, ends, unpack, options))
         best = ends[0][0] if len(ends) == 1 else max((end for end, _ in ends),

@@ -136,7 +136,6 @@ class _BlockProblem:
 
     ROUNDS = 1
     least_starts = 1
-    search_options = None  # L-BFGS-B's options on this problem (None: the search's own)
 
     def __init__(self, X, F, correlation, rows, blocks):
         self.X, self.F, self.correlation, self.rows = X, F, correlation, rows
