@@ -94,16 +94,30 @@ class _ExactInOrder:
     def __init__(self, X, F, correlation, rows):
         self.X, self.F, self.correlation, self.rows = X, F, correlation, rows
         self._dense = _Dense(X, F, correlation)
+        self._best = {}  # outputs' bytes -> (Σ ℓ, θ, nugget, jitter, factor) of the best state seen
 
     def focus(self, theta):
         """Nothing: the exact likelihood conditions on every point."""
 
+    def best_factor(self, theta, nugget, Y):
+        """(lower Cholesky factor of C (n, n) in the problem's order, its jitter) at θ and the
+        nugget if the best likelihood of the outputs ``Y`` seen so far was there, else None;
+        forgotten either way (a search ends at its best state: the fit's final state then
+        solves with C by this factor, not by conjugate gradients)."""
+        best = self._best.pop(Y.tobytes(), None)
+        if best is None or best[2] != nugget or not np.array_equal(best[1], theta):
+            return None
+        return best[4], best[3]
+
     def condition(self, theta, nugget, Y, start_jitter=0.0, gradient=False):
         """A :class:`_SearchState` at θ and the nugget for the outputs ``Y`` (n, q) (the
         caller's row order), with the gradient in log θ and log nugget when asked for."""
+        key = Y.tobytes()
         Y = Y[self.rows]
-        S, C, L, _, _ = self._dense.factor(theta, nugget, start_jitter)
+        S, C, L, jitter, _ = self._dense.factor(theta, nugget, start_jitter)
         _, residual, sigma2, log_likelihood = _concentrated(*self._dense.whiten(L, Y), len(Y))
+        if key not in self._best or log_likelihood.sum() > self._best[key][0]:
+            self._best[key] = (log_likelihood.sum(), np.array(theta), nugget, jitter, L.copy())
         state = _SearchState(log_likelihood)
         if gradient:
             state.gradient = self._dense.gradient(theta, nugget, S, C, L, residual, sigma2)

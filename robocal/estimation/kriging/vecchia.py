@@ -318,11 +318,17 @@ class VecchiaProblem:
     def final(self, theta, nugget, Y, start_jitter=0.0):
         """The state at θ with the neighbours found in θ's own metric, ready to predict: what
         a fit ends with and a saved model is rebuilt from.  The searches are over: their
-        exact and block problems are let go."""
-        self._exact_problem = self._blocks = None
+        exact and block problems are let go, once the exact one has handed over the factor of
+        the best state it saw for these outputs, if at θ and the nugget (it saves the
+        prediction's conjugate gradients)."""
+        self._blocks = None
+        exact = self._exact_problem
+        factor = None if exact is None else exact.best_factor(theta, nugget, Y)
+        if exact is not None and not exact._best:
+            self._exact_problem = None
         self.focus(theta)
         state = self.condition(theta, nugget, Y, start_jitter)
-        state.prepare_prediction(self)
+        state.prepare_prediction(self, factor)
         return state
 
     def factors(self, theta, diagonal_add):

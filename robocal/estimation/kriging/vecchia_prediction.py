@@ -36,6 +36,7 @@ never below the exact model's, which conditions on all the readings.
 import math
 
 import numpy as np
+from scipy.linalg import cho_solve
 from scipy.spatial import cKDTree
 
 from .bordered import _back_substitute, _factor_in_prediction, _Failed, _forward_substitute, _squared_distances
@@ -107,7 +108,7 @@ class VecchiaState:
 
     # ---------------------------------------------------------- local predictors
 
-    def prepare_prediction(self, problem):
+    def prepare_prediction(self, problem, exact_factor=None):
         """Build each training point j's local predictor: the set S_j of the k = ⌈4m/3⌉
         training points nearest to it (itself included, in the metric of θ) and the
         coefficients c_j = A_j⁻¹ w_S (k, q), so that a target whose nearest training point is
@@ -121,13 +122,18 @@ class VecchiaState:
         C itself; above, by the Vecchia approximation of the latent field with ℓ =
         LATENT_NUGGET_SHARE·τ² of the noise kept in it (w = ỹ − (τ² − ℓ) Ĉ⁻¹ỹ,
         A_j = R[S_j, S_j] + (jitter + ℓ)·I).  Without a nugget, or if the gradients do not
-        converge, w = ỹ and A_j = C[S_j, S_j].  With k ≥ n both are the exact predictor: R C⁻¹ỹ = (C − τ²I)C⁻¹ỹ."""
+        converge, w = ỹ and A_j = C[S_j, S_j].  With k ≥ n both are the exact predictor: R C⁻¹ỹ = (C − τ²I)C⁻¹ỹ.
+        ``exact_factor`` (the lower Cholesky factor of C in the problem's order, its jitter),
+        when the search left one at θ with this state's jitter, gives C⁻¹ỹ directly."""
         Z = self._X * np.sqrt(self.theta)
         self._Z, self._tree = Z, cKDTree(Z)
         n, q = self._residual.shape
         k = min(int(math.ceil(PREDICTION_SET_FACTOR * self.neighbours)), n)
         values, diagonal, self.noise_free = self._residual, self.nugget + self.jitter, False
-        if self.nugget > 0:
+        if self.nugget > 0 and exact_factor is not None and exact_factor[1] == self.jitter:
+            solved = cho_solve((exact_factor[0], True), self._residual)
+            values, diagonal, self.noise_free = self._residual - self.nugget * solved, self.jitter, True
+        elif self.nugget > 0:
             try:
                 factors = problem.factors(self.theta, self.nugget + self.jitter)
             except _Failed:  # unexpected (the fit factorised these matrices): average the readings
