@@ -21,7 +21,11 @@ after ``--budget`` seconds.  It prints wall and CPU seconds of the fit and of th
 predictions (the machine may be shared) and, where robocal's exact Kriging ran, each RMS
 relative to exact Kriging's (the UR10 table: the mean error relative to it); at every n
 also with 0.01 mm noise on the readings (nugget estimated; ``--noise noisy`` for those
-alone, ``--peers gpboost`` for that peer alone, ``--without-robocal`` for the peers); then the UR10
+alone, ``--peers gpboost`` for that peer alone, ``--without-robocal`` for the peers).  Under
+each peer's row: its fit time over robocal vecchia's (wall and CPU; the two fits run one
+after the other in the same invocation, so both see the machine's load, which is printed),
+and robocal vecchia's held-out RMS over the peer's; a peer stopped at ``--budget`` gets the
+lower bound of the ratio.  Then the UR10
 comparison: Kriging and the hybrid on 2,000 random series-A poses, held out on the other
 9,911, exact against Vecchia, and the hybrid on all 1,495 series-B poses as
 ``calibrate --method hybrid`` fits it (``--kriging auto``).
