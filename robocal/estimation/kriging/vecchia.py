@@ -58,7 +58,8 @@ from scipy.spatial import cKDTree
 
 from .bordered import _back_substitute, _bordered_factor, _Failed, _squared_distances
 from .correlation import JITTER_START, MAX_CONDITION, correlation_from_squared, matern52_slope
-from .stand_ins import _BlockProblem, _ExactInOrder, spatial_blocks
+from .stand_ins import _BlockProblem, _Dense, _ExactInOrder, spatial_blocks
+from . import vecchia_prediction
 from .vecchia_prediction import VecchiaState
 
 # Neighbours m of every point in the likelihood (prediction: PREDICTION_SET_FACTOR).  Measured
@@ -328,7 +329,13 @@ class VecchiaProblem:
             self._exact_problem = None
         self.focus(theta)
         state = self.condition(theta, nugget, Y, start_jitter)
-        state.prepare_prediction(self, factor)
+        direct = nugget > 0 and len(self.X) <= min(EXACT_SEARCH_UP_TO, vecchia_prediction.NOISE_FREE_UP_TO)
+        if direct and (factor is None or factor[1] != state.jitter):
+            # Factorised afresh as the search did (a model read from its file, a search that
+            # ended elsewhere): the same factor, so a saved model predicts as the fitted one.
+            _, _, L, jitter, _ = _Dense(self.X, self.F, self.correlation).factor(theta, nugget, state.jitter)
+            factor = (L, jitter)
+        state.prepare_prediction(self, factor if direct and factor[1] == state.jitter else None)
         return state
 
     def factors(self, theta, diagonal_add):
