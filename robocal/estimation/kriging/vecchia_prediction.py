@@ -18,16 +18,18 @@ field at the training points,
 with C⁻¹ỹ from conjugate gradients (the Vecchia factor C⁻¹ ≈ UᵀD⁻¹U as preconditioner),
 and the local predictors interpolate that smooth field, where the screening effect holds.
 The prediction is E[z(x) | y] with E[z(x) | z(X)] replaced by its local version; with k ≥ n
-it is exact, R C⁻¹ỹ = (C − τ²I)C⁻¹ỹ.  Up to NOISE_FREE_UP_TO points the gradients multiply
-by C itself (O(n²)); above, by the Vecchia approximation of the latent field (the latent
-form of Katzfuss & Guinness 2021, solved here by conjugate gradients rather than their
-incomplete Cholesky): R + ℓI ≈ U_ℓ⁻¹D_ℓU_ℓ⁻ᵀ in the same order with the same neighbours, ℓ =
-LATENT_NUGGET_SHARE·τ², and C ≈ U_ℓ⁻¹D_ℓU_ℓ⁻ᵀ + (τ² − ℓ)I, two sparse triangular solves per
-product, O(n m); then w = ỹ − (τ² − ℓ)C⁻¹ỹ and A_j = R[S_j, S_j] + (jitter + ℓ)I.  This is
-what makes more readings a better model: bench field with 0.01 mm noise, held-out RMS
-2.25e-3 mm at n = 2,000, 1.51e-3 at 10,000 and 7.8e-4 at 100,000 (the readings averaged at
-10,000: 4.05e-3).  Without a nugget, or if the gradients do not converge, w = ỹ and
-A_j = C[S_j, S_j].  The MSE is the exact formula on the readings of S_j,
+it is exact, R C⁻¹ỹ = (C − τ²I)C⁻¹ỹ.  Up to 2,000 points (vecchia.EXACT_SEARCH_UP_TO, where
+the search's exact likelihood leaves the Cholesky factor of C at θ) C⁻¹ỹ comes from that
+factor; up to NOISE_FREE_UP_TO points the gradients multiply by C itself (O(n²)); above, by
+the Vecchia approximation of the latent field (the latent form of Katzfuss & Guinness 2021,
+solved here by conjugate gradients rather than their incomplete Cholesky): R + ℓI ≈
+U_ℓ⁻¹D_ℓU_ℓ⁻ᵀ in the same order with the same neighbours, ℓ = LATENT_NUGGET_SHARE·τ², and C
+≈ U_ℓ⁻¹D_ℓU_ℓ⁻ᵀ + (τ² − ℓ)I, two sparse triangular solves per product, O(n m); then w = ỹ −
+(τ² − ℓ)C⁻¹ỹ and A_j = R[S_j, S_j] + (jitter + ℓ)I.  This is what makes more readings a
+better model: bench field with 0.01 mm noise, held-out RMS 2.25e-3 mm at n = 2,000, 1.51e-3
+at 10,000 and 7.8e-4 at 100,000 (the readings averaged at 10,000: 4.05e-3).  Without a
+nugget, or if the gradients do not converge, w = ỹ and A_j = C[S_j, S_j].  The MSE is the
+exact formula on the readings of S_j,
 
     MSE(x) = σ̂² (1 + uᵀ(F̃ᵀF̃)⁻¹u − rᵀA⁻¹r),   A = C[S_j, S_j],   u = F_SᵀA⁻¹r − f(x),
 
