@@ -14,6 +14,7 @@ from robocal.estimation.kriging import trend_basis
 from robocal.estimation.kriging import vecchia as vecchia_module
 from robocal.estimation.kriging import vecchia_prediction
 from robocal.estimation.kriging.exact import _Problem
+from robocal.estimation.kriging.search import _quasi_newton
 from robocal.estimation.kriging.stand_ins import _BlockProblem, _ExactInOrder, spatial_blocks
 from robocal.estimation.kriging.vecchia import VecchiaProblem, coarse_to_fine_order, previous_neighbours
 
@@ -124,6 +125,49 @@ def test_one_block_is_the_exact_likelihood_and_the_gradient_of_several_is_their_
     state = problem.condition(theta, nugget, Y, gradient=True)
     assert abs(state.log_likelihood.sum() - exact.log_likelihood.sum()) > 1.0  # the blocks are not the whole
     _assert_gradient_is_the_likelihood_slope(problem, theta, nugget, Y, state)
+
+
+@pytest.mark.parametrize("correlation", ["gaussian", "matern52"])
+def test_the_stand_ins_exact_likelihood_is_the_exact_models(rng, correlation):
+    # Computed without the exact model's squared differences: the same value and gradient.
+    X, Y = standardised(*(lambda X: (X, wavy(X)))(rng.random((120, 3))))
+    F = trend_basis(X, "linear")
+    rows = rng.permutation(len(X))
+    for theta, nugget in ((np.array([0.8, 1.3, 0.5]), 1e-3), (np.array([0.05, 0.2, 0.01]), 1e-6)):
+        exact = _Problem(X, F, correlation).condition(theta, nugget, Y, gradient=True)
+        dense = _ExactInOrder(X[rows], F[rows], correlation, rows).condition(theta, nugget, Y, gradient=True)
+        assert np.allclose(dense.log_likelihood, exact.log_likelihood, rtol=1e-10)
+        assert np.allclose(dense.gradient[0], exact.gradient[0], rtol=1e-6, atol=1e-6)
+        assert dense.gradient[1] == pytest.approx(exact.gradient[1], rel=1e-6, abs=1e-6)
+
+
+def test_quasi_newton_steps_reach_the_minimum_from_a_wrong_curvature_and_stop_at_a_bound():
+    # A smooth non-quadratic function of 3 parameters whose minimum (1, −2, 0.5) is known.
+    A = np.array([[4.0, 1.5, 0.0], [1.5, 2.0, 0.3], [0.0, 0.3, 1.0]])
+    target = np.array([1.0, -2.0, 0.5])
+    calls = []
+
+    def objective(x):
+        calls.append(1)
+        u = x - target
+        return u @ A @ u + 0.1 * np.sum(u ** 4), 2 * A @ u + 0.4 * u ** 3
+
+    wide = (np.full(3, -10.0), np.full(3, 10.0))
+    options = {"evaluations": 20, "tolerance": 1e-10, "longest": 2.0}
+    start = np.zeros(3)
+    # The curvature the steps start from is a third to three times the true one (a stand-in's).
+    found = _quasi_newton(objective, start, objective(start), np.diag([0.6, 12.0, 2.0]), wide, options)
+    assert np.allclose(found, target, atol=1e-5)
+    assert len(calls) <= 15
+    # With the second parameter held above its optimum, it stays at its bound and the others
+    # minimise the rest: for a quadratic, u_free = −A_ff⁻¹ A_fb u_b.
+    bounded = (np.array([-10.0, -1.0, -10.0]), np.full(3, 10.0))
+    found = _quasi_newton(objective, start, objective(start), np.diag([0.6, 12.0, 2.0]), bounded, options)
+    assert found[1] == -1.0
+    u = found - target
+    gradient = 2 * A @ u + 0.4 * u ** 3
+    # (a predicted decrease below 1e-10 leaves a gradient of about √(2·1e-10·|A|) ≈ 3e-5)
+    assert np.allclose(gradient[[0, 2]], 0.0, atol=1e-4) and gradient[1] > 0
 
 
 def exact_log_likelihood(model):

@@ -136,12 +136,46 @@ class HyperparameterSearch:
         # in different local optima, and the stand-in's ranking of them is not that one's.
         refine, options = plan
         ends = self.minimise(search, Y, starts, unpack, OPTIONS, every=True)
-        best = ends[0] if len(ends) == 1 else max(ends, key=lambda end: _judged(refine, Y, unpack(end)))
+        if "evaluations" in options:
+            return unpack(self._refine_quasi_newton(search, refine, Y, ends, unpack, options))
+        best = ends[0][0] if len(ends) == 1 else max((end for end, _ in ends),
+                                                     key=lambda end: _judged(refine, Y, unpack(end)))
         return unpack(self.minimise(refine, Y, [best], unpack, options, rounds=1))
+
+    def _refine_quasi_newton(self, search, refine, Y, ends, unpack, options):
+        """The parameters that maximise the likelihood of ``refine`` (the exact one: a few
+        evaluations, each costly), by quasi-Newton steps (:func:`_quasi_newton`) from the best
+        of the stand-in ``search``'s ``ends`` ([(parameters, stand-in's value)]), with the
+        stand-in's curvature there as the first Hessian.  Ends further apart than
+        options["apart"] (in log θ or log nugget) may lie in different basins of the refined
+        likelihood, which then judges them; closer, they lead to the same optimum and the
+        stand-in's best is taken."""
+        d = search.X.shape[1]
+        bounds = self.log_bounds(d)
+        objective, stand_in = self._objective(refine, Y, unpack), self._objective(search, Y, unpack)
+        points = np.array([end for end, _ in ends])
+        if np.ptp(points, axis=0).max() > options["apart"]:
+            best, first = min(((end, objective(end)) for end in points), key=lambda pair: pair[1][0])
+        else:
+            best = points[int(np.argmin([value for _, value in ends]))]
+            first = objective(best)
+        return _quasi_newton(objective, best, first, _hessian(stand_in, best, *bounds), bounds, options)
+
+    def _objective(self, problem, Y, unpack):
+        """params ↦ (−Σ ℓ, −∇Σ ℓ) of ``problem`` for the columns of Y, params [log θ (, log nugget)]."""
+        estimate_nugget = self.nugget == "estimate"
+
+        def objective(params):
+            state = problem.condition(*unpack(params), Y, gradient=True)
+            d_theta, d_nugget = state.gradient
+            gradient = np.append(d_theta, d_nugget) if estimate_nugget else d_theta
+            return -state.log_likelihood.sum(), -gradient
+
+        return objective
 
     def minimise(self, problem, Y, starts, unpack, options, rounds=None, every=False):
         """L-BFGS-B from each start on the summed concentrated likelihood: the best parameters
-        (with ``every``, the end of each start's run instead, in the order of the starts).
+        (with ``every``, [(end, value)] of each start's run instead, in the order of the starts).
 
         A Vecchia problem conditions on neighbours in the metric of θ (``focus``): each run
         starts with the neighbours of its start, and runs again from its end with the
@@ -170,7 +204,7 @@ class HyperparameterSearch:
             if rounds > 1:
                 problem.focus(unpack(result.x)[0])
                 result.fun = objective(result.x)[0]
-            ends.append(result.x)
+            ends.append((result.x, result.fun))
             if result.fun < best_value:
                 best_value, best_params = result.fun, result.x
         return ends if every else best_params
@@ -187,6 +221,56 @@ class HyperparameterSearch:
         tasks = [{"settings": self.settings(), "problem": data.plain(), "Y": data.Ys[:, cols],
                   "candidates": candidates} for cols, candidates in zip(groups, drawn)]
         return [(np.asarray(theta), nugget) for theta, nugget in runner.map(search_task, tasks)]
+
+
+def _hessian(objective, x, lower, upper, step=1e-3):
+    """The Hessian (k, k) of ``objective``'s value at x (k,) from forward differences of its
+    gradient (stepping inwards at a bound), symmetrised and made positive definite (its
+    eigenvalues' magnitudes, floored at 1e-6 of the largest)."""
+    _, gradient = objective(x)
+    columns = []
+    for k in range(len(x)):
+        h = step if x[k] + step <= upper[k] else -step
+        moved = x.copy()
+        moved[k] += h
+        columns.append((objective(moved)[1] - gradient) / h)
+    H = np.array(columns).T
+    values, vectors = np.linalg.eigh(0.5 * (H + H.T))
+    values = np.maximum(np.abs(values), 1e-6 * np.abs(values).max() + 1e-12)
+    return (vectors * values) @ vectors.T
+
+
+def _quasi_newton(objective, x, first, H, bounds, options):
+    """Minimise ``objective`` (params ↦ (value, gradient)) from x with ``first`` its value and
+    gradient there and H a positive definite Hessian estimate: BFGS steps −H⁻¹g on the
+    parameters not held at a bound (``bounds``: (lower, upper)), each at most
+    options["longest"] long in every coordinate, at most options["evaluations"] of them, until
+    the decrease the model predicts is below options["tolerance"] (units of the value).  A
+    step that does not decrease the value is not taken, but its curvature is learnt."""
+    lower, upper = bounds
+    f, g = first
+    for _ in range(options["evaluations"]):
+        free = ~(((x <= lower) & (g > 0)) | ((x >= upper) & (g < 0)))
+        if not free.any():
+            break
+        step = np.zeros_like(x)
+        step[free] = -np.linalg.solve(H[np.ix_(free, free)], g[free])
+        longest = np.abs(step).max()
+        if longest > options["longest"]:
+            step *= options["longest"] / longest
+        s = np.clip(x + step, lower, upper) - x
+        if -(g @ s + 0.5 * s @ H @ s) < options["tolerance"]:
+            break
+        f_new, g_new = objective(x + s)
+        y = g_new - g
+        if s @ y > 1e-12 * np.linalg.norm(s) * np.linalg.norm(y):
+            Hs = H @ s
+            H = H - np.outer(Hs, Hs) / (s @ Hs) + np.outer(y, y) / (s @ y)
+        elif f_new >= f:
+            H = 4.0 * H  # no curvature learnt: shorter steps
+        if f_new < f:
+            x, f, g = x + s, f_new, g_new
+    return x
 
 
 def _judged(problem, Y, parameters):

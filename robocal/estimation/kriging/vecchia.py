@@ -58,7 +58,8 @@ from scipy.spatial import cKDTree
 
 from .bordered import _back_substitute, _bordered_factor, _Failed, _squared_distances
 from .correlation import JITTER_START, MAX_CONDITION, correlation_from_squared, matern52_slope
-from .stand_ins import _BlockProblem, _ExactInOrder, spatial_blocks
+from .stand_ins import _BlockProblem, _Dense, _ExactInOrder, spatial_blocks
+from . import vecchia_prediction
 from .vecchia_prediction import VecchiaState
 
 # Neighbours m of every point in the likelihood (prediction: PREDICTION_SET_FACTOR).  Measured
@@ -102,18 +103,31 @@ REFINE_OPTIONS = {"maxiter": 15, "ftol": 1e-6, "gtol": 1e-4, "maxls": 5}
 # exact, so a noisy smooth field's θ is not pulled off as by the Vecchia likelihood.  One
 # step on the exact likelihood costs what five on 500-point blocks do at n = 1,495.  The
 # stand-in's runs start from theta0 and the best screened candidates, BLOCK_STARTS of them
-# up to BLOCK_STARTS_UP_TO points and BLOCK_STARTS_ABOVE above; their ends are judged by the
-# exact likelihood and the best is refined on it (EXACT_REFINE_OPTIONS).  The UR10's
-# residual has several optima of about the same likelihood, and which one a run reaches
-# depends on where it starts, so the exact search on all points (as up to 1,000) is no
-# ground truth either: against it, one core, loaded machine, CPU s (bench/kriging.py
-# --search, one process, load average 3.1 to 4.4):
+# up to BLOCK_STARTS_UP_TO points and BLOCK_STARTS_ABOVE above; ends further apart than
+# EXACT_REFINE_OPTIONS["apart"] are judged by the exact likelihood, and the best is refined
+# on it by quasi-Newton steps (search._quasi_newton) that start from the stand-in's
+# curvature there (EXACT_REFINE_OPTIONS: at most "evaluations" steps, until the predicted
+# gain is below "tolerance" log-units, none longer than "longest" in log θ or log nugget).
+# The stand-in's curvature is a third to three times the exact one's (bench field, n = 2,000,
+# each output at its optimum), and two to four steps reach the optimum L-BFGS-B reached in
+# eleven evaluations of the exact likelihood (each 0.2 to 0.3 s of CPU at n = 2,000; its
+# first steps from a new start are short).  A tolerance of 0.01 stopped the steps along a
+# flat direction of the nugget (θ and nugget 0.1 off in log, predictions 1e-3 of the
+# outputs' spread off, tests/test_vecchia.py); 0.001 costs a step more, at most.
+# One start above 1,500 points: bench field, n = 2,000, 0.01 mm noise, CPU s on a machine
+# with load average 8 to 11 (2 cores): L-BFGS-B refinement (as before) 12.7 s, held-out RMS
+# 2.249e-3 mm; quasi-Newton, 2 starts 8.0 s, 2.255e-3; 1 start 4.8 s, 2.265e-3, the exact
+# log-likelihood summed over the outputs 0.1 below.  UR10 A, 2,000 random poses (seed 0),
+# held out on the other 9,911: kriging mean/RMS/max 0.2591, 0.3745, 2.414 mm against 0.2592,
+# 0.3784, 2.578 before; hybrid 0.1855, 0.2366, 1.210 against 0.1856, 0.2366, 1.209 (before: 10.6
+# and 10.2 s of CPU; now 6.2 and 5.7).  Blocks of 250 or 350 points: 6.5 and 7.3 s (two
+# starts), the exact steps then need four steps per output.
+# Before (L-BFGS-B refinement, two starts above 1,500 points), against the exact search on
+# all points, one core, CPU s (bench/kriging.py --search, load average 3.1 to 4.4):
 #   hybrid on all 1,495 UR10 B poses: 12.8 s against 29.3 s; the exact log-likelihood 20
 #   units higher (on one error component, the same on the others);
-#   UR10 A, 2,000 random poses, held out on the other 9,911: kriging mean/RMS/max 0.2592,
-#   0.3784, 2.578 mm against 0.2616, 0.3800, 2.534; hybrid 0.1924, 0.2426, 1.217 against
-#   0.1929, 0.2436, 1.210 (14.2 and 14.0 s against 31.0 and 28.7);
-#   bench field, n = 2,000, 0.01 mm noise: held-out RMS 0.999 times, 16.4 s against 15.1;
+#   UR10 A, 2,000 random poses: kriging mean 0.2592 against 0.2616 mm, hybrid 0.1924 against
+#   0.1929 (14.2 and 14.0 s against 31.0 and 28.7);
 #   eight more random training sets of series A and B (1,196 to 2,000 poses; kriging and
 #   hybrid, 16 fits): held-out mean error 0.971 to 1.020 times (geometric mean 0.999), the
 #   exact log-likelihood summed over their 48 components 184 units higher.
@@ -122,16 +136,14 @@ REFINE_OPTIONS = {"maxiter": 15, "ftol": 1e-6, "gtol": 1e-4, "maxls": 5}
 # (their optima lay in other basins); the Vecchia likelihood (m = 30) refined on the exact
 # one: as accurate, but 16 s on all of series B (m = 15 or 20: +7 % and +43 % on A 2,000);
 # blocks of 750 points: as accurate, 15.6 s; 2 or 3 starts on 500-point blocks at n ≤ 1,500:
-# held-out up to +2.9 % on B (a worse optimum of one component); 4 starts above 1,500
-# points: the bench field's fit 21.5 s for the same optimum.
+# held-out up to +2.9 % on B (a worse optimum of one component).  The Vecchia search at
+# n = 2,000 (bench field, as above): 4.1 s, held-out RMS 2.70e-3 mm.
 BLOCK_SEARCH_ABOVE = 1000
 BLOCK_POINTS = 500
 BLOCK_STARTS = 4
 BLOCK_STARTS_UP_TO = 1500
-BLOCK_STARTS_ABOVE = 2
-# The refinement on the exact likelihood: ftol 1e-5 (OPTIONS) stopped it 2 log-units short on
-# the bench field (L-BFGS-B's first steps from a new start are short), held out 1.032 times.
-EXACT_REFINE_OPTIONS = {"maxiter": 30, "ftol": 1e-6, "gtol": 1e-4, "maxls": 5}
+BLOCK_STARTS_ABOVE = 1
+EXACT_REFINE_OPTIONS = {"evaluations": 8, "tolerance": 0.001, "longest": 2.0, "apart": 0.5}
 
 
 # ------------------------------------------------------------------------ ordering
@@ -307,11 +319,23 @@ class VecchiaProblem:
     def final(self, theta, nugget, Y, start_jitter=0.0):
         """The state at θ with the neighbours found in θ's own metric, ready to predict: what
         a fit ends with and a saved model is rebuilt from.  The searches are over: their
-        exact and block problems are let go."""
-        self._exact_problem = self._blocks = None
+        exact and block problems are let go, once the exact one has handed over the factor of
+        the best state it saw for these outputs, if at θ and the nugget (it saves the
+        prediction's conjugate gradients)."""
+        self._blocks = None
+        exact = self._exact_problem
+        factor = None if exact is None else exact.best_factor(theta, nugget, Y)
+        if exact is not None and not exact._best:
+            self._exact_problem = None
         self.focus(theta)
         state = self.condition(theta, nugget, Y, start_jitter)
-        state.prepare_prediction(self)
+        direct = nugget > 0 and len(self.X) <= min(EXACT_SEARCH_UP_TO, vecchia_prediction.NOISE_FREE_UP_TO)
+        if direct and (factor is None or factor[1] != state.jitter):
+            # Factorised afresh as the search did (a model read from its file, a search that
+            # ended elsewhere): the same factor, so a saved model predicts as the fitted one.
+            _, _, L, jitter, _ = _Dense(self.X, self.F, self.correlation).factor(theta, nugget, state.jitter)
+            factor = (L, jitter)
+        state.prepare_prediction(self, factor if direct and factor[1] == state.jitter else None)
         return state
 
     def factors(self, theta, diagonal_add):

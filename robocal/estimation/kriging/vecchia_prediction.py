@@ -18,16 +18,18 @@ field at the training points,
 with C⁻¹ỹ from conjugate gradients (the Vecchia factor C⁻¹ ≈ UᵀD⁻¹U as preconditioner),
 and the local predictors interpolate that smooth field, where the screening effect holds.
 The prediction is E[z(x) | y] with E[z(x) | z(X)] replaced by its local version; with k ≥ n
-it is exact, R C⁻¹ỹ = (C − τ²I)C⁻¹ỹ.  Up to NOISE_FREE_UP_TO points the gradients multiply
-by C itself (O(n²)); above, by the Vecchia approximation of the latent field (the latent
-form of Katzfuss & Guinness 2021, solved here by conjugate gradients rather than their
-incomplete Cholesky): R + ℓI ≈ U_ℓ⁻¹D_ℓU_ℓ⁻ᵀ in the same order with the same neighbours, ℓ =
-LATENT_NUGGET_SHARE·τ², and C ≈ U_ℓ⁻¹D_ℓU_ℓ⁻ᵀ + (τ² − ℓ)I, two sparse triangular solves per
-product, O(n m); then w = ỹ − (τ² − ℓ)C⁻¹ỹ and A_j = R[S_j, S_j] + (jitter + ℓ)I.  This is
-what makes more readings a better model: bench field with 0.01 mm noise, held-out RMS
-2.25e-3 mm at n = 2,000, 1.51e-3 at 10,000 and 7.8e-4 at 100,000 (the readings averaged at
-10,000: 4.05e-3).  Without a nugget, or if the gradients do not converge, w = ỹ and
-A_j = C[S_j, S_j].  The MSE is the exact formula on the readings of S_j,
+it is exact, R C⁻¹ỹ = (C − τ²I)C⁻¹ỹ.  Up to 2,000 points (vecchia.EXACT_SEARCH_UP_TO, where
+the search's exact likelihood leaves the Cholesky factor of C at θ) C⁻¹ỹ comes from that
+factor; up to NOISE_FREE_UP_TO points the gradients multiply by C itself (O(n²)); above, by
+the Vecchia approximation of the latent field (the latent form of Katzfuss & Guinness 2021,
+solved here by conjugate gradients rather than their incomplete Cholesky): R + ℓI ≈
+U_ℓ⁻¹D_ℓU_ℓ⁻ᵀ in the same order with the same neighbours, ℓ = LATENT_NUGGET_SHARE·τ², and C
+≈ U_ℓ⁻¹D_ℓU_ℓ⁻ᵀ + (τ² − ℓ)I, two sparse triangular solves per product, O(n m); then w = ỹ −
+(τ² − ℓ)C⁻¹ỹ and A_j = R[S_j, S_j] + (jitter + ℓ)I.  This is what makes more readings a
+better model: bench field with 0.01 mm noise, held-out RMS 2.25e-3 mm at n = 2,000, 1.51e-3
+at 10,000 and 7.8e-4 at 100,000 (the readings averaged at 10,000: 4.05e-3).  Without a
+nugget, or if the gradients do not converge, w = ỹ and A_j = C[S_j, S_j].  The MSE is the
+exact formula on the readings of S_j,
 
     MSE(x) = σ̂² (1 + uᵀ(F̃ᵀF̃)⁻¹u − rᵀA⁻¹r),   A = C[S_j, S_j],   u = F_SᵀA⁻¹r − f(x),
 
@@ -36,6 +38,7 @@ never below the exact model's, which conditions on all the readings.
 import math
 
 import numpy as np
+from scipy.linalg import cho_solve
 from scipy.spatial import cKDTree
 
 from .bordered import _back_substitute, _factor_in_prediction, _Failed, _forward_substitute, _squared_distances
@@ -107,7 +110,7 @@ class VecchiaState:
 
     # ---------------------------------------------------------- local predictors
 
-    def prepare_prediction(self, problem):
+    def prepare_prediction(self, problem, exact_factor=None):
         """Build each training point j's local predictor: the set S_j of the k = ⌈4m/3⌉
         training points nearest to it (itself included, in the metric of θ) and the
         coefficients c_j = A_j⁻¹ w_S (k, q), so that a target whose nearest training point is
@@ -121,13 +124,18 @@ class VecchiaState:
         C itself; above, by the Vecchia approximation of the latent field with ℓ =
         LATENT_NUGGET_SHARE·τ² of the noise kept in it (w = ỹ − (τ² − ℓ) Ĉ⁻¹ỹ,
         A_j = R[S_j, S_j] + (jitter + ℓ)·I).  Without a nugget, or if the gradients do not
-        converge, w = ỹ and A_j = C[S_j, S_j].  With k ≥ n both are the exact predictor: R C⁻¹ỹ = (C − τ²I)C⁻¹ỹ."""
+        converge, w = ỹ and A_j = C[S_j, S_j].  With k ≥ n both are the exact predictor: R C⁻¹ỹ = (C − τ²I)C⁻¹ỹ.
+        ``exact_factor`` (the lower Cholesky factor of C in the problem's order, its jitter),
+        when the search left one at θ with this state's jitter, gives C⁻¹ỹ directly."""
         Z = self._X * np.sqrt(self.theta)
         self._Z, self._tree = Z, cKDTree(Z)
         n, q = self._residual.shape
         k = min(int(math.ceil(PREDICTION_SET_FACTOR * self.neighbours)), n)
         values, diagonal, self.noise_free = self._residual, self.nugget + self.jitter, False
-        if self.nugget > 0:
+        if self.nugget > 0 and exact_factor is not None and exact_factor[1] == self.jitter:
+            solved = cho_solve((exact_factor[0], True), self._residual)
+            values, diagonal, self.noise_free = self._residual - self.nugget * solved, self.jitter, True
+        elif self.nugget > 0:
             try:
                 factors = problem.factors(self.theta, self.nugget + self.jitter)
             except _Failed:  # unexpected (the fit factorised these matrices): average the readings
