@@ -25,7 +25,9 @@ from robocal.methods.ann import BASE_MODELS, REFINERS, TRAINERS
 from robocal.methods.base import REGISTER_CHOICES
 
 runner = CliRunner()
-WIDE = {"COLUMNS": "250", "TERMINAL_WIDTH": "250"}
+# COLUMNS only: typer reads TERMINAL_WIDTH once, when its help module is first imported, so a
+# TERMINAL_WIDTH set here would fix every later help in the run at this width.
+WIDE = {"COLUMNS": "250"}
 COMMANDS = sorted(typer.main.get_command(app).commands)
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
