@@ -1,4 +1,4 @@
 """``python -m robocal``: the command line, as the ``robocal`` script runs it."""
-from .interfaces.cli import main
+from .entry import main
 
 main()

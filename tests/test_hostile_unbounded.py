@@ -80,3 +80,27 @@ def test_stdin_of_zeros_is_refused(tmp_path):
     lines = [line for line in (done.stdout + done.stderr).splitlines() if line.strip()]
     assert done.returncode == 2 and lines == [lines[0]] and "is not a regular file" in lines[0]
     assert not (tmp_path / "o.json").exists()
+
+
+@pytest.mark.parametrize("delay", [0.05, 0.3])
+def test_ctrl_c_while_the_command_line_starts_ends_in_one_line(delay, tmp_path):
+    # SIGINT before the command line's own handling is in place (its imports take a second or
+    # more on a busy machine): one line and status 130, no KeyboardInterrupt traceback, no file.
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from hostile import REPO
+
+    environment = dict(os.environ, PYTHONPATH=str(REPO))
+    process = subprocess.Popen([sys.executable, "-m", "robocal", "simulate", "kr150-2", "--n", "50000", "--out",
+                                "big.csv"], cwd=tmp_path, env=environment, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    time.sleep(delay)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130 and "Traceback" not in err
+    assert err.strip().splitlines()[-1].endswith("interrupted")
+    assert not (tmp_path / "big.csv").exists()

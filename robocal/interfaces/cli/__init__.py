@@ -1,4 +1,4 @@
-"""The ``robocal`` command line (``robocal = robocal.interfaces.cli:main``).
+"""The ``robocal`` command line (the script runs :func:`robocal.entry.main`, which starts it).
 
 * :mod:`.app`: the typer app, one-line errors, Ctrl-C and SIGTERM, the entry point;
 * :mod:`.options`: the options generated from the methods' settings and those commands share;
