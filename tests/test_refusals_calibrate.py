@@ -42,6 +42,7 @@ REFUSED = [
     ("calibrate ur5 meas.csv --out m.json --register maybe", ""),
     ("calibrate ur5 meas.csv --out m.json --payload 2", "--payload"),
     ("calibrate ur5 meas.csv --out m.json --parameters full+compliance --payload -1", "payload"),
+    ("calibrate ur5 meas.csv --out m.json --parameters full+compliance --payload 5000", "give the payload in kg"),
     ("calibrate ur5 meas.csv --out m.json --method kriging --nugget abc", ""),
     ("calibrate ur5 meas.csv --out m.json --method kriging --trend cubic", ""),
     ("calibrate ur5 meas.csv --out m.json --method ann --hidden 8", ""),

@@ -125,10 +125,21 @@ def scaled_mass_model(chain, payload=None):
                      payload=REFERENCE_PAYLOAD * size**3 if payload is None else payload)
 
 
+# No arm carries more than a few times its own moving mass (a cobot its third, a KR 150 a
+# sixth, the lightest-armed designs about one): a payload above this many times the arm's
+# link masses is another unit (grams for kg), and would bend the model by metres.
+LARGEST_PAYLOAD_PER_ARM_MASS = 5.0
+
+
 def default_mass_model(chain, payload=None):
     """The robot's own link masses when its file gives them (``mass`` per joint) with
     ``payload`` kg at the TCP (default 0: the file describes the arm, and a calibration
-    target weighs little), else :func:`scaled_mass_model`."""
-    if chain.masses is None:
-        return scaled_mass_model(chain, payload)
-    return MassModel(link_masses=chain.masses, payload=0.0 if payload is None else payload)
+    target weighs little), else :func:`scaled_mass_model`.  InputError for a payload above
+    LARGEST_PAYLOAD_PER_ARM_MASS times the arm's link masses."""
+    model = (scaled_mass_model(chain, payload) if chain.masses is None
+             else MassModel(link_masses=chain.masses, payload=0.0 if payload is None else payload))
+    arm = float(np.sum(model.link_masses))
+    if payload is not None and payload > LARGEST_PAYLOAD_PER_ARM_MASS * arm:
+        raise InputError(f"--payload {payload:g} kg is more than {LARGEST_PAYLOAD_PER_ARM_MASS:g} times the "
+                         f"arm's own {arm:.1f} kg ('{chain.name}'): give the payload in kg (grams divided by 1000)")
+    return model
