@@ -12,7 +12,7 @@ from filter_support import (
     without_comment,
 )
 
-from robocal.errors import InputError
+from robocal.errors import InputError, RobocalError
 from robocal.interfaces.filter import filter_job
 
 SCRIPT = PROGRAMS / "urscript" / "feeder_to_tray.script"
@@ -68,5 +68,17 @@ def test_a_pose_in_degrees_is_refused_not_read_as_radians(models, tmp_path):
     program.write_text("def prog():\n  movel(p[0.4, 0.1, 0.3, 180, 0, 0], a=1.2, v=0.25)\nend\n")
     (tmp_path / "out").mkdir()
     with pytest.raises(InputError, match="degrees.script, line 2: .* more than a full turn: URScript poses take rad"):
+        filter_job(models["true"], [program], tmp_path / "out")
+    assert not list((tmp_path / "out").iterdir())
+
+
+@pytest.mark.parametrize("content, says", [(b"\x00\x01\x02\xff\xfe", "is not a text program"),
+                                           (b"", "no motion found"),
+                                           (b"# only a comment\n", "no motion found")])
+def test_a_binary_or_motionless_file_is_refused(models, tmp_path, content, says):
+    program = tmp_path / "p.script"
+    program.write_bytes(content)
+    (tmp_path / "out").mkdir()
+    with pytest.raises(RobocalError, match=says):
         filter_job(models["true"], [program], tmp_path / "out")
     assert not list((tmp_path / "out").iterdir())

@@ -300,6 +300,11 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
     if not out_dir.is_dir():
         raise InputError(f"--out {out_dir} is not a directory: create it first")
     programs = read_programs(paths, language)
+    if not any(p.targets or p.joint_targets or p.run_time for p in programs):
+        # Nothing to filter: an empty file, or not a program of this language at all.
+        raise InputError(f"no motion found in {', '.join(str(p.path) for p in programs)}: is it a "
+                         f"{programs[0].language if programs else 'robot'} program? (robocal filter reads KRL .src/"
+                         ".dat, RAPID .mod/.prg and URScript .script)")
     for program in programs:
         if is_filtered(program.text, program.module.COMMENT):
             raise InputError(f"{program.path} was written by robocal filter already (it carries robocal's comment "

@@ -216,6 +216,10 @@ def read_text(path) -> str:
     byte is what it was), read by robocal's one bounded reader."""
     raw = reading.read_bytes(path, "robot program", "program")
     reading.check_line_lengths(raw, path, "robot program")
+    if b"\x00" in raw or raw.startswith(b"PK\x03\x04"):
+        # No robot language writes NUL bytes: an archive, a backup image or a binary file.
+        raise FileFormatError(f"{path} is not a text program (it holds NUL bytes: an archive or a binary file?): "
+                              "give the program's source files (.src/.dat, .mod/.prg, .script)")
     return raw.decode(ENCODING)
 
 
