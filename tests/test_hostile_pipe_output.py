@@ -66,3 +66,13 @@ def test_refusal_in_a_pipe_is_one_line_on_stderr(tmp_path):
     done = run_process(tmp_path, ["calibrate", "ur5", "cmds.csv", "--out", "o.json"])
     assert done.returncode == 2 and done.stdout == ""
     assert len(done.stderr.splitlines()) == 1 and done.stderr.startswith("error: cmds.csv")
+
+
+def test_a_kriging_calibration_does_not_repeat_its_folds_warnings(tmp_path):
+    # The held-out folds (the error to expect, the 95 % bound) predict poses outside each
+    # fold's own training box: those are not the user's targets, and were printed 9 times.
+    assert run_process(tmp_path, ["simulate", "ur5", "--n", "60", "--seed", "1", "--out", "u.csv"]).returncode == 0
+    done = run_process(tmp_path, ["calibrate", "ur5", "u.csv", "--method", "kriging", "--accept-extrapolation",
+                                  "--out", "k.json"], timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "training box" not in done.stderr
