@@ -4,6 +4,8 @@ columns without a word broken or an option name cut, command output without cont
 characters (carriage returns, escape sequences) or repeated lines, and a refusal that is one
 line on stderr with nothing on stdout."""
 import collections
+import csv
+import math
 import re
 
 import pytest
@@ -76,3 +78,19 @@ def test_a_kriging_calibration_does_not_repeat_its_folds_warnings(tmp_path):
                                   "--out", "k.json"], timeout=120)
     assert done.returncode == 0, done.stderr
     assert "training box" not in done.stderr
+
+
+def test_radian_joints_of_position_data_are_refused_in_one_line_not_warned_first(tmp_path):
+    # The robot judges the units of position data (robocal.io.units): the reader's own guess
+    # from the joint values alone said the same thing a line before the refusal.
+    assert run_process(tmp_path, ["simulate", "ur5", "--n", "40", "--seed", "1", "--out", "u.csv"]).returncode == 0
+    with open(tmp_path / "u.csv", newline="") as stream:
+        rows = list(csv.reader(stream))
+    header = rows[0]
+    with open(tmp_path / "rad.csv", "w", newline="") as stream:
+        csv.writer(stream).writerows([header] + [[repr(math.radians(float(v))) if c.startswith("q") else v
+                                                  for c, v in zip(header, row)] for row in rows[1:]])
+    done = run_process(tmp_path, ["calibrate", "ur5", "rad.csv", "--out", "r.json"])
+    assert done.returncode != 0 and "look like radians" in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert not (tmp_path / "r.json").exists()

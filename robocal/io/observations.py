@@ -214,7 +214,7 @@ def read_observations(path, chain, fixture_path=None, *, beyond_limits=False) ->
         chain = load_robot(chain)
     if not hasattr(chain, "joints_from_file"):
         raise InputError(f"the robot must be a Chain, a built-in name or a robot file, got {type(chain).__name__}")
-    data = read_measurements(path, n_joints=chain.n_joints, joint_names=chain.joint_names)
+    data = read_measurements(path, n_joints=chain.n_joints, joint_names=chain.joint_names, robot_judges_units=True)
     fixture = None if fixture_path is None else read_fixture(fixture_path)
     return observations(chain, data, fixture, beyond_limits=beyond_limits)
 

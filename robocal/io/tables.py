@@ -245,7 +245,8 @@ def _named_joints(table: _Table, joint_names) -> _Table:
                                scales={rename.get(name, name): v for name, v in table.scales.items()})
 
 
-def read_measurements(path: str | os.PathLike, n_joints: int | None = None, joint_names=None) -> Measurements:
+def read_measurements(path: str | os.PathLike, n_joints: int | None = None, joint_names=None, *,
+                      robot_judges_units: bool = False) -> Measurements:
     """Read and validate a measurement CSV file.
 
     Args:
@@ -254,6 +255,9 @@ def read_measurements(path: str | os.PathLike, n_joints: int | None = None, join
         n_joints: the robot's number of joints, when known; the file must match it.
         joint_names: the robot's joint names, when it has them: the joint columns may
             carry them instead of q1 … qN.
+        robot_judges_units: the caller has the robot judge the units of position data
+            (:mod:`robocal.io.units`, as ``read_observations`` does): no warning here from
+            the joint values alone, which would say the same thing twice.
 
     Raises:
         FileFormatError: the file is missing, malformed or inconsistent; the message names
@@ -300,7 +304,9 @@ def read_measurements(path: str | os.PathLike, n_joints: int | None = None, join
         extra={name: table.column(name) for name in table.header
                if name not in _NAMED_COLUMNS and name not in joint_names},
     )
-    _warn_if_radians(measurements)
+    if not (robot_judges_units and measurements.positions is not None):
+        # Ball-in-socket data have no positions for the robot to judge their units by.
+        _warn_if_radians(measurements)
     _warn_about_identical_rows(measurements)
     return measurements
 
