@@ -515,3 +515,11 @@ def test_written_numbers_carry_no_rounding_noise(tmp_path):
     with open(path, newline="") as stream:
         rows = list(csv.reader(stream))
     assert rows[1] == ["0.0", "0.0", "90.0", "0.0", "1.5", "0.0", "0.0", "0.0", "180.0", "commands"]
+
+
+def test_a_row_repeated_many_times_is_named_by_a_few_of_its_rows(tmp_path):
+    path = tmp_path / "repeated.csv"
+    path.write_text("q1,q2,q3,q4,q5,q6,x,y,z\n" + "10,20,30,40,50,60,400,100,300\n" * 40)
+    with pytest.warns(RobocalWarning, match=r"rows 2, 3, 4, 5, 6 and 35 more are identical") as record:
+        read_measurements(path)
+    assert ", 7," not in str(record[0].message)  # the other 35 rows are counted, not listed

@@ -460,8 +460,15 @@ def _identical_row_groups(measurements: Measurements) -> list[np.ndarray]:
     return sorted(repeated, key=lambda group: group[0])
 
 
+# A group of identical rows is named by at most this many of its row numbers: the warning
+# stays a line, however often an export repeated a row.
+_ROWS_NAMED = 5
+
+
 def _describe_rows(lines: np.ndarray) -> str:
     numbers = [str(line) for line in lines]
+    if len(numbers) > _ROWS_NAMED:
+        return f"rows {', '.join(numbers[:_ROWS_NAMED])} and {len(numbers) - _ROWS_NAMED} more"
     return f"rows {', '.join(numbers[:-1])} and {numbers[-1]}"
 
 
