@@ -6,6 +6,7 @@ key) and what to do, never a traceback; the harmless variants (a BOM, CRLF, UTF-
 numbers, trailing commas) give the same answer as the clean file."""
 import gzip
 import json
+import os
 
 import pytest
 
@@ -315,3 +316,26 @@ def test_a_truth_file_entry_of_the_wrong_type_is_refused_naming_it(entry, truth_
     assert result.exit_code != 0 and f"{entry} must be" in result.output
     assert "Traceback" not in result.output and len(result.output.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_a_fleet_file_that_is_a_pipe_or_a_folder_is_named_as_such(tmp_path):
+    from typer.testing import CliRunner
+
+    from robocal.interfaces.cli import app
+
+    os.mkfifo(tmp_path / "pipe.toml")
+    (tmp_path / "folder.toml").mkdir()
+    for name, says in (("pipe.toml", "not a regular file"), ("folder.toml", "is a directory")):
+        result = CliRunner().invoke(app, ["fleet", str(tmp_path / name), "--out", str(tmp_path / "out")])
+        assert result.exit_code != 0 and says in result.output and "does not exist" not in result.output
+        assert not (tmp_path / "out").exists()
+
+
+def test_an_output_under_a_file_says_the_file_is_not_a_folder(tmp_path):
+    from typer.testing import CliRunner
+
+    from robocal.interfaces.cli import app
+
+    (tmp_path / "afile").write_text("")
+    result = CliRunner().invoke(app, ["simulate", "ur5", "--n", "10", "--out", str(tmp_path / "afile" / "o.csv")])
+    assert result.exit_code != 0 and "is a file, not a directory" in result.output

@@ -100,8 +100,9 @@ def read_fleet(path):
     from ..io.reading import load_toml
 
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise FileFormatError(f"{path} does not exist: give the fleet file (TOML, one [[robot]] table per robot)")
+    # A folder, a pipe or a device: the one bounded reader says which, in one line.
     document = load_toml(path, "fleet file", "fix that line")
     unknown = sorted(set(document) - {"robot"})
     if unknown:

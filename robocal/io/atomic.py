@@ -225,6 +225,8 @@ def _same_file(a: Path, b: Path) -> bool:
 def _check_writable_target(target: Path, directory: Path) -> None:
     """Fail with a one-line explanation before anything is created."""
     if not directory.is_dir():
+        if directory.exists():
+            raise InputError(f"{directory} is a file, not a directory: choose another --out")
         raise InputError(f"directory {directory} does not exist: create it or choose another --out")
     if target.is_dir():
         raise InputError(f"{target} is a directory: give a file name, e.g. {target / 'out.csv'}")
