@@ -111,12 +111,15 @@ def parse(files):
     for a pose whose rotation vector is longer than a turn (degrees where radians belong)."""
     programs = parse_each(files, NAME, COMMENT, _parse, poses_of)
     for program in programs:
-        for target in program.targets:
-            turn = float(np.linalg.norm([n.value for n in target.numbers[3:6]]))
-            if turn > LONGEST_ROTATION_RAD:
-                raise InputError(f"{program.path}, line {target.line}: the rotation vector of {target.name} turns "
-                                 f"{turn:.4g} rad, more than a full turn: URScript poses take radians (these look "
-                                 "like degrees); convert them with d2r()")
+        if not program.targets:
+            continue
+        turns = np.linalg.norm([[n.value for n in t.numbers[3:6]] for t in program.targets], axis=1)
+        beyond = np.flatnonzero(turns > LONGEST_ROTATION_RAD)
+        if len(beyond):
+            target = program.targets[beyond[0]]
+            raise InputError(f"{program.path}, line {target.line}: the rotation vector of {target.name} turns "
+                             f"{turns[beyond[0]]:.4g} rad, more than a full turn: URScript poses take radians "
+                             "(these look like degrees); convert them with d2r()")
     return programs
 
 
