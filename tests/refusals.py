@@ -105,7 +105,8 @@ def _write_variants_of_every_format(root):
     def csv(header, body):
         return header + "\n" + "\n".join(body) + "\n"
 
-    targets = (EXAMPLES / "ur5-targets.csv").read_text().splitlines()
+    # The example without its robocal_file column: a targets file as a user writes it.
+    targets = [line.rsplit(",", 1)[0] for line in (EXAMPLES / "ur5-targets.csv").read_text().splitlines()]
     robot = (root / "tsinghua.toml").read_text()
     urdf = (root / "ur5.urdf").read_text()
     sockets = (root / "sockets.csv").read_text().splitlines()

@@ -94,7 +94,40 @@ REFUSED = [
     ("validate-ur5-data-as-ur10", ["validate", "ur10", "ur5.csv", "--folds", "3"], None, "tolerances"),
     ("kr150-sockets-as-ur5", ["calibrate", "ur5", "sockets.csv", "--method", "constraint", "--fixture", "plate.toml", "--out", "o.json"], None, "these ball"),
     ("kr150-sockets-as-panda", ["calibrate", "panda", "sockets.csv", "--method", "constraint", "--fixture", "plate.toml", "--out", "o.json"], None, "but the robot has 7 joints"),
+    ("kr150-data-evaluated-by-ur5-model", ["evaluate", "ur5_model.json", "kr.csv"], None, "explains 0% of the error"),
+    ("kr150-data-reported-by-ur5-model", ["report", "ur5_model.json", "kr.csv", "--out", "r.html"], None, "explains 0% of the error"),
+    ("ur5-data-evaluated-by-kr150-model", ["evaluate", "kr_model.json", "ur5.csv"], None, "of the robot 'KUKA KR 150-2'"),
+    # a model calibrated on ball-in-socket data has no measurement frame to score positions in
+    ("tracker-data-on-socket-model", ["evaluate", "sock_model.json", "kr.csv"], None, "calibrated on ball-in-socket data"),
+    ("tracker-data-on-socket-model-report", ["report", "sock_model.json", "kr.csv", "--out", "r.html"], None, "calibrated on ball-in-socket data"),
+    # targets given as measurements: the shipped example says what it is ...
+    ("calibrate-example-targets", ["calibrate", "ur5", "targets.csv", "--out", "m.json"], None, "is a targets file (desired poses"),
+    ("evaluate-example-targets", ["evaluate", "ur5_model.json", "targets.csv"], None, "is a targets file (desired poses"),
+    ("design-existing-example-targets", ["design", "ur5", "--n", "5", "--pool", "200", "--existing", "targets.csv", "--out", "p.csv"], None, "is a targets file"),
+    # ... and positions computed from the joints by the nominal robot, at any written precision, are not measured
+    ("calibrate-nominal-fk", ["calibrate", "ur5", "fk.csv", "--out", "m.json"], {"fk.csv": lambda base: nominal_fk(base)}, "the nominal robot's own forward kinematics"),
+    ("calibrate-nominal-fk-3-decimals", ["calibrate", "ur5", "fk.csv", "--out", "m.json"], {"fk.csv": lambda base: nominal_fk(base, "{:.3f}")}, "the nominal robot's own forward kinematics"),
+    ("calibrate-kriging-nominal-fk", ["calibrate", "ur5", "fk.csv", "--method", "kriging", "--out", "m.json"], {"fk.csv": lambda base: nominal_fk(base)}, "the nominal robot's own forward kinematics"),
+    ("calibrate-no-prior-nominal-fk", ["calibrate", "ur5", "fk.csv", "--prior", "none", "--out", "m.json"], {"fk.csv": lambda base: nominal_fk(base)}, "the nominal robot's own forward kinematics"),
+    ("evaluate-nominal-fk", ["evaluate", "ur5_model.json", "fk.csv"], {"fk.csv": lambda base: nominal_fk(base)}, "the nominal robot's own forward kinematics"),
+    ("validate-nominal-fk", ["validate", "ur5", "fk.csv", "--folds", "3"], {"fk.csv": lambda base: nominal_fk(base)}, "the nominal robot's own forward kinematics"),
 ]
+
+
+def nominal_fk(base, form="{!r}", noise_mm=0.0):
+    """ur5.csv's joints with the nominal UR5's own TCP positions (plus Gaussian ``noise_mm``)
+    as x, y, z, each number written with ``form``: what a targets generator writes."""
+    import numpy as np
+
+    from robocal.io.library import load_robot
+
+    chain = load_robot("ur5")
+    lines = (base / "ur5.csv").read_text().splitlines()
+    joints = np.array([[float(v) for v in line.split(",")[:6]] for line in lines[1:]])
+    positions = chain.fk_positions(chain.joints_from_file(joints))
+    positions = positions + np.random.default_rng(0).normal(0.0, noise_mm, positions.shape)
+    rows = [",".join(form.format(float(v)) for v in [*q, *p]) for q, p in zip(joints, positions)]
+    return "q1,q2,q3,q4,q5,q6,x,y,z\n" + "\n".join(rows) + "\n"
 
 
 @pytest.mark.parametrize("args, files, says", [row[1:] for row in REFUSED], ids=[row[0] for row in REFUSED])
@@ -110,3 +143,18 @@ def test_a_calibrated_urdf_export_is_a_robot_file(tmp_path):
     outcome = invoke(tmp_path, ["evaluate", "again.json", "ur5.csv", "--json"])
     assert json.loads(outcome.result.stdout)["mean_mm"] < 0.1
 
+
+
+@pytest.mark.parametrize("args, files", [
+    (["evaluate", "sock_model.json", "sockets.csv"], None),
+    (["evaluate", "kr_model.json", "kr.csv"], None),
+    (["report", "ur5_model.json", "ur5.csv", "--out", "r.html"], None),
+    (["compensate", "ur5_model.json", "targets.csv", "--out", "o.csv"], None),
+    # a robot exactly as its file says, measured with a tracker's noise (0.01 mm): measurements
+    (["calibrate", "ur5", "fk.csv", "--out", "m.json"], {"fk.csv": lambda base: nominal_fk(base, noise_mm=0.01)}),
+], ids=["sockets-on-socket-model", "kr150-data-on-kr150-model", "report-on-own-robot", "example-targets-as-targets",
+        "nominal-robot-measured-with-noise"])
+def test_the_right_data_of_the_same_shape_pass(tmp_path, args, files):
+    prepare(tmp_path, files)
+    outcome = invoke(tmp_path, args)
+    assert outcome.code == 0, outcome.output

@@ -22,6 +22,7 @@ from ..methods.base import option_of
 from ..methods.bound import NO_BOUND, bound_of_model
 from ..methods.socket_bound import fit_model_bound
 from ..methods.moved_bound import reregistered_bound
+from ..methods.plausibility import check_model_data
 from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
 from ..methods.reregistration import FRAMES  # noqa: F401  (the command line and fleet files name it here)
 from ..methods.selection import AUTO, choose, compare
@@ -115,6 +116,16 @@ def load_fitted(model_path, robot=None):
     return model, fitted
 
 
+def read_model_data(model, model_path, measurements, fixture=None, beyond_limits=False):
+    """The observations of the file ``measurements`` for scoring the model ``model`` (read
+    from ``model_path``), refused when the model cannot be scored on them
+    (:func:`robocal.methods.plausibility.check_model_data`): every reader of data for a
+    fitted model (``evaluate``, ``report``) reads them here."""
+    observations = read_observations(measurements, model.kinematics, fixture, beyond_limits=beyond_limits)
+    check_model_data(model, observations, model_path)
+    return observations
+
+
 def _with_checked_options(model, path):
     """``model`` if its settings pass their constraints (an unknown method is the registry's
     to refuse); otherwise a FileFormatError naming the entry.  The settings were checked when
@@ -191,7 +202,7 @@ def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False, pe
     if per_pose is not None:
         check_outputs([per_pose], [model_path, measurements, fixture])
     model, fitted = load_fitted(model_path)
-    observations = read_observations(measurements, model.kinematics, fixture, beyond_limits=beyond_limits)
+    observations = read_model_data(model, model_path, measurements, fixture, beyond_limits)
     head = {"model": str(model_path), "method": model.method, "file": str(measurements),
             "training_poses": _training_poses(model, observations, model_path)}
     if observations.positions is None:

@@ -20,9 +20,8 @@ from ..io.fingerprint import seen_observations
 from ..io.atomic import check_outputs, write_bytes_atomic, write_text_atomic
 from . import plots
 from .html_style import STYLE
-from ..io.observations import read_observations
 from ..methods.evaluation import position_scores, socket_residuals, socket_scores, with_fixture
-from .jobs import load_fitted
+from .jobs import load_fitted, read_model_data
 from .tables import parameter_notes, parameter_rows
 
 # How each kind of method diagnostic (robocal.methods.ReportFigure) is drawn.
@@ -310,7 +309,7 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyo
     cv = _read_validation(validation) if validation else None
     if cv is not None:
         _check_validation_matches(cv, model, validation)
-    data = read_observations(measurements, model.kinematics, beyond_limits=beyond_limits)
+    data = read_model_data(model, model_path, measurements, beyond_limits=beyond_limits)
     scores = _scores(model, fitted, data, model_path)
     held_out, label = _held_out(model, data, measurements, model_path)
     figures = _figures(fitted, data, scores.positions, scores.before, scores.after, cv)

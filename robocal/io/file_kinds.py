@@ -38,6 +38,10 @@ KINDS = {kind.name: kind for kind in (
     Kind("poses", "robocal's planned poses (what to measure, not measurements)", "robocal design"),
     Kind("evaluation", "robocal's per-pose evaluation", "robocal evaluate --per-pose"),
     Kind("fleet-summary", "robocal's fleet summary", "robocal fleet"),
+    # Targets are what a user writes; the examples robocal ships say what they are, so that
+    # one given as measurements (its q columns are posture hints, its x, y, z desired) is
+    # named, not calibrated on.
+    Kind("targets", "a targets file (desired poses; its q columns are posture hints, not joint readings)", ""),
 )}
 # Columns no user file is expected to hold together, by the kind that writes them.
 SIGNATURES = (
@@ -91,5 +95,5 @@ def check_kind(path, header, kind_cells, accepts, reading_as: str, instead: str)
     if kind is None or kind in accepts:
         return kind
     found = KINDS[kind]
-    raise FileFormatError(f"{path} is {found.what}, written by '{found.written_by}', not {reading_as}: give "
-                          f"{instead}")
+    by = f", written by '{found.written_by}'" if found.written_by else ""
+    raise FileFormatError(f"{path} is {found.what}{by}, not {reading_as}: give {instead}")

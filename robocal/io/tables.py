@@ -319,7 +319,7 @@ def read_targets(path: str | os.PathLike, n_joints: int | None = None, joint_nam
         InputError: orientations that look like radians.
     """
     table = _named_joints(_read_table(path), joint_names)
-    check_kind(table.path, table.header, _kind_cells(table), ("measurements",), "a targets file",
+    check_kind(table.path, table.header, _kind_cells(table), ("measurements", "targets"), "a targets file",
                "the targets themselves (x, y, z, rx, ry, rz)")
     joint_names = _check_header(table, n_joints, joints_required=False)
     missing = [name for name in POSITION_COLUMNS + ORIENTATION_COLUMNS if name not in table.header]

@@ -121,11 +121,13 @@ class Method:
         this robot's are refused first (:mod:`robocal.methods.plausibility`), and before them
         a setting its constraint refuses (:meth:`robocal.settings.Setting.check`)."""
         check_settings(self.settings, {s.name: getattr(self, s.name) for s in self.settings})
-        if not self.checks_its_data:
-            from .plausibility import check_robot_data
+        from .plausibility import check_measured, check_robot_data
 
+        if not self.checks_its_data:
             self.data_check_ = check_robot_data(chain, observations, getattr(self, "prior", "tolerances"),
                                                 getattr(self, "tolerance_scale", 1.0))
+        else:
+            check_measured(chain, observations)
         self._fit(chain, observations, progress)
         self.domain_ = Domain.of(chain, observations)
         return self

@@ -24,12 +24,35 @@ CHECK_POSES = 2000
 EQUATIONS_PER_PARAMETER = 3
 
 
+# No robot is measured this close to its nominal model on every pose (mm): its deviations
+# from the robot file, and the instrument's noise, are each ten times larger.  Closer, the
+# positions were computed from the joints (targets, a plan), written to a few decimals.
+NOMINAL_GAP_MM = 0.01
+
+
+def check_measured(chain, observations):
+    """InputError, in one line, when every measured position of ``observations`` is
+    ``chain``'s own forward kinematics of its joints, within :data:`NOMINAL_GAP_MM`: the file
+    holds targets or a plan computed from the nominal robot, not measurements.  Ball-in-socket
+    data (no positions) pass."""
+    if observations.positions is None or observations.n_poses == 0:
+        return
+    gap = np.linalg.norm(chain.fk_positions(observations.joints) - observations.positions, axis=1).max()
+    if gap < NOMINAL_GAP_MM:
+        raise InputError(f"{observations.path or 'the data'}: its positions are the nominal robot's own forward "
+                         f"kinematics of its joints (within {gap:.2g} mm on every row): targets or a plan, not "
+                         "measurements; measure these poses and give the measured x, y, z (mm)")
+
+
 def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.0):
     """InputError, in one line, when ``observations`` (positions) cannot be ``chain``'s data in
     mm and degrees, judged against the tolerances times ``tolerance_scale``; rows that do not
     fit the rest are named as the user's file lines.  ``prior`` 'none' skips the check; data
     too few for even the offsets pass unchecked (nothing can be judged from them).  Returns
-    the calibration that judged them (fitted to at most CHECK_POSES of them), or None."""
+    the calibration that judged them (fitted to at most CHECK_POSES of them), or None.
+    Positions the robot's own forward kinematics computed are refused first
+    (:func:`check_measured`), whatever ``prior``."""
+    check_measured(chain, observations)
     if observations.positions is None or prior == "none":
         return None
     count = observations.n_poses
@@ -55,3 +78,18 @@ def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.
     calibration.fitted_poses_ = pick
     return calibration
 
+
+def check_model_data(model, observations, where):
+    """The one check of data given to a fitted model (``evaluate``, ``report``): InputError,
+    in one line, when ``observations`` are not data the model ``model`` (a
+    :class:`~robocal.io.model_file.ModelFile` read from ``where``) can be scored on: measured
+    positions for a model calibrated on ball-in-socket data (which has no measurement frame
+    to compare them in), or data that cannot be its robot's (:func:`check_robot_data`, under
+    the prior and tolerance scale the model was calibrated with)."""
+    if model.training.get("kind") == "constraint" and observations.positions is not None:
+        raise InputError(f"{where} was calibrated on ball-in-socket data, which give it no measurement frame, and "
+                         f"{observations.path} holds measured positions (x, y, z): score it on ball-in-socket data "
+                         "(fixture, socket columns), or calibrate a model on the positions")
+    options = model.options or {}
+    check_robot_data(model.nominal, observations, options.get("prior", "tolerances"),
+                     options.get("tolerance_scale", 1.0))
