@@ -67,6 +67,22 @@ def base_files():
     return root
 
 
+def nominal_fk(base, form="{!r}", noise_mm=0.0):
+    """ur5.csv's joints with the nominal UR5's own TCP positions (plus Gaussian ``noise_mm``)
+    as x, y, z, each number written with ``form``: what a targets generator writes."""
+    import numpy as np
+
+    from robocal.io.library import load_robot
+
+    chain = load_robot("ur5")
+    lines = (base / "ur5.csv").read_text().splitlines()
+    joints = np.array([[float(v) for v in line.split(",")[:6]] for line in lines[1:]])
+    positions = chain.fk_positions(chain.joints_from_file(joints))
+    positions = positions + np.random.default_rng(0).normal(0.0, noise_mm, positions.shape)
+    rows = [",".join(form.format(float(v)) for v in [*q, *p]) for q, p in zip(joints, positions)]
+    return "q1,q2,q3,q4,q5,q6,x,y,z\n" + "\n".join(rows) + "\n"
+
+
 def text(name):
     return (base_files() / name).read_text()
 

@@ -27,6 +27,7 @@ from robocal.io.observations import read_observations
 from robocal.kinematics.ik import solve_ik
 from robocal.planning.criteria import VarianceKernel
 from robocal.planning.sockets import design_sockets, socket_candidates
+from robocal.planning.workspace import WorkingVolume
 from robocal.simulation import TrueRobot, make_true_robot
 from robocal.simulation.sampling import socket_plan
 from robocal.spatial import compose_pose, pose_to_xyz_rpy
@@ -459,7 +460,8 @@ def _candidates_file(path, rows, header=("q1", "q2", "q3", "q4", "q5", "q6")):
 ])
 def test_refusals_are_one_line(tmp_path, case, fragment):
     chain = builtin("ur5")
-    degrees = chain.joints_to_file(joint_candidates(chain, 40, seed=0))
+    # Candidates a user could give: inside the default working volume (above the mounting plane).
+    degrees = chain.joints_to_file(joint_candidates(chain, 40, seed=0, volume=WorkingVolume()))
     out = str(tmp_path / "p.csv")
     args = {
         "more": ["--n", "50", "--candidates", _candidates_file(tmp_path / "more.csv", degrees)],

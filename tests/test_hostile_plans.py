@@ -6,9 +6,18 @@ import csv
 
 import pytest
 
-from hostile import invoke, prepare, refuse
+from hostile import invoke, nominal_fk, prepare, refuse
 
 D = ["design", "ur5", "--n", "12", "--pool", "200"]
+# A UR5 with its upper arm pointing straight down: through the table it stands on.
+ARM_DOWN = "0,90,0,0,0,0"
+
+
+def plan_with(base, row):
+    """The designed plan's joint columns (poses the robot can take) with ``row`` added last."""
+    rows = list(csv.DictReader(open(base / "plan.csv")))
+    lines = [",".join(r[f"q{k}"] for k in range(1, 7)) for r in rows]
+    return "q1,q2,q3,q4,q5,q6\n" + "\n".join(lines + [row]) + "\n"
 REFUSED = [
     ("design-floor-above-the-robot", [*D, "--floor", "2000", "--out", "p.csv"], None, "keeps the arm in the working volume"),
     ("design-box-below-the-floor", [*D, "--box", "-400,400,-400,400,-900,-600", "--out", "p.csv"], None, "only 0 of 200 points of the box"),
@@ -33,6 +42,16 @@ REFUSED = [
     ("simulate-box-out-of-reach", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", "--box", "3000,3500,-200,200,0,400", "--out", "s.csv"], None, "10 of 10 points in the box"),
     ("simulate-grid-below-the-floor", ["simulate", "ur5", "--sampling", "grid", "--n", "8", "--box", "-400,400,-400,400,-900,-600", "--out", "s.csv"], None, "cannot be reached by robot"),
     ("compensate-targets-out-of-reach", ["compensate", "ur5_model.json", "tf.csv", "--out", "o.csv"], {"tf.csv": "x,y,z,rx,ry,rz\n5000,0,0,180,0,0\n"}, "nothing was written"),
+    # the working volume binds the poses a user gives as it binds those robocal draws
+    ("design-candidates-drawn-through-the-table", ["design", "ur5", "--n", "12", "--candidates", "ur5.csv", "--out", "p.csv"], None, "of the candidates put the arm outside the working volume (above the mounting plane, z >= 0 mm"),
+    ("design-candidates-one-arm-down", ["design", "ur5", "--n", "12", "--candidates", "c.csv", "--out", "p.csv"], {"c.csv": lambda base: plan_with(base, ARM_DOWN)}, "row 14: 1 of the candidates put the arm outside the working volume"),
+    ("design-candidates-outside-the-walls", ["design", "ur5", "--n", "12", "--candidates", "plan.csv", "--walls", "-50,50,-50,50", "--out", "p.csv"], None, "within x -50..50, y -50..50 mm (--walls)"),
+    ("design-candidates-above-a-raised-floor", ["design", "ur5", "--n", "12", "--candidates", "plan.csv", "--floor", "1000", "--out", "p.csv"], None, "above z = 1000 mm (--floor)"),
+    ("design-targets-below-the-table", [*D, "--targets", "tf.csv", "--out", "p.csv"], {"tf.csv": "x,y,z,rx,ry,rz\n400,0,-300,180,0,0\n400,100,300,180,0,0\n"}, "row 2: 1 of the targets put the arm outside the working volume"),
+    ("design-joint-targets-arm-down", [*D, "--targets", "tq.csv", "--out", "p.csv"], {"tq.csv": "q1,q2,q3,q4,q5,q6\n" + ARM_DOWN + "\n"}, "of the targets put the arm outside the working volume"),
+    # measured poses given to a design meet the data check a calibration meets
+    ("design-existing-of-another-robot", [*D, "--existing", "kr.csv", "--out", "p.csv"], None, "explains 0% of the error"),
+    ("design-existing-nominal-fk", [*D, "--existing", "fk.csv", "--out", "p.csv"], {"fk.csv": lambda base: nominal_fk(base)}, "the nominal robot's own forward kinematics"),
 ]
 
 
@@ -56,3 +75,17 @@ def test_one_unreachable_target_among_reachable_ones_is_flagged_not_answered(tmp
     rows = list(csv.DictReader(open(tmp_path / "o.csv")))
     assert [r["reachable"] for r in rows] == ["0", "1"]
     assert rows[0]["q1"] in ("", "nan")
+
+
+@pytest.mark.parametrize("args", [
+    ["design", "ur5", "--n", "12", "--candidates", "plan.csv", "--out", "p.csv"],
+    ["design", "ur5", "--n", "12", "--candidates", "c.csv", "--floor", "none", "--out", "p.csv"],
+    [*D, "--targets", "tf.csv", "--out", "p.csv"],
+    [*D, "--existing", "ur5.csv", "--out", "p.csv"],
+], ids=["own-candidates-above-the-table", "arm-down-on-a-wall-mount", "targets-above-the-table", "existing-of-this-robot"])
+def test_a_plan_the_robot_can_execute_from_given_poses_is_designed(tmp_path, args):
+    prepare(tmp_path, {"c.csv": lambda base: plan_with(base, ARM_DOWN),
+                       "tf.csv": "x,y,z,rx,ry,rz\n400,0,300,180,0,0\n400,100,300,180,0,0\n"})
+    outcome = invoke(tmp_path, args)
+    assert outcome.code == 0, outcome.output
+    assert len(list(csv.DictReader(open(tmp_path / "p.csv")))) == 12

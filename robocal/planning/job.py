@@ -36,18 +36,33 @@ from .workspace import WorkingVolume
 NOISE_FIT_RATIO = 1.5
 
 
-def _targets(path, chain):
+def _targets(path, chain, volume):
     """Target configurations (rad): a file's q columns, or its x, y, z, rx, ry, rz targets
-    solved by the nominal IK (q columns as posture hints), the unreachable ones dropped."""
+    solved by the nominal IK (q columns as posture hints), the unreachable ones dropped;
+    refused when one puts the arm outside ``volume`` (a WorkingVolume)."""
     header, _ = table(path)
     if "x" not in header and "q1" in header:
-        return read_joints(path, chain, "targets")[0]
+        q = read_joints(path, chain, "targets")[0]
+        volume.check_given(chain, q, np.arange(2, len(q) + 2), path, "targets")
+        return q
     targets = read_target_poses(path, chain)
     result = solve_ik(chain, targets.poses, targets.hints)
     if not result.success.any():
         raise InputError(f"none of the targets of {path} can be reached by robot '{chain.name}': are they in the robot "
                          "base frame, in mm and degrees?")
+    volume.check_given(chain, result.q[result.success], targets.rows[result.success], path, "targets")
     return result.q[result.success]
+
+
+def _check_existing(path, chain):
+    """Measured poses given to a design (``--existing``) with positions meet the data check
+    every calibration meets (:func:`robocal.methods.plausibility.check_robot_data`): another
+    robot's measurements, or positions that are the nominal robot's own, are refused."""
+    from ..methods.plausibility import check_robot_data
+
+    header, _ = table(path)
+    if {"x", "y", "z"} <= set(header):
+        check_robot_data(chain, read_observations(path, chain))
 
 
 def _noise_from(path, chain, parameters, payload):
@@ -105,7 +120,7 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
     JSON-ready result: the design's :meth:`~robocal.planning.Design.to_dict` and where the
     candidates, the noise and the poses came from and went.  ``volume``: the
     :class:`~robocal.planning.workspace.WorkingVolume` drawn candidates keep to (default:
-    above the mounting plane); a user's own ``candidates`` are taken as given.  ``progress``:
+    above the mounting plane); the candidates and targets a user gives are held to it too.  ``progress``:
     called as ``progress(stage=...)`` as each stage begins."""
     progress = (lambda **info: None) if progress is None else progress
     check_outputs([out], [robot, candidates, existing, targets])
@@ -124,6 +139,7 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
             raise InputError(f"{', '.join(unused)} draw candidates, but --candidates gives them: leave "
                              f"{'it' if len(unused) == 1 else 'them'} out")
         q = read_joints(candidates, chain, "candidates")[0]
+        volume.check_given(chain, q, np.arange(2, len(q) + 2), candidates, "candidates")
         source = str(candidates)
     elif box is not None:
         rotation = rpy_to_matrix(np.radians(rpy if rpy is not None else [180.0, 0.0, 0.0]))
@@ -144,11 +160,12 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
     noise_note = "as stated (--noise)" if noise is not None else "the default tracker noise"
     if existing is not None:
         before = read_joints(existing, chain, "measured poses")[0]
+        _check_existing(existing, chain)
         if noise is None:
             fitted = _noise_from(existing, chain, parameters, payload)
             if fitted is not None:
                 noise, noise_note = fitted, f"the residual of a calibration of {existing}"
-    target_q = None if targets is None else _targets(targets, chain)
+    target_q = None if targets is None else _targets(targets, chain, volume)
     kernel = None
     if criterion == "variance" and existing is not None:
         kernel = _variance_kernel(existing, chain, parameters, payload)
@@ -158,7 +175,7 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
                           joint_noise_deg=joint_noise_deg, sag_deg=sag_deg, progress=progress)
     write_poses(out, chain, design.joints)
     return {"robot": chain.name, "out": str(out), "candidates_from": source, "noise_from": noise_note,
-            "working_volume": ("your candidates, as given" if candidates is not None else volume.describe()),
+            "working_volume": volume.describe(),
             "targets": "the candidates" if targets is None else f"{len(target_q)} configurations of {targets}",
             **design.to_dict()}
 

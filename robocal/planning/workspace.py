@@ -66,6 +66,27 @@ class WorkingVolume:
             )
         return keep
 
+    def check_given(self, chain, joints, rows, path, what):
+        """Refuse, in one line naming the first rows (``rows`` (N,) file lines) of ``path``,
+        configurations ``joints`` (N, n) rad a user gave (``what``: "candidates", "targets")
+        that put the arm outside the volume: the volume binds the poses a user gives as it
+        binds those robocal draws, and a plan holding them would send the arm through the
+        table."""
+        outside = np.flatnonzero(~self.inside(chain, joints))
+        if not outside.size:
+            return
+        first = self.points(chain, np.asarray(joints, dtype=float)[outside[:1]])[0]
+        if self.floor_mm is not None and first[:, 2].min() < self.floor_mm:
+            why = f"the arm reaches z = {first[:, 2].min():.1f} mm"
+        else:
+            why = f"the arm reaches x {first[:, 0].min():.1f}..{first[:, 0].max():.1f}, " \
+                  f"y {first[:, 1].min():.1f}..{first[:, 1].max():.1f} mm"
+        lines = [str(int(line)) for line in np.asarray(rows)[outside[:3]]]
+        named = ", ".join(lines) + (f" and {outside.size - 3} more" if outside.size > 3 else "")
+        raise InputError(f"{path} row{'s' if outside.size > 1 else ''} {named}: {len(outside)} of the {what} put the "
+                         f"arm outside the working volume ({self.describe()}; {why} in row {lines[0]}): remove "
+                         "them, or give the robot's real cell with --floor and --walls")
+
     def describe(self):
         """One line: what the design assumed."""
         parts = []
