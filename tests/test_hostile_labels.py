@@ -31,6 +31,11 @@ VARIANTS = [
     ("rounded-to-micrometres", lambda r: [r[0]] + [[f"{float(v):.3f}" for v in row] for row in r[1:]], 60),
     ("every-row-twice", lambda r: r + r[1:], 120),
     ("without-sigma-columns", lambda r: [row[:9] for row in r], 60),
+    # the same configurations, read to a coarser resolution or written otherwise: not new poses
+    ("joints-rounded-to-a-tenth-of-a-degree", lambda r: [r[0]] + [[f"{float(v):.1f}" for v in row[:6]] + row[6:] for row in r[1:]], 60),
+    ("xyz-shifted-by-a-micrometre", lambda r: [r[0]] + [row[:6] + [f"{float(v) + 0.001!r}" for v in row[6:9]] + row[9:] for row in r[1:]], 60),
+    ("wrist-one-turn-off", lambda r: [r[0]] + [row[:5] + [repr(float(row[5]) - 360.0 if float(row[5]) > 0 else float(row[5]) + 360.0)] + row[6:] for row in r[1:]], 60),
+    ("remeasured-with-tracker-noise", lambda r: [r[0]] + [row[:6] + [repr(float(v) + 0.01 * (-1) ** k) for k, v in enumerate(row[6:9])] + row[9:] for row in r[1:]], 60),
 ]
 
 
