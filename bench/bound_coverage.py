@@ -35,7 +35,7 @@ import numpy as np
 
 from robocal.io.datasets import ipa_ur10, ur5_tsinghua
 from robocal.io.library import builtin
-from robocal.io.observations import Observations, observations
+from robocal.io.observations import Observations
 from robocal.methods import make_method
 from robocal.methods.bound import fit_bound
 from robocal.methods.domain import arm_branches
@@ -56,10 +56,10 @@ def cases():
     """(label, chain, training Observations, held-out Observations) of every case."""
     rng = np.random.default_rng(0)
     out = []
-    for name, (chain, data), branches in (("UR5", ur5_tsinghua(), ()),
-                                         ("UR10 A", ipa_ur10("A"), ("shoulder", "elbow")),
-                                         ("UR10 B", ipa_ur10("B"), ("elbow",))):
-        obs = observations(chain, data)
+    for name, dataset, branches in (("UR5", ur5_tsinghua(), ()),
+                                    ("UR10 A", ipa_ur10("A"), ("shoulder", "elbow")),
+                                    ("UR10 B", ipa_ur10("B"), ("elbow",))):
+        chain, obs = dataset.chain, dataset.observations
         order = rng.permutation(obs.n_poses)
         half = obs.n_poses // 2
         out.append((f"{name} random half", chain, obs.subset(_capped(order[:half], rng)),

@@ -363,11 +363,12 @@ def real_data_benchmark():
     print("-" * len(header))
     for label, load, fraction in datasets:
         try:
-            chain, data = load()
+            dataset = load()
         except InputError as why:
             print(f"{label:<19}skipped: {why}")
             continue
-        joints, positions, sigmas = chain.joints_from_file(data.joints), data.positions, data.sigmas
+        chain, data = dataset.chain, dataset.observations
+        joints, positions, sigmas = data.joints, data.positions, data.sigmas
         train, test = _split(data.n_poses, fraction)
         reference, _ = register_base_and_tool(chain, joints[train], positions[train])
         before = error_stats(positions[test] - reference.fk_positions(joints[test])).to_dict()

@@ -160,13 +160,14 @@ def real(units):
           f"{'held-out after mean / max':>25} {'sigma after':>12} {'distance':>9} {'worst fold':>11} "
           f"{'fit s':>7}")
     for unit in units:
-        chain, data, fixture = mukca(unit)
-        q = chain.joints_from_file(data.joints)
-        placement, socket = np.asarray(data.fixture), np.asarray(data.socket)
+        dataset = mukca(unit)
+        chain, fixture, obs = dataset.chain, dataset.fixture, dataset.observations
+        q = obs.joints
+        placement, socket = np.asarray(obs.placement), np.asarray(obs.socket)
         spacing = fixture.distance(*sorted(fixture.sockets)[:2])
         placements = list(dict.fromkeys(placement))
         split = np.zeros(len(placement), dtype=bool)
-        split[split_indices(data, 0.5)[0]] = True
+        split[split_indices(dataset.measurements, 0.5)[0]] = True  # as `robocal dataset --split 0.5` does
         protocols = {"leave one out": [placement != held for held in placements],
                      "one placement": [placement == held for held in placements],
                      "split 0.5": [split]}

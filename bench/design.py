@@ -266,8 +266,9 @@ def kr_case(box=False):
 
 
 def ur5_case():
-    chain, data = ur5_tsinghua()
-    q = chain.joints_from_file(data.joints)
+    dataset = ur5_tsinghua()
+    chain, data = dataset.chain, dataset.observations
+    q = data.joints
     order = np.random.default_rng(0).permutation(len(q))
     test, pool = order[:300], np.sort(order[300:])
     cand, positions = q[pool], data.positions[pool]

@@ -33,7 +33,7 @@ from robocal.errors import RobocalWarning  # noqa: E402
 from robocal.estimation.metrics import error_stats  # noqa: E402
 from robocal.io.datasets import ipa_ur10, ur5_tsinghua  # noqa: E402
 from robocal.io.library import builtin  # noqa: E402
-from robocal.io.observations import Observations, observations  # noqa: E402
+from robocal.io.observations import Observations  # noqa: E402
 from robocal.methods.frames import registered_nominal  # noqa: E402
 from robocal.simulation import make_true_robot, uniform_joints  # noqa: E402
 
@@ -43,14 +43,14 @@ MODELS = [("kinematic", {})] + [(name, {"inputs": inputs}) for name in ("kriging
 
 def cases():
     """(name, chain, joints (N, n) rad, positions (N, 3) mm, train mask) of each case."""
-    chain, data = ur5_tsinghua()
-    obs = observations(chain, data)
+    dataset = ur5_tsinghua()
+    chain, obs = dataset.chain, dataset.observations
     train = np.zeros(obs.n_poses, bool)
     train[np.random.default_rng(0).permutation(obs.n_poses)[:obs.n_poses // 2]] = True
     yield "ur5-random", chain, obs.joints, obs.positions, train
 
-    chain, data = ipa_ur10("B")
-    obs = observations(chain, data)
+    dataset = ipa_ur10("B")
+    chain, obs = dataset.chain, dataset.observations
     elbow = obs.joints[:, 2] > 0
     yield "ur10B-elbow", chain, obs.joints, obs.positions, elbow if elbow.sum() >= (~elbow).sum() else ~elbow
     q1 = obs.joints[:, 0]
@@ -78,8 +78,8 @@ def score(chain, q, p, train):
 
 def fit_times():
     """Fit seconds of the Kriging method per input kind at n = 200 and 800 UR5 poses."""
-    chain, data = ur5_tsinghua()
-    obs = observations(chain, data)
+    dataset = ur5_tsinghua()
+    chain, obs = dataset.chain, dataset.observations
     order = np.random.default_rng(0).permutation(obs.n_poses)
     for n in (200, 800):
         q, p = obs.joints[order[:n]], obs.positions[order[:n]]

@@ -395,11 +395,11 @@ def ur10_benchmark():
     header = f"{'method':<9}{'kriging':<9}{'fit s':>8}{'(CPU s)':>9}{'mean':>9}{'RMS':>9}{'max':>9}{'mean/exact':>12}"
     rule(header)
     try:
-        chain, data = ipa_ur10("A")
+        dataset = ipa_ur10("A")
     except InputError as why:
         print(f"skipped: {why}")
         return
-    q, P = chain.joints_from_file(data.joints), data.positions
+    chain, q, P = dataset.chain, dataset.observations.joints, dataset.observations.positions
     order = np.random.default_rng(0).permutation(len(q))
     train, test = order[:UR10_TRAIN], order[UR10_TRAIN:]
     warnings.simplefilter("ignore", RobocalWarning)  # one held-out pose lies outside the training box
@@ -415,8 +415,9 @@ def ur10_benchmark():
             print(f"{method:<9}{approximation:<9}{seconds:>8.1f}{cpu:>9.1f}{error.mean():>9.4f}"
                   f"{np.sqrt(np.mean(error ** 2)):>9.4f}{error.max():>9.4f}{error.mean() / exact_mean:>12.3f}",
                   flush=True)
-    chain, data = ipa_ur10("B")
-    observations = Observations.of(chain.joints_from_file(data.joints), data.positions, sigmas=data.sigmas)
+    dataset = ipa_ur10("B")
+    chain, data = dataset.chain, dataset.observations
+    observations = Observations.of(data.joints, data.positions, sigmas=data.sigmas)  # orientations left out
     cpu = time.process_time()
     fitted, seconds = timed(lambda: make_method("hybrid").fit(chain, observations))
     cpu = time.process_time() - cpu
@@ -441,7 +442,7 @@ def search_benchmark(splits=False):
     """The exact search on all points against the block stand-in (module docstring)."""
     from robocal.estimation.kriging import vecchia
     from robocal.io.datasets import ipa_ur10
-    from robocal.io.observations import Observations, observations
+    from robocal.io.observations import Observations
     from robocal.methods import make_method
 
     warnings.simplefilter("ignore", RobocalWarning)
@@ -461,8 +462,8 @@ def search_benchmark(splits=False):
 
     print("\nThe hyperparameter search of Vecchia fits of 1,000 to 2,000 points: exact likelihood on all "
           "points against the block stand-in refined on it; one core, CPU s, load = 1-min load average")
-    chain, data = ipa_ur10("B")
-    obs = observations(chain, data)
+    dataset = ipa_ur10("B")
+    chain, obs = dataset.chain, dataset.observations
     rule(f"{'hybrid on all 1,495 UR10 B poses':<40}{'CPU s':>8}{'load':>6}{'exact log-lik.':>16}")
     for way, _ in ways:
         method, cpu = fitted(way, lambda: make_method("hybrid").fit(chain, obs))
@@ -478,8 +479,8 @@ def search_benchmark(splits=False):
     rule(f"{'series':<7}{'train':>6}{'seed':>5}  {'method':<8}{'search':<8}{'CPU s':>7}{'load':>6}{'mean':>8}"
          f"{'RMS':>8}{'max':>8}{'mean/exact':>11}{'exact log-lik.':>16}")
     for series, n_train, seed in cases:
-        chain, data = ipa_ur10(series)
-        q, P = chain.joints_from_file(data.joints), data.positions
+        dataset = ipa_ur10(series)
+        chain, q, P = dataset.chain, dataset.observations.joints, dataset.observations.positions
         order = np.random.default_rng(seed).permutation(len(q))
         train, test = order[:n_train], order[n_train:]
         for method in ("kriging", "hybrid"):

@@ -54,7 +54,6 @@ import numpy as np  # noqa: E402
 from robocal.estimation.constraint import socket_deviations  # noqa: E402
 from robocal.estimation.metrics import error_stats  # noqa: E402
 from robocal.io import datasets  # noqa: E402
-from robocal.io.observations import observations  # noqa: E402
 from robocal.methods.domain import arm_branches  # noqa: E402
 from robocal.methods.fallback import wrap  # noqa: E402
 from robocal.methods.scoring import unfitted  # noqa: E402
@@ -76,15 +75,14 @@ def load(name, subset_a, seed):
     """(chain, observations, description, measurements in file units or None) of a packaged
     dataset."""
     if name in SOCKET_SETS:
-        chain, data, fixture = datasets.mukca(name)
-        return (chain, observations(chain, data, fixture, beyond_limits=True), f"MUKCa {name} (ball in socket)",
-                data)
+        dataset = datasets.mukca(name)
+        return dataset.chain, dataset.observations, f"MUKCa {name} (ball in socket)", dataset.measurements
     if name == "ur5":
-        chain, data = datasets.ur5_tsinghua()
-        return chain, observations(chain, data, beyond_limits=True), "UR5 Tsinghua", None
+        dataset = datasets.ur5_tsinghua()
+        return dataset.chain, dataset.observations, "UR5 Tsinghua", None
     series = name.split("-")[1]
-    chain, data = datasets.ipa_ur10(series)
-    obs = observations(chain, data, beyond_limits=True)
+    dataset = datasets.ipa_ur10(series)
+    chain, obs = dataset.chain, dataset.observations
     if series == "A":
         keep = np.sort(np.random.default_rng(seed).permutation(obs.n_poses)[:subset_a])
         return (chain, obs.subset(keep), f"UR10 ipa A (random {subset_a} of {obs.n_poses} poses, seed {seed})",

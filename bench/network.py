@@ -162,11 +162,12 @@ def real_data_benchmark(inputs_list):
     print("-" * len(header))
     for name, load, fraction in datasets:
         try:
-            chain, data = load()
+            dataset = load()
         except InputError as why:
             print(f"{name:<15}skipped: {why}")
             continue
-        joints, positions = chain.joints_from_file(data.joints), data.positions
+        chain, data = dataset.chain, dataset.observations
+        joints, positions = data.joints, data.positions
         train_idx, test_idx = _split(data.n_poses, fraction)
         registered, _ = register_base_and_tool(chain, joints[train_idx], positions[train_idx])
         sigmas = None if data.sigmas is None else data.sigmas[train_idx]

@@ -58,12 +58,11 @@ def _row(label, predicted, held, nominal_held=None):
 def real_campaigns():
     from robocal.estimation.prediction import calibration_prediction
     from robocal.io.datasets import ipa_ur10, ur5_tsinghua
-    from robocal.io.observations import observations
 
     print(f"\n{'real data, kinematic full':<40}{'poses':>6}  {'predicted / held-out mean (5 draws)':<40}"
           f"{'share within predicted 95 %':<30}")
-    for label, (chain, data) in (("UR5 Tsinghua", ur5_tsinghua()), ("ipa UR10 series B", ipa_ur10("B"))):
-        obs = observations(chain, data)
+    for label, dataset in (("UR5 Tsinghua", ur5_tsinghua()), ("ipa UR10 series B", ipa_ur10("B"))):
+        chain, obs = dataset.chain, dataset.observations
         upper = obs.joints[:, 0] > np.median(obs.joints[:, 0])
         for split in ("random", "q1 upper half"):
             for n in (12, 25, 50):
@@ -126,15 +125,16 @@ def main():
     ur5_work = working_range(ur5).joints
     _row("UR5, Kriging from 80 spread poses", expected_error(fitted, ur5, obs),
          float(np.linalg.norm(ur5_truth.positions(ur5_work) - fitted.predict(ur5_work), axis=1).mean()))
-    panda, sockets, fixture = mukca("panda_3")
-    q = panda.joints_from_file(sockets.joints)
-    for left_out in np.unique(sockets.fixture):
-        train = sockets.fixture != left_out
-        cal = ConstraintCalibration(gains=True).fit(panda, q[train], sockets.fixture[train], sockets.socket[train],
-                                                    fixture)
-        data = socket_data(cal.start_chain_, q[train], sockets.fixture[train], sockets.socket[train], fixture)
-        scored = socket_errors(cal.chain_, q[~train], sockets.fixture[~train], sockets.socket[~train], fixture)
-        nominal = socket_errors(panda, q[~train], sockets.fixture[~train], sockets.socket[~train], fixture)
+    dataset = mukca("panda_3")
+    panda, sockets, fixture = dataset.chain, dataset.observations, dataset.fixture
+    q = sockets.joints
+    for left_out in np.unique(sockets.placement):
+        train = sockets.placement != left_out
+        cal = ConstraintCalibration(gains=True).fit(panda, q[train], sockets.placement[train],
+                                                    sockets.socket[train], fixture)
+        data = socket_data(cal.start_chain_, q[train], sockets.placement[train], sockets.socket[train], fixture)
+        scored = socket_errors(cal.chain_, q[~train], sockets.placement[~train], sockets.socket[~train], fixture)
+        nominal = socket_errors(panda, q[~train], sockets.placement[~train], sockets.socket[~train], fixture)
         _row(f"MUKCa Panda 3, placement {left_out} left out", socket_prediction(cal, data), scored["mean_mm"],
              nominal["mean_mm"])
     real_campaigns()

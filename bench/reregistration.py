@@ -18,7 +18,6 @@ import numpy as np
 
 from robocal.estimation.metrics import error_stats
 from robocal.io.datasets import ipa_ur10
-from robocal.io.observations import observations
 from robocal.methods import make_method
 from robocal.methods.reregistration import reregister
 
@@ -45,10 +44,9 @@ def line(label, stats, extra=""):
 
 
 def main(names):
-    chain_b, data_b = ipa_ur10("B")
-    chain_a, data_a = ipa_ur10("A")
-    train = observations(chain_b, data_b, beyond_limits=True)
-    new = observations(chain_a, data_a, beyond_limits=True)
+    series_b = ipa_ur10("B")
+    chain_b, train = series_b.chain, series_b.observations
+    new = ipa_ur10("A").observations
     selections = {n: evenly(n, new.n_poses) for n in POSE_COUNTS}
     held = np.setdiff1d(np.arange(new.n_poses), np.concatenate(list(selections.values())))
     test = new.subset(held)

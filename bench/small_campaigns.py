@@ -37,7 +37,6 @@ import warnings  # noqa: E402
 import numpy as np  # noqa: E402
 
 from robocal.io import datasets  # noqa: E402
-from robocal.io.observations import observations  # noqa: E402
 from robocal.methods import make_method  # noqa: E402
 from robocal.methods.bound import fit_bound  # noqa: E402
 from robocal.methods.moved_bound import reregistered_bound  # noqa: E402
@@ -59,11 +58,8 @@ REREGISTER_WITHIN = 1.05
 
 def load(name):
     """(chain, observations) of a shipped position dataset."""
-    if name == "ur5":
-        chain, data = datasets.ur5_tsinghua()
-    else:
-        chain, data = datasets.ipa_ur10(name.split("-")[1])
-    return chain, observations(chain, data, beyond_limits=True)
+    dataset = datasets.ur5_tsinghua() if name == "ur5" else datasets.ipa_ur10(name.split("-")[1])
+    return dataset.chain, dataset.observations
 
 
 def held_out_mean(fitted, test):

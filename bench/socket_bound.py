@@ -39,7 +39,6 @@ from robocal.estimation.registration import kabsch  # noqa: E402
 from robocal.interfaces.jobs import simulate_job  # noqa: E402
 from robocal.io.datasets import mukca  # noqa: E402
 from robocal.io.library import load_robot  # noqa: E402
-from robocal.io.observations import observations as to_observations  # noqa: E402
 from robocal.io.observations import read_observations  # noqa: E402
 from robocal.methods import make_method  # noqa: E402
 from robocal.methods.socket_bound import fit_socket_bound, held_out_deviations, socket_groups  # noqa: E402
@@ -97,8 +96,8 @@ def main():
     print(f"{'held out, each placement in turn':<52} {'poses':>6} {'within':>8} {'bnd/err':>8} {'worst':>8}")
     for unit in ("panda_1",) if args.quick else ("panda_1", "panda_2", "panda_3"):
         start = time.perf_counter()
-        chain, data, fixture = mukca(unit)
-        obs = to_observations(chain, data, fixture)
+        dataset = mukca(unit)
+        chain, obs = dataset.chain, dataset.observations
         rows = placements_left_out(chain, obs)
         line(f"MUKCa {unit}: socket consistency ({len(rows)} placements)", sum(len(r["bound"]) for r in rows),
              summary(rows, "deviation"))

@@ -21,8 +21,8 @@ from robocal.methods import KinematicMethod
 def ur5_split():
     """The real UR5 data (mm, deg) as observations, split into 500 training and 500 test poses,
     and the held-out mean error of the clean plain fit."""
-    chain, data = ur5_tsinghua()
-    obs = observations(chain, data)
+    dataset = ur5_tsinghua()
+    chain, obs = dataset.chain, dataset.observations
     order = np.random.default_rng(0).permutation(obs.n_poses)
     train, test = obs.subset(np.sort(order[:500])), obs.subset(np.sort(order[500:]))
     clean = KinematicCalibration().fit(chain, train.joints, train.positions)
@@ -109,7 +109,8 @@ def test_joint_conversions_refuse_the_wrong_width():
 # ------------------------------------------------------------- units and joint limits
 @pytest.mark.parametrize("factor, unit", [(1e-3, "metres"), (1 / 25.4, "inches"), (0.1, "cm"), (1e3, "micrometres")])
 def test_positions_in_another_length_unit_are_refused(tmp_path, factor, unit):
-    chain, data = ur5_tsinghua()
+    dataset = ur5_tsinghua()
+    chain, data = dataset.chain, dataset.measurements  # written back as a file: file units
     scaled = replace(data, positions=data.positions * factor, extra={})
     path = write_measurements(tmp_path / "ur5.csv", scaled)
     with pytest.raises(InputError, match=f"spread .* where the model of .* spreads 259 mm: they look like {unit}; "
@@ -118,7 +119,8 @@ def test_positions_in_another_length_unit_are_refused(tmp_path, factor, unit):
 
 
 def test_a_robot_file_in_metres_is_refused():
-    chain, data = ur5_tsinghua()
+    dataset = ur5_tsinghua()
+    chain, data = dataset.chain, dataset.measurements
     in_metres = chain.replace(a=chain.a / 1000, d=chain.d / 1000)
     with pytest.raises(InputError, match="reaches at most 0.8.* robot file looks like metres"):
         observations(in_metres, data)
@@ -156,11 +158,13 @@ def test_joint_values_beyond_the_limits_are_refused_unless_accepted(tmp_path):
 
 
 def test_the_packaged_real_data_pass_every_check():
-    for chain, data in (ur5_tsinghua(), ipa_ur10("A"), ipa_ur10("B")):
-        assert observations(chain, data).n_poses == data.n_poses
+    # The loaders convert through observations(), which runs every check.
+    for dataset in (ur5_tsinghua(), ipa_ur10("A"), ipa_ur10("B")):
+        assert dataset.observations.n_poses == dataset.measurements.n_poses
     for unit in ("panda_1", "panda_2", "panda_3"):
-        chain, data, fixture = mukca(unit)
-        assert observations(chain, data, fixture).kind == "constraint"
+        dataset = mukca(unit)
+        assert dataset.observations.kind == "constraint"
+        assert observations(dataset.chain, dataset.measurements, dataset.fixture).kind == "constraint"
 
 
 def test_a_plain_fit_that_goes_through_warns_about_a_pose_far_off(ur5_split):

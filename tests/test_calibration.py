@@ -196,8 +196,9 @@ UR5_SLIDING_POSES = [0, 7, 88, 133, 178, 230, 262, 280, 289, 290, 298, 306, 347,
 def test_a_fit_that_slides_far_from_the_drawing_is_brought_back_to_the_near_minimum():
     from robocal.io.datasets import ur5_tsinghua
 
-    chain, data = ur5_tsinghua()
-    q = chain.joints_from_file(data.joints)
+    dataset = ur5_tsinghua()
+    chain, data = dataset.chain, dataset.observations
+    q = data.joints
     chosen = np.array(UR5_SLIDING_POSES)
     cal = KinematicCalibration("full").fit(chain, q[chosen], data.positions[chosen])
     values = dict(zip(cal.result_.names, cal.result_.values))

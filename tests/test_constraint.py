@@ -342,12 +342,13 @@ def test_socket_plan_noise_and_seating_error():
 def test_mukca_loader():
     from robocal.io.datasets import mukca
 
-    chain, data, fixture = mukca("panda_1")
+    dataset = mukca("panda_1")
+    chain, data, fixture = dataset.chain, dataset.measurements, dataset.fixture
     assert data.kind == "constraint" and data.n_joints == 7
     assert set(data.socket) == {"0", "1"} and len(set(data.fixture)) == 3
     assert fixture.distance("0", "1") == 50.0
     assert np.abs(data.joints).max() > 2 * np.pi  # degrees in file units
-    assert chain.within_limits(chain.joints_from_file(data.joints)).all()
+    assert chain.within_limits(dataset.observations.joints).all()
     assert 120.0 < chain.tool[2, 3] < 140.0
     with pytest.raises(InputError, match="no MUKCa unit"):
         mukca("panda_9")
@@ -356,16 +357,17 @@ def test_mukca_loader():
 def test_mukca_panda_1_held_out_placement():
     from robocal.io.datasets import mukca
 
-    chain, data, fixture = mukca("panda_1")
-    q = chain.joints_from_file(data.joints)
-    train = data.fixture != "right"
-    cal = ConstraintCalibration().fit(chain, q[train], data.fixture[train], data.socket[train], fixture)
+    dataset = mukca("panda_1")
+    chain, data, fixture = dataset.chain, dataset.observations, dataset.fixture
+    q = data.joints
+    train = data.placement != "right"
+    cal = ConstraintCalibration().fit(chain, q[train], data.placement[train], data.socket[train], fixture)
     r = cal.result_
     assert r.residual_before["mean_mm"] > 5.0  # nominal Panda: several mm (the authors: 8.28)
     assert r.residual_after["mean_mm"] < 0.1 * r.residual_before["mean_mm"]
     test = ~train
-    before = socket_errors(chain, q[test], data.fixture[test], data.socket[test], fixture)
-    after = socket_errors(cal.chain_, q[test], data.fixture[test], data.socket[test], fixture)
+    before = socket_errors(chain, q[test], data.placement[test], data.socket[test], fixture)
+    after = socket_errors(cal.chain_, q[test], data.placement[test], data.socket[test], fixture)
     assert before["mean_mm"] > 5.0
     assert after["mean_mm"] < 0.15 * before["mean_mm"]
     assert after["socket_distance"]["max_mm"] < 0.1 * fixture.distance("0", "1")

@@ -59,7 +59,7 @@ def elsewhere(monkeypatch, tmp_path):
 @pytest.mark.parametrize("name", DATASETS)
 def test_loads_from_the_packaged_copy(elsewhere, name):
     load, poses, placements = DATASETS[name]
-    data = load()[1]
+    data = load().measurements
     assert Path(data.path).is_relative_to(PACKAGED_DATA)
     assert data.n_poses == poses
     assert np.isfinite(data.joints).all()
@@ -88,7 +88,7 @@ def test_packaged_files_decompress_to_the_originals_byte_for_byte():
 def test_packaged_data_equal_the_originals(elsewhere, name):
     originals = _originals()
     load = DATASETS[name][0]
-    packaged, original = load()[1], load(root=originals)[1]
+    packaged, original = load().measurements, load(root=originals).measurements
     assert Path(original.path).is_relative_to(originals)
     assert packaged.n_poses == original.n_poses
     for field in FIELDS:
@@ -105,7 +105,7 @@ def test_environment_variable_selects_the_originals(monkeypatch):
     originals = _originals()
     monkeypatch.setenv(ENV, str(originals))
     assert dataset_dir() == originals
-    assert Path(ur5_tsinghua()[1].path).is_relative_to(originals)
+    assert Path(ur5_tsinghua().measurements.path).is_relative_to(originals)
 
 
 def test_cli_exports_a_dataset_from_any_folder(elsewhere):

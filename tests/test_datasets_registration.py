@@ -9,16 +9,16 @@ from robocal.io.datasets import ipa_ur10, ur5_tsinghua
 from robocal.spatial import so3_exp
 
 
-def _stats(chain, data):
-    q = chain.joints_from_file(data.joints)
-    e = np.linalg.norm(data.positions - chain.fk_positions(q), axis=1)
+def _stats(chain, obs):
+    e = np.linalg.norm(obs.positions - chain.fk_positions(obs.joints), axis=1)
     return e.mean(), np.sqrt(np.mean(e**2)), e.max()
 
 
 def test_ur5_loader_reproduces_the_authors_targets():
-    chain, data = ur5_tsinghua()
+    dataset = ur5_tsinghua()
+    chain, data = dataset.chain, dataset.measurements  # the targets are columns of the file
     assert data.n_poses == 1000
-    q = chain.joints_from_file(data.joints)
+    q = dataset.observations.joints
     target = np.column_stack([np.asarray(data.extra[k], float) for k in ("x_t", "y_t", "z_t")])
     assert np.abs(chain.fk_positions(q) - target).max() < 0.01
 
@@ -29,17 +29,17 @@ def test_ur5_loader_reproduces_the_authors_targets():
     ids=["ur5", "ur10-B"],
 )
 def test_registration_reaches_the_documented_nominal_residual(loader, expected):
-    chain, data = loader()
-    q = chain.joints_from_file(data.joints)
-    registered, report = register_base_and_tool(chain, q, data.positions)
+    dataset = loader()
+    chain, obs = dataset.chain, dataset.observations
+    registered, report = register_base_and_tool(chain, obs.joints, obs.positions)
     assert report.converged
-    mean, rms, worst = _stats(registered, data)
+    mean, rms, worst = _stats(registered, obs)
     np.testing.assert_allclose([mean, rms, worst], expected, atol=0.015)
 
 
 def test_registration_recovers_a_known_frame_from_any_placement():
-    chain, data = ur5_tsinghua()
-    q = chain.joints_from_file(data.joints)[:200]
+    dataset = ur5_tsinghua()
+    chain, q = dataset.chain, dataset.observations.joints[:200]
     true_base = np.eye(4)
     true_base[:3, :3] = so3_exp([0.3, -2.0, 1.2])
     true_base[:3, 3] = [2500.0, -800.0, 300.0]

@@ -12,7 +12,6 @@ from robocal.interfaces import jobs, plots
 from robocal.io.datasets import ur5_tsinghua
 from robocal.io.library import load_robot
 from robocal.io.model_file import load_model, save_model
-from robocal.io.observations import observations
 from robocal.io.tables import write_measurements
 from robocal.kinematics.ik import ik_all
 from robocal.methods import make_method
@@ -62,8 +61,8 @@ def test_flag_catches_the_poses_whose_error_grows_outside_the_training_half(cell
 
 
 def test_few_false_alarms_on_a_random_half_of_real_data():
-    chain, data = ur5_tsinghua()
-    obs = observations(chain, data)
+    dataset = ur5_tsinghua()
+    chain, obs = dataset.chain, dataset.observations
     rates = []
     for seed in range(3):
         order = np.random.default_rng(seed).permutation(obs.n_poses)

@@ -33,10 +33,11 @@ def test_the_campaign_is_the_tracker_data_moved_rigidly_into_the_base_frame(expo
     assert report["poses"] == 632 and report["iso_campaign"].endswith("d_iso.csv")
     rows = list(csv.DictReader(open(root / "d_iso.csv", newline="")))
     attained = np.array([[float(r[a]) for a in "xyz"] for r in rows])
-    tracker = ipa_ur10("D")[1].positions
+    series_d = ipa_ur10("D").measurements  # file units (deg), as the campaign file is written
+    tracker = series_d.positions
     np.testing.assert_allclose(_pairwise(attained), _pairwise(tracker), rtol=0, atol=1e-8)
     joints = np.array([[float(r[f"q{k}"]) for k in range(1, 7)] for r in rows])
-    np.testing.assert_allclose(joints, ipa_ur10("D")[1].joints, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(joints, series_d.joints, rtol=0, atol=1e-9)
     # An uncalibrated UR10 about a fitted frame: about a millimetre, not a misregistration.
     assert 0.3 < report["registration_rms_mm"] < 1.5
 

@@ -105,15 +105,17 @@ def test_an_error_model_that_would_do_worse_than_the_registered_nominal_robot_sa
 
 
 def test_predicted_socket_consistency_matches_placements_left_out():
-    panda, sockets, fixture = mukca("panda_3")
-    q = panda.joints_from_file(sockets.joints)
-    for left_out in np.unique(sockets.fixture)[:3]:
-        train = sockets.fixture != left_out
-        cal = ConstraintCalibration(gains=True).fit(panda, q[train], sockets.fixture[train], sockets.socket[train],
+    dataset = mukca("panda_3")
+    panda, sockets, fixture = dataset.chain, dataset.observations, dataset.fixture
+    q = sockets.joints
+    for left_out in np.unique(sockets.placement)[:3]:
+        train = sockets.placement != left_out
+        cal = ConstraintCalibration(gains=True).fit(panda, q[train], sockets.placement[train], sockets.socket[train],
                                                     fixture)
-        data = socket_data(cal.start_chain_, q[train], sockets.fixture[train], sockets.socket[train], fixture)
+        data = socket_data(cal.start_chain_, q[train], sockets.placement[train], sockets.socket[train], fixture)
         predicted = socket_prediction(cal, data)
-        held = socket_errors(cal.chain_, q[~train], sockets.fixture[~train], sockets.socket[~train], fixture)["mean_mm"]
+        held = socket_errors(cal.chain_, q[~train], sockets.placement[~train], sockets.socket[~train],
+                             fixture)["mean_mm"]
         assert held / FACTOR <= predicted.mean_mm <= FACTOR * held, (left_out, predicted.mean_mm, held)
 
 

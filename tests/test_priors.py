@@ -110,8 +110,8 @@ def test_every_builtin_robots_socket_data_are_refused_as_any_other_builtin_robot
 @pytest.mark.slow
 def test_the_shipped_real_data_pass_the_check_and_map_keeps_their_held_out_error():
     # Random halves; the MAP fit's held-out mean within 1 % of plain least squares.
-    for chain, data in (ur5_tsinghua(), ipa_ur10("A"), ipa_ur10("B")):
-        q, p = chain.joints_from_file(data.joints), data.positions
+    for dataset in (ur5_tsinghua(), ipa_ur10("A"), ipa_ur10("B")):
+        chain, q, p = dataset.chain, dataset.observations.joints, dataset.observations.positions
         order = np.random.default_rng(0).permutation(len(q))[:1200]
         train, test = order[:600], order[600:]
         errors = []
@@ -120,9 +120,10 @@ def test_the_shipped_real_data_pass_the_check_and_map_keeps_their_held_out_error
             errors.append(np.linalg.norm(p[test] - cal.predict(q[test]), axis=1).mean())
         assert errors[0] <= 1.01 * errors[1], (chain.name, errors)
     for unit in ("panda_1", "panda_2", "panda_3"):
-        panda, sockets, fixture = mukca(unit)
-        ConstraintCalibration(gains=True).fit(panda, panda.joints_from_file(sockets.joints), sockets.fixture,
-                                              sockets.socket, fixture)
+        dataset = mukca(unit)
+        sockets = dataset.observations
+        ConstraintCalibration(gains=True).fit(dataset.chain, sockets.joints, sockets.placement, sockets.socket,
+                                              sockets.fixture)
 
 
 @pytest.fixture(scope="module")

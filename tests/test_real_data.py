@@ -8,11 +8,11 @@ from robocal.methods import HybridMethod, KinematicMethod, KrigingMethod
 from robocal.methods.evaluation import position_scores
 
 
-def _observations(chain, data, sigmas=False):
-    """Joints (rad) and positions (mm) only, as the methods are fitted here: orientations
-    left out; the per-reading sigmas (mm) when asked for."""
-    return Observations.of(chain.joints_from_file(data.joints), data.positions,
-                           sigmas=data.sigmas if sigmas else None)
+def _observations(dataset, sigmas=False):
+    """The dataset's joints (rad) and positions (mm) only, as the methods are fitted here:
+    orientations left out; the per-reading sigmas (mm) when asked for."""
+    obs = dataset.observations
+    return Observations.of(obs.joints, obs.positions, sigmas=obs.sigmas if sigmas else None)
 
 
 def _held_out(method, chain, obs, test):
@@ -22,9 +22,9 @@ def _held_out(method, chain, obs, test):
 
 @pytest.mark.slow
 def test_kriging_on_ur5_predicts_the_other_half():
-    chain, data = ur5_tsinghua()
-    obs = _observations(chain, data)
-    order = np.random.default_rng(0).permutation(data.n_poses)
+    dataset = ur5_tsinghua()
+    chain, obs = dataset.chain, _observations(dataset)
+    order = np.random.default_rng(0).permutation(obs.n_poses)
     train, test = order[:500], order[500:]
     method = KrigingMethod(register="auto").fit(chain, obs.subset(train))
     assert not method.record_.registered  # the data are in the robot base frame already
@@ -44,11 +44,11 @@ def _split(n, fraction, seed=0):
 
 @pytest.mark.slow
 def test_kinematic_and_hybrid_on_ur5_beat_the_published_result():
-    chain, data = ur5_tsinghua()
-    obs = _observations(chain, data)
-    train, test = _split(data.n_poses, 0.5)
+    dataset = ur5_tsinghua()
+    chain, obs = dataset.chain, _observations(dataset)
+    train, test = _split(obs.n_poses, 0.5)
     q = obs.joints
-    unregistered = np.linalg.norm(data.positions[test] - chain.fk_positions(q[test]), axis=1).mean()
+    unregistered = np.linalg.norm(obs.positions[test] - chain.fk_positions(q[test]), axis=1).mean()
     assert unregistered > 2.5  # the authors report 2.5664 mm before on their test poses
     kin = _held_out(KinematicMethod().fit(chain, obs.subset(train)), chain, obs, test)
     # The authors reach 0.1549 mm with calibration plus a graph neural network.
@@ -58,9 +58,9 @@ def test_kinematic_and_hybrid_on_ur5_beat_the_published_result():
 
 
 def test_kinematic_on_ur10_with_unknown_base_and_probe():
-    chain, data = ipa_ur10("B")
-    obs = _observations(chain, data, sigmas=True)
-    train, test = _split(data.n_poses, 0.7)
+    dataset = ipa_ur10("B")
+    chain, obs = dataset.chain, _observations(dataset, sigmas=True)
+    train, test = _split(obs.n_poses, 0.7)
     result = _held_out(KinematicMethod().fit(chain, obs.subset(train)), chain, obs, test)
     # Base and probe are found from nothing (tracker frame); the geometry then removes more
     # than half of what nominal geometry with the best base and probe still misses.

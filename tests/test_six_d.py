@@ -8,15 +8,14 @@ import pytest
 
 from refusals import assert_refused, copy_inputs, run_ok
 from robocal.io import datasets
-from robocal.io.observations import observations
 from robocal.methods import make_method
 from robocal.methods.evaluation import orientation_stats, position_scores
 
 
 @pytest.fixture(scope="module")
 def series_b():
-    chain, data = datasets.ipa_ur10("B")[:2]
-    obs = observations(chain, data)
+    dataset = datasets.ipa_ur10("B")
+    chain, obs = dataset.chain, dataset.observations
     order = np.random.default_rng(0).permutation(obs.n_poses)
     return chain, obs.subset(np.sort(order[:300])), obs.subset(np.sort(order[300:700]))
 

@@ -14,7 +14,6 @@ from robocal.errors import InputError
 from robocal.interfaces.cli import app
 from robocal.io import datasets
 from robocal.io.model_file import load_model
-from robocal.io.observations import observations
 from robocal.io.robot_file import write_robot
 from robocal.io.tables import write_measurements
 from robocal.methods import KinematicMethod, make_method, selection
@@ -29,7 +28,8 @@ runner = CliRunner()
 def ur10(tmp_path_factory):
     """UR10 series B (real laser-tracker data): the robot file, and files of the first 12,
     20, 24, 37 and 4 poses of a seeded random order."""
-    chain, data = datasets.ipa_ur10("B")
+    dataset = datasets.ipa_ur10("B")
+    chain, data = dataset.chain, dataset.measurements  # written as files: file units
     folder = tmp_path_factory.mktemp("small")
     write_robot(chain, folder / "ur10.toml")
     order = np.random.default_rng(24).permutation(data.n_poses)
@@ -37,7 +37,7 @@ def ur10(tmp_path_factory):
     for n in (4, 12, 20, 24, 37):
         files[n] = folder / f"poses{n}.csv"
         write_measurements(files[n], data.subset(np.sort(order[:n])))
-    return chain, observations(chain, data, beyond_limits=True).subset(np.sort(order[:37])), folder, files
+    return chain, dataset.observations.subset(np.sort(order[:37])), folder, files
 
 
 def _auto(folder, csv, *extra):

@@ -18,7 +18,9 @@ REAL = {"ur5": datasets.ur5_tsinghua, "ur10 B": lambda: datasets.ipa_ur10("B")}
 
 @pytest.fixture(scope="module", params=sorted(REAL))
 def real(request):
-    return REAL[request.param]()[:2]
+    """The robot and its data in file units (deg, mm): the units a file is judged in."""
+    dataset = REAL[request.param]()
+    return dataset.chain, dataset.measurements
 
 
 @pytest.mark.parametrize("angles, scale, says", [

@@ -308,8 +308,8 @@ def test_vecchia_is_within_five_percent_of_exact_kriging_held_out_on_real_robot_
     from robocal.estimation.calibration import KinematicCalibration
     from robocal.io.datasets import ipa_ur10
 
-    chain, data = ipa_ur10("B")
-    q, P = chain.joints_from_file(data.joints), data.positions
+    dataset = ipa_ur10("B")
+    chain, q, P = dataset.chain, dataset.observations.joints, dataset.observations.positions
     order = np.random.default_rng(0).permutation(len(q))
     train, test = order[:400], order[400:]
     calibrated = KinematicCalibration().fit(chain, q[train], P[train]).chain_

@@ -473,13 +473,15 @@ def dataset_job(name, prefix, *, split=None, seed=0):
         raise InputError(f"--out {prefix} is a folder: give a prefix of file names, e.g. --out "
                          f"{os.path.join(str(prefix), name)} writes {name}.toml and {name}.csv there")
     loader, kwargs = DATASETS[name]
-    chain, data, *fixture = getattr(datasets, loader)(**kwargs)
+    dataset = getattr(datasets, loader)(**kwargs)
+    # The files are in file units: the dataset's measurements, not its observations.
+    chain, data, fixture = dataset.chain, dataset.measurements, dataset.fixture
     # The split is checked before anything is written: a refused split leaves no files.
     train, chosen = (None, None) if split is None else datasets.split_indices(data, split, seed)
     write_robot(chain, f"{prefix}.toml", description=f"robot model of the {name} dataset")
     written = {"robot": f"{prefix}.toml"}
-    if fixture:
-        write_fixture(f"{prefix}_fixture.toml", fixture[0])
+    if fixture is not None:
+        write_fixture(f"{prefix}_fixture.toml", fixture)
         written["fixture"] = f"{prefix}_fixture.toml"
     if name == "ipa-ur10-d":  # the ISO cubes: also the ISO 9283 campaign, in the robot's base frame
         from ..io.ipa_iso import write_series_d_campaign

@@ -1,17 +1,22 @@
 """Loaders for three public measured datasets (MIT licence; sources and papers in
 ``robocal/io/data/README.md``).
 
-Each loader returns the robot model the data were taken against and a
-:class:`~robocal.io.tables.Measurements` in robocal's units (deg, mm), so every method can be
-run on them exactly as on a user's own CSV.
+Each loader returns a :class:`Dataset`: the robot model the data were taken against, the data
+in internal units (:class:`~robocal.io.observations.Observations`: rad, mm, rotation matrices),
+converted once by :func:`~robocal.io.observations.observations` as a user's own CSV is, and
+the same data in file units (:class:`~robocal.io.tables.Measurements`: deg, mm), which
+``robocal dataset`` writes.
 
 The data ship inside the package (``robocal/io/data``, CSVs gzip-compressed).  A folder with
 the uncompressed originals in the same layout can be read instead: pass ``root=`` or set
 $ROBOCAL_SHARED_DATA.
 """
+from __future__ import annotations
+
 import csv
 import gzip
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
@@ -19,8 +24,11 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import FileFormatError, InputError
+from ..kinematics import Chain
 from ..spatial import compose_pose, matrix_to_rpy
+from .fixtures import Fixture
 from .library import builtin
+from .observations import Observations, observations
 from .tables import Measurements
 
 _ENV = "ROBOCAL_SHARED_DATA"
@@ -41,6 +49,64 @@ def _source(root=None):
     if os.environ.get(_ENV):
         return _Source(Path(os.environ[_ENV]), f"from ${_ENV}", "")
     return _Source(PACKAGED_DATA, "packaged with robocal: reinstall it", ".gz")
+
+
+@dataclass(frozen=True, eq=False)
+class Dataset:
+    """A measured dataset shipped with robocal, as every loader returns it.
+
+    Attributes
+    ----------
+    name : str
+        Its name for ``robocal dataset NAME`` (e.g. "ur5-tsinghua", "mukca-panda-1").
+    chain : Chain
+        The robot model the data were taken against.
+    observations : Observations
+        The data in internal units, what every method fits: joints (N, n) rad; positions
+        (N, 3) mm and rotations (N, 3, 3), or None for ball-in-socket data, which carry
+        placement and socket (N,) ids and their ``fixture`` instead.
+    measurements : Measurements
+        The same data in file units: joints (N, n) deg, positions (N, 3) mm, orientations
+        (N, 3) rpy deg; the file ``robocal dataset`` writes.
+    fixture : Fixture or None
+        The socket fixture (mm) of ball-in-socket data; None for instrument data.
+    description : str
+        Robot, instrument and poses, in one line.
+    citation : str
+        The paper to cite when the data are used.
+
+    A dataset is not a tuple: unpacking or indexing it raises a TypeError that names the
+    attributes to use.
+    """
+
+    name: str
+    chain: Chain
+    observations: Observations
+    measurements: Measurements
+    fixture: Fixture | None
+    description: str
+    citation: str
+
+    def _not_a_tuple(self):
+        return TypeError(f"the loaders return a Dataset, not a tuple: use dataset.chain, dataset.observations "
+                         f"(rad, mm), dataset.measurements (file units: deg, mm) and dataset.fixture "
+                         f"(dataset '{self.name}')")
+
+    def __iter__(self):
+        raise self._not_a_tuple()
+
+    def __getitem__(self, index):
+        raise self._not_a_tuple()
+
+    def __repr__(self):
+        return (f"Dataset({self.name!r}: {self.chain.name}, {self.observations.n_poses} "
+                f"{self.observations.kind} observations)")
+
+
+def _dataset(name, chain, data, description, citation, fixture=None):
+    """The :class:`Dataset` of ``data`` (file units), converted as a user's own file is."""
+    return Dataset(name=name, chain=chain, observations=observations(chain, data, fixture), measurements=data,
+                   fixture=fixture, description=description, citation=citation)
 
 
 def dataset_dir(root=None):
@@ -88,7 +154,8 @@ def ur5_tsinghua(root=None):
 
     The targets are nominal FK of the authors' UR5 model (their d5 = 94.56 mm, not UR's
     94.65) plus a 31 mm tool along the flange z axis; measured = target + dif.
-    Returns (chain, measurements).
+    Returns a :class:`Dataset` ("ur5-tsinghua"); its measurements keep the targets as the
+    x_t, y_t, z_t columns.
     """
     path = _data_file(_source(root), "ur5_tsinghua/3D_UR5_uncalibrated_grid_cleaned.csv")
     header, rows = _read_rows(path, ",")
@@ -101,7 +168,9 @@ def ur5_tsinghua(root=None):
     chain = ur5.replace(name="UR5 (Tsinghua dataset model)", d=d, tool=compose_pose([0.0, 0.0, 31.0], np.zeros(3)))
     data = Measurements(path=str(path), joints=joints, positions=target + dif,
                         extra={"x_t": target[:, 0], "y_t": target[:, 1], "z_t": target[:, 2]})
-    return chain, data
+    return _dataset("ur5-tsinghua", chain, data,
+                    f"UR5, GTS3800 laser tracker, {data.n_poses} grid poses in the robot base frame",
+                    "Yao, Jacobi, Shao, Kibireva, Applied Soft Computing 203 (2026) 116099")
 
 
 def ipa_ur10(series="B", root=None):
@@ -114,7 +183,8 @@ def ipa_ur10(series="B", root=None):
     (flange -> probe) are not given.  The chain's tool starts at the probe offset the
     dataset README quotes, (0, 0.3, 93) mm, for registration to refine; for series D at the
     TCP its commanded poses are of, 109 mm along the flange z axis.
-    Returns (chain, measurements) with orientations as robocal rpy (deg).
+    Returns a :class:`Dataset` ("ipa-ur10-a", "-b" or "-d") with the measured orientations
+    (robocal rpy in its measurements, in deg) and, for series A, the acquisition times.
     """
     series = str(series).upper()
     files = {"A": "Series_A/measurements_grid.csv", "B": "Series_B/measurements_joint_configurations.csv",
@@ -144,7 +214,11 @@ def ipa_ur10(series="B", root=None):
     distinct = stamps is not None and len(np.unique(stamps)) > len(stamps) // 2
     extra = {"timestamp": np.asarray([f"{t:.0f}" for t in stamps])} if distinct else {}
     data = Measurements(path=str(path), joints=joints, positions=xyz, orientations=rpy, sigmas=sigmas, extra=extra)
-    return chain, data
+    return _dataset(f"ipa-ur10-{series.lower()}", chain, data,
+                    f"UR10, Leica laser tracker with a 6-DoF probe, series {series}: {data.n_poses} poses "
+                    "in the tracker frame",
+                    "Landgraf et al., A Hybrid Neural Network Approach for Increasing the Absolute Accuracy "
+                    "of Industrial Robots, IEEE CASE 2021")
 
 
 # The MUKCa fixture: two sockets 50 mm apart; the files name them hole_0 and hole_1.
@@ -160,12 +234,11 @@ def mukca(unit="panda_1", root=None):
     unit: 'panda_1', 'panda_2' or 'panda_3'.  Placements are the unit's folders (sorted);
     each row of ``<placement>/hole_k.csv`` (7 joint angles in rad, no header) is a
     configuration with the ball in socket ``k``.
-    Returns (chain, measurements, fixture): the built-in Panda with the ball as its tool
-    (a guess, on the flange z axis), constraint measurements in file units (deg) with the
-    placement in ``fixture`` and ``"0"`` / ``"1"`` in ``socket``, and the two-socket fixture.
+    Returns a :class:`Dataset` ("mukca-panda-N"): the built-in Panda with the ball as its
+    tool (a guess, on the flange z axis), the two-socket fixture, and constraint observations
+    with the placement in ``placement`` and ``"0"`` / ``"1"`` in ``socket`` (in its
+    measurements, file units, the placement is the ``fixture`` column).
     """
-    from .fixtures import Fixture
-
     source = _source(root)
     folder = source.folder / "mukca" / str(unit)
     if not folder.is_dir():
@@ -192,7 +265,10 @@ def mukca(unit="panda_1", root=None):
     chain = builtin("panda").replace(name=f"Franka Panda (MUKCa {unit}, ball tool)",
                                      tool=compose_pose([0.0, 0.0, MUKCA_BALL_MM], np.zeros(3)))
     data = Measurements(path=str(folder), joints=np.concatenate(joints), fixture=placements, socket=sockets)
-    return chain, data, fixture
+    return _dataset(f"mukca-{str(unit).replace('_', '-')}", chain, data,
+                    f"Franka Panda, ball in a two-socket fixture, joint angles only: {data.n_poses} "
+                    f"configurations in {len(set(placements))} placements",
+                    "Franzese, Spahn, Kober, Della Santina, arXiv:2503.12584 (2025)", fixture)
 
 
 def split_indices(data, split, seed=0):
