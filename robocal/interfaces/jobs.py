@@ -22,7 +22,7 @@ from ..methods.base import option_of
 from ..methods.bound import NO_BOUND, bound_of_model
 from ..methods.socket_bound import fit_model_bound
 from ..methods.moved_bound import reregistered_bound
-from ..methods.plausibility import check_model_data
+from ..estimation.plausibility import check_model_data
 from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
 from ..methods.reregistration import FRAMES  # noqa: F401  (the command line and fleet files name it here)
 from ..methods.selection import AUTO, choose, compare
@@ -119,7 +119,7 @@ def load_fitted(model_path, robot=None):
 def read_model_data(model, model_path, measurements, fixture=None, beyond_limits=False):
     """The observations of the file ``measurements`` for scoring the model ``model`` (read
     from ``model_path``), refused when the model cannot be scored on them
-    (:func:`robocal.methods.plausibility.check_model_data`): every reader of data for a
+    (:func:`robocal.estimation.plausibility.check_model_data`): every reader of data for a
     fitted model (``evaluate``, ``report``) reads them here."""
     observations = read_observations(measurements, model.kinematics, fixture, beyond_limits=beyond_limits)
     check_model_data(model, observations, model_path)

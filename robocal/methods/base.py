@@ -81,7 +81,7 @@ class Method:
     # its workers (calibrate --jobs): Kriging's likelihood search of each error component.
     spreads_work: ClassVar[bool] = False
     # Whether the fit itself judges that the data are this robot's (a calibration under the
-    # tolerances does); if not, fit runs robocal.methods.plausibility.check_robot_data first.
+    # tolerances does); if not, fit runs robocal.estimation.plausibility.check_robot_data first.
     checks_its_data: ClassVar[bool] = False
 
     def __init__(self, **settings):
@@ -118,10 +118,10 @@ class Method:
         returns self with ``compensator_``, ``reference_``, ``record_`` and ``domain_`` (the
         training data's :class:`~robocal.methods.domain.Domain`).  ``progress(**info)`` is
         called as the fit reports its steps (see :meth:`progress_total`).  Data that cannot be
-        this robot's are refused first (:mod:`robocal.methods.plausibility`), and before them
+        this robot's are refused first (:mod:`robocal.estimation.plausibility`), and before them
         a setting its constraint refuses (:meth:`robocal.settings.Setting.check`)."""
         check_settings(self.settings, {s.name: getattr(self, s.name) for s in self.settings})
-        from .plausibility import check_measured, check_robot_data
+        from ..estimation.plausibility import check_measured, check_robot_data
 
         if not self.checks_its_data:
             self.data_check_ = check_robot_data(chain, observations, getattr(self, "prior", "tolerances"),

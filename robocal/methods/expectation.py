@@ -3,7 +3,7 @@ keeps it in the model file, and refuses a model predicted to do worse than no ca
 
 Every fitted method has a parametric anchor, a calibration under the tolerances: its own
 (kinematic; the hybrid's and a kinematic-based network's base), else the one the data check
-made (:mod:`robocal.methods.plausibility`).  Its posterior, propagated to the working range
+made (:mod:`robocal.estimation.plausibility`).  Its posterior, propagated to the working range
 (:mod:`robocal.estimation.prediction`), predicts the error of the calibrated and of the
 registered nominal robot at each configuration there.  A method with an error model is
 judged inside its training domain by its own held-out errors (k folds, the Kriging's
@@ -38,7 +38,7 @@ def expected_error(method, chain, observations, work_joints=None, seed=0):
     if not own:
         anchor = getattr(method, "data_check_", None)
     if anchor is None:
-        from .plausibility import check_robot_data
+        from ..estimation.plausibility import check_robot_data
 
         anchor = check_robot_data(chain, observations, "tolerances", getattr(method, "tolerance_scale", 1.0))
     if anchor is None:

@@ -35,7 +35,7 @@ from ..spatial import make_transform, pose_to_xyz_rpy, so3_log
 from ..estimation.reregistration import FrameProblem, ReframedErrorModel  # noqa: F401  (ReframedErrorModel: for callers)
 from .fallback import DomainFallback
 from .reframed import is_reframed, reframed_document, reframed_from_document  # noqa: F401
-from .plausibility import check_robot_data
+from ..estimation.plausibility import check_robot_data
 
 # calibrate MODEL.json NEW.csv --method frames: a model file re-registered on a new set-up.
 FRAMES = "frames"
@@ -185,8 +185,8 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
 
     Raises InputError for socket data or models, another robot, too few poses, frames the
     poses cannot determine, or poses that cannot be this robot's in mm and degrees (the data
-    check of :mod:`robocal.methods.plausibility`); warns (RobocalWarning) for a tool change beyond a tenth of the reach,
-    joint offsets moved by more than 10 deg, and a residual far above the model's training one.
+    check of :mod:`robocal.estimation.plausibility`); warns (RobocalWarning) for a tool change
+    beyond a tenth of the reach, joint offsets moved by more than 10 deg, and a residual far above the model's training one.
     """
     alternative = getattr(fitted, "outside_alternative_", None)
     if alternative is None or not isinstance(fitted.compensator_, DomainFallback):

@@ -56,9 +56,9 @@ def _targets(path, chain, volume):
 
 def _check_existing(path, chain):
     """Measured poses given to a design (``--existing``) with positions meet the data check
-    every calibration meets (:func:`robocal.methods.plausibility.check_robot_data`): another
+    every calibration meets (:func:`robocal.estimation.plausibility.check_robot_data`): another
     robot's measurements, or positions that are the nominal robot's own, are refused."""
-    from ..methods.plausibility import check_robot_data
+    from ..estimation.plausibility import check_robot_data
 
     header, _ = table(path)
     if {"x", "y", "z"} <= set(header):

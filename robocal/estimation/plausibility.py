@@ -15,7 +15,7 @@ import warnings
 import numpy as np
 
 from ..errors import InputError, RobocalWarning
-from ..estimation.calibration import KinematicCalibration, OutlierError, OutlierWarning, candidate_parameters
+from .calibration import KinematicCalibration, OutlierError, OutlierWarning, candidate_parameters
 
 # The check fits at most this many poses, evenly spread over the file: the verdict of a few
 # thousand poses is that of all of them, at a bounded cost.
