@@ -186,7 +186,8 @@ def reregister(fitted, observations, parameters="frames", *, robot=None):
     Raises InputError for socket data or models, another robot, too few poses, frames the
     poses cannot determine, or poses that cannot be this robot's in mm and degrees (the data
     check of :mod:`robocal.estimation.plausibility`); warns (RobocalWarning) for a tool change
-    beyond a tenth of the reach, joint offsets moved by more than 10 deg, and a residual far above the model's training one.
+    beyond a tenth of the reach, joint offsets moved by more than 10 deg, and a residual far
+    above the model's training one.
     """
     alternative = getattr(fitted, "outside_alternative_", None)
     if alternative is None or not isinstance(fitted.compensator_, DomainFallback):
