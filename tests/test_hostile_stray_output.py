@@ -3,6 +3,7 @@
 Each is refused in one line before any work, and leaves no file or folder behind (nor a
 partial program in a filter's output folder)."""
 import os
+import stat
 
 import pytest
 
@@ -92,3 +93,28 @@ def test_a_fleet_whose_every_robot_fails_leaves_no_output(entry, says, tmp_path)
     assert result.exit_code != 0 and "Traceback" not in result.output
     assert says in result.output
     assert not out.exists()
+
+
+def _device(path, minor):
+    """A character device like /dev/null (minor 3) or /dev/full (minor 7) at ``path``, or a
+    skip where this user may not make one."""
+    try:
+        os.mknod(path, 0o666 | stat.S_IFCHR, os.makedev(1, minor))
+    except (PermissionError, AttributeError, OSError):
+        pytest.skip("making a character device needs root")
+
+
+# An output that is a device is written through, never renamed over: as root a rename would
+# turn the device into a regular file (/dev/null, /dev/full gone for every other program).
+@pytest.mark.parametrize("verb", [["calibrate", "ur5", "ur5.csv", "--out"],
+                                  ["compensate", "ur5_model.json", "targets.csv", "--out"]])
+def test_an_output_that_is_a_device_stays_a_device(tmp_path, verb):
+    prepare(tmp_path)
+    _device(tmp_path / "null", 3)
+    _device(tmp_path / "full", 7)
+    assert invoke(tmp_path, [*verb, "null"]).code == 0
+    outcome = invoke(tmp_path, [*verb, "full"])
+    assert outcome.code == 2 and len(outcome.lines) == 1 and "No space left on device" in outcome.lines[0], outcome.lines
+    for name in ("null", "full"):
+        assert stat.S_ISCHR((tmp_path / name).stat().st_mode), f"{name} was replaced by a regular file"
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]

@@ -60,6 +60,8 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes | Iterable[bytes]) -
     target = Path(path)
     directory = target.parent
     _check_writable_target(target, directory)
+    if _is_device(target):
+        return _write_through(target, data)
     temporary = directory / f".{target.name}.{secrets.token_hex(8)}.tmp"
     descriptor = None
     try:
@@ -184,6 +186,29 @@ def make_directory(path: str | os.PathLike) -> Path:
     return path
 
 
+def _is_device(target: Path) -> bool:
+    """True when ``target`` exists and is not a regular file (``/dev/null``, ``/dev/stdout``,
+    a terminal, a pipe): renaming a file over it would replace the device itself (as root,
+    ``/dev/null`` would become a regular file), so it is written through instead."""
+    try:
+        mode = target.stat().st_mode
+    except OSError:
+        return False
+    return not stat.S_ISREG(mode) and not stat.S_ISDIR(mode)
+
+
+def _write_through(target: Path, data) -> Path:
+    """Write ``data`` into the existing device ``target`` as a stream (no atomicity exists for
+    a device); a device that refuses the bytes (``/dev/full``) is an InputError."""
+    try:
+        with open(target, "wb") as stream:
+            for chunk in _slices(data):
+                stream.write(chunk)
+    except OSError as error:
+        raise InputError(f"cannot write {target}: {error.strerror or error}; choose another --out") from None
+    return target
+
+
 def _slices(data):
     """The chunks to write: slices of a bytes-like object, or the items of an iterable."""
     if isinstance(data, (bytes, bytearray, memoryview)):
@@ -207,6 +232,8 @@ def check_outputs(outputs, inputs=()) -> None:
     for target in outputs:
         _check_writable_target(target, target.parent)
     for k, target in enumerate(outputs):
+        if _is_device(target):  # /dev/null for two outputs, or an input read from a terminal
+            continue
         for other in outputs[k + 1:]:
             if _same_file(target, other):
                 raise InputError(f"{target} is given for two outputs: choose a different name for each")
