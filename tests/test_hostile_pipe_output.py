@@ -94,3 +94,35 @@ def test_radian_joints_of_position_data_are_refused_in_one_line_not_warned_first
     assert done.returncode != 0 and "look like radians" in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1, done.stderr
     assert not (tmp_path / "r.json").exists()
+
+
+def test_a_reader_that_stops_early_does_not_cost_the_model(tmp_path):
+    """``robocal calibrate ... | head -1``: the pipe closes after one line; the command goes on,
+    writes its model, and says nothing of the closed pipe."""
+    import os
+    import subprocess
+    import sys
+
+    from hostile import REPO
+
+    prepare(tmp_path)
+    environment = dict(os.environ, PYTHONPATH=str(REPO), COLUMNS="80")
+    process = subprocess.Popen([sys.executable, "-m", "robocal", "calibrate", "ur5", "ur5.csv", "--out", "m.json"],
+                               cwd=tmp_path, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    process.stdout.readline()
+    process.stdout.close()  # as head does after its line
+    stderr = process.stderr.read().decode()
+    assert process.wait(timeout=120) == 0, stderr
+    assert "Traceback" not in stderr and "pipe" not in stderr.lower(), stderr
+    assert (tmp_path / "m.json").stat().st_size > 0
+
+
+@pytest.mark.parametrize("env", [{"PYTHONIOENCODING": "ascii"}, {"LC_ALL": "C", "LANG": "C", "PYTHONUTF8": "0"}],
+                         ids=["ascii-stream", "c-locale"])
+@pytest.mark.parametrize("args", [["show", "kr150-2"], ["calibrate", "ur5", "ur5.csv", "--out", "m.json"]],
+                         ids=["show", "calibrate"])
+def test_a_stream_without_utf8_gets_the_output_not_a_traceback(tmp_path, env, args):
+    prepare(tmp_path)
+    result = run_process(tmp_path, args, timeout=120, env=env)
+    assert result.returncode == 0 and "Traceback" not in result.stderr, result.stderr
+    assert result.stdout.strip()
