@@ -162,3 +162,7 @@ def load_toml(path: str | os.PathLike, what: str, hint: str = "") -> dict:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise FileFormatError(f"{path} is not valid TOML ({error}){': ' + hint if hint else ''}") from None
+    except RecursionError:  # the parser recurses into nested arrays and tables, as JSON's does
+        raise FileFormatError(
+            f"{path} nests its arrays or tables thousands of levels deep: it is not a {what} robocal reads"
+        ) from None
