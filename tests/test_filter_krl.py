@@ -1,10 +1,12 @@
 """robocal filter on a KUKA KRL program (a .src with its .dat): every target is what
 compensate gives, every other byte stays, a nominal model changes nothing, run-time motions
 and filtered programs are refused."""
+import os
 import shutil
 from pathlib import Path
 
 import numpy as np
+
 import pytest
 from filter_support import (
     PROGRAMS,
@@ -150,8 +152,11 @@ def test_unreadable_inputs_are_one_line(models, tmp_path):
     runner = CliRunner()
     text = tmp_path / "p.txt"
     text.write_text("PTP {X 1}\n")
-    for args, says in (([text], "cannot tell the robot language"), ([tmp_path / "missing.src"], "no such program file"),
-                       ([text, "--language", "fanuc"], "unknown --language")):
+    fifo = tmp_path / "pipe.src"
+    os.mkfifo(fifo)
+    for args, says in (([text], "cannot tell the robot language"), ([tmp_path / "missing.src"], "does not exist"),
+                       (["/dev/zero"], "is not a regular file"), ([fifo], "is not a regular file"),
+                       ([tmp_path], "is a directory"), ([text, "--language", "fanuc"], "unknown --language")):
         result = runner.invoke(app, ["filter", str(models["true"]), *map(str, args), "--out", str(tmp_path)])
         lines = [line for line in result.output.splitlines() if line.strip()]
         assert result.exit_code == 2 and len(lines) == 1 and says in lines[0], result.output

@@ -34,6 +34,7 @@ import numpy as np
 from ..errors import FileFormatError, InputError
 from ..io.csv_writing import csv_text
 from ..io.atomic import check_outputs, write_text_atomic
+from ..io.reading import check_regular_file
 from ..io.programs import LANGUAGES, krl, language_of, postures
 from ..io.programs.core import (
     ENCODING,
@@ -72,8 +73,7 @@ def read_programs(paths, language=None):
         raise InputError("give at least one program file")
     by_language = {}
     for path in paths:
-        if not Path(path).is_file():
-            raise InputError(f"{path}: no such program file")
+        check_regular_file(path, "program file")
         module = language_of(path, language)
         by_language.setdefault(module, []).append(path)
     programs, seen = [], set()

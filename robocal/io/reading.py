@@ -48,14 +48,10 @@ _MARKS = ((codecs.BOM_UTF32_LE, "utf-32"), (codecs.BOM_UTF32_BE, "utf-32"),
           (codecs.BOM_UTF8, "utf-8-sig"), (codecs.BOM_UTF16_LE, "utf-16"), (codecs.BOM_UTF16_BE, "utf-16"))
 
 
-def read_bytes(path: str | os.PathLike, what: str, kind: str = "table") -> bytes:
-    """The bytes of the regular file ``path`` (``what`` names it in messages: "measurement
-    file"), at most ``LIMITS[kind]`` of them.
-
-    Raises:
-        FileFormatError: the file does not exist, is a directory, a device or pipe, cannot
-            be read, or is larger than its kind's limit.
-    """
+def check_regular_file(path: str | os.PathLike, what: str) -> os.stat_result:
+    """The status of ``path`` when it is a regular file; else FileFormatError in one line
+    saying what it is (missing, a directory, a device or a pipe, unreadable).  ``what``
+    names it: "measurement file"."""
     name = str(path)
     try:
         status = os.stat(name)
@@ -68,6 +64,19 @@ def read_bytes(path: str | os.PathLike, what: str, kind: str = "table") -> bytes
     if not stat.S_ISREG(status.st_mode):
         raise FileFormatError(f"{name} is not a regular file (a device or a pipe): save the {what} to a file and give "
                               "its path")
+    return status
+
+
+def read_bytes(path: str | os.PathLike, what: str, kind: str = "table") -> bytes:
+    """The bytes of the regular file ``path`` (``what`` names it in messages: "measurement
+    file"), at most ``LIMITS[kind]`` of them.
+
+    Raises:
+        FileFormatError: the file does not exist, is a directory, a device or pipe, cannot
+            be read, or is larger than its kind's limit.
+    """
+    name = str(path)
+    status = check_regular_file(path, what)
     limit = LIMITS[kind]
     if status.st_size > limit:
         raise FileFormatError(f"{name} is {status.st_size / MiB:,.0f} MiB, more than any {what} robocal reads "
