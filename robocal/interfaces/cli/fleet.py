@@ -12,8 +12,10 @@ def fleet(
     fleet_file: str = typer.Argument(..., help="Fleet file (TOML): one [[robot]] table per robot with name, robot, "
                                      "train, and optionally test, method, fixture, options (calibrate's options); "
                                      "paths relative to it."),
-    out_dir: str = typer.Option(..., "--out", metavar="<DIR>", help="Folder to write: DIR/<name>/model.json and "
-                                "report.html per robot, DIR/summary.csv and DIR/summary.html (created if missing)."),
+    # No <name> in help texts: their markdown reads it as a tag and drops it.
+    out_dir: str = typer.Option(..., "--out", metavar="<DIR>", help="Folder to write: DIR/NAME/model.json and "
+                                "report.html per robot (NAME: its name in the fleet file), DIR/summary.csv and "
+                                "DIR/summary.html (created if missing)."),
     scheduler: str = SCHEDULER,
     jobs: int = JOBS,
     as_json: bool = JSON,
