@@ -64,6 +64,11 @@ CORRUPTED = [
     ("cmodel.json", "training.fixture.sockets.B", "far", "'training.fixture.sockets.B'"),
     ("cmodel.json", "domain.placements", [1, 2], "'domain.placements[0]'"),
     ("cmodel.json", "options.pairs", True, "'options.pairs'"),
+    # Of the right type but damaged: refused by every verb, export included (it rebuilds the
+    # whole model although it writes only the kinematics).
+    ("model.json", "method", "teleport", "unknown method 'teleport'"),
+    ("model.json", "domain.joints.min", [1.0, 2.0], "the domain of validity is damaged"),
+    ("cmodel.json", "method", "teleport", "unknown method 'teleport'"),
 ]
 
 VERBS = {
