@@ -50,9 +50,8 @@ def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.
     fit the rest are named as the user's file lines.  ``prior`` 'none' skips the check; data
     too few for even the offsets pass unchecked (nothing can be judged from them).  Returns
     the calibration that judged them (fitted to at most CHECK_POSES of them), or None.
-    Positions the robot's own forward kinematics computed are refused first
-    (:func:`check_measured`), whatever ``prior``."""
-    check_measured(chain, observations)
+    Positions the robot's own forward kinematics computed are :func:`check_measured`'s to
+    refuse, after the fit has checked what it is given."""
     if observations.positions is None or prior == "none":
         return None
     count = observations.n_poses
@@ -93,3 +92,4 @@ def check_model_data(model, observations, where):
     options = model.options or {}
     check_robot_data(model.nominal, observations, options.get("prior", "tolerances"),
                      options.get("tolerance_scale", 1.0))
+    check_measured(model.nominal, observations)

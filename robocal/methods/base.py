@@ -126,9 +126,9 @@ class Method:
         if not self.checks_its_data:
             self.data_check_ = check_robot_data(chain, observations, getattr(self, "prior", "tolerances"),
                                                 getattr(self, "tolerance_scale", 1.0))
-        else:
-            check_measured(chain, observations)
         self._fit(chain, observations, progress)
+        # After the fit, whose own checks (too few poses, a bad weight) name the finer fault.
+        check_measured(chain, observations)
         self.domain_ = Domain.of(chain, observations)
         return self
 

@@ -58,11 +58,13 @@ def _check_existing(path, chain):
     """Measured poses given to a design (``--existing``) with positions meet the data check
     every calibration meets (:func:`robocal.estimation.plausibility.check_robot_data`): another
     robot's measurements, or positions that are the nominal robot's own, are refused."""
-    from ..estimation.plausibility import check_robot_data
+    from ..estimation.plausibility import check_measured, check_robot_data
 
     header, _ = table(path)
     if {"x", "y", "z"} <= set(header):
-        check_robot_data(chain, read_observations(path, chain))
+        observations = read_observations(path, chain)
+        check_robot_data(chain, observations)
+        check_measured(chain, observations)
 
 
 def _noise_from(path, chain, parameters, payload):
