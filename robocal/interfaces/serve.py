@@ -83,6 +83,7 @@ class Answerer:
         self.model, self.fitted = load_fitted(model_path)
         self.robot = self.model.kinematics  # the robot file: file units of the joints
         self.n_joints = self.robot.n_joints
+        self._revolute = self.robot.revolute.tolist()
         self.compensator = self.fitted.compensator_
         self.domain = self.fitted.domain_
         # A compensator class with a one-target path (Compensator, DomainFallback); anything
@@ -138,7 +139,10 @@ class Answerer:
     def compute(self, xyz, rxyz, hint):
         """The answer's fields for one target, as ``compensate`` writes them."""
         pose = target_pose(xyz, rxyz)
-        hint_q = None if hint is None else self.robot.joints_from_file(np.array([hint]))[0]
+        # The robot file's units (deg; mm for prismatic joints) as joints_from_file converts
+        # them (the same factor), on floats: the array call costs more than the conversion.
+        hint_q = None if hint is None else np.array(
+            [math.radians(v) if r else v for v, r in zip(hint, self._revolute)])
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # Kriging's extrapolation note: the domain says it
             if self._single:
@@ -155,8 +159,8 @@ class Answerer:
             bound = None
             if self.fitted.bound_ is not None:
                 bound = self.fitted.bound_.predict_one(q, True if in_domain is None else in_domain)
-        joints = self.robot.joints_to_file(q)
-        return {"q": joints.tolist(), **dict(zip(CARTESIAN, answer_xyz_rpy(result.corrected[0]))),
+        joints = [math.degrees(v) if r else v for v, r in zip(q.tolist(), self._revolute)]
+        return {"q": joints, **dict(zip(CARTESIAN, answer_xyz_rpy(result.corrected[0]))),
                 "in_domain": in_domain, "bound95_mm": bound}
 
     def answer(self, line):
