@@ -162,8 +162,11 @@ class PointPosterior:
         place = np.add.at if self._repeated else _assign
         column, which, axis, coef = self._rot
         if len(column):
-            axes = stack[which, axis] * coef
-            place(jac, column, np.cross(axes, tcp - stack[which, 3]))
+            axes = (stack[which, axis] * coef).T
+            lever = (tcp - stack[which, 3]).T
+            # axis × lever, written out: np.cross costs 15 us on arrays this small.
+            (ux, uy, uz), (vx, vy, vz) = axes, lever
+            place(jac, column, np.stack([uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx], axis=1))
         column, which, axis, coef = self._trans
         if len(column):
             place(jac, column, stack[which, axis] * coef)
