@@ -75,6 +75,7 @@ class CompliantChain:
     name = _rigid_field("name")
     convention = _rigid_field("convention")
     joint_types = _rigid_field("joint_types")
+    joint_names = _rigid_field("joint_names")
     n_joints = _rigid_field("n_joints")
     revolute = _rigid_field("revolute")
     theta = _rigid_field("theta")
