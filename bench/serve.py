@@ -17,6 +17,7 @@ server runs as its own process (robocal serve --port 0) on 127.0.0.1.  For examp
 import argparse
 import csv
 import json
+import os
 import select
 import signal
 import socket
@@ -78,7 +79,9 @@ def requests_of_poses(model, path, count=200):
 
 def percentiles(latencies):
     ms = np.percentile(np.array(latencies) * 1e3, [50, 90, 99, 100])
-    return "median {:.3f} ms, p90 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms".format(*ms)
+    # The tail is the machine's as much as the server's: other processes' share of the cores.
+    return "median {:.3f} ms, p90 {:.3f} ms, p99 {:.3f} ms, max {:.3f} ms (load average {:.2f})".format(
+        *ms, os.getloadavg()[0])
 
 
 def sequential(port, lines, count):
@@ -154,7 +157,8 @@ def main():
     try:
         _, answers = sequential(port, lines, len(lines))
         good = [line for line in lines if b"error" not in answers[line]]
-        print(f"{args.model}: {len(good)} of {len(lines)} targets reachable")
+        print(f"{args.model}: {len(good)} of {len(lines)} targets reachable; {os.cpu_count()} cores, load average "
+              f"{os.getloadavg()[0]:.2f}")
         latencies, _ = sequential(port, good, 2000 // scale)
         print(f"sequential, {len(latencies)} requests: {percentiles(latencies)}")
         latencies, wall = parallel(port, good, 4, 500 // scale)

@@ -104,9 +104,11 @@ def robocal_compensation(robot, q, budget):
     observations = Observations.of(train, truth.positions(train))
     print("robocal, Compensator: one target (command) and per target in a batch of 1,000 (commands)")
     many = np.vstack([q] * 5)
+    fitted = {}
     for method in ("kinematic", "kriging", "hybrid"):
         settings = {} if method == "kinematic" else {"random_state": 0}
-        compensator = make_method(method, **settings).fit(robot, observations).compensator_
+        model = make_method(method, **settings).fit(robot, observations)
+        compensator = model.compensator_
         targets = compensator.chain.fk(q)
         batch_targets = compensator.chain.fk(many)
         with warnings.catch_warnings():
@@ -119,6 +121,35 @@ def robocal_compensation(robot, q, budget):
         row(f"{method}: command, one target", one, goal)
         row(f"{method}: commands, a batch of one", of_one)
         row(f"{method}: commands, per target in a batch of {len(many):,}", batch)
+        fitted[method] = model
+    return fitted, observations
+
+
+def robocal_domain_and_bound(robot, fitted, observations, q, budget):
+    """What robocal serve asks beside the command: the domain check and the 95 % bound of the
+    commanded configuration, on the one-configuration paths and as a batch of one."""
+    from robocal.methods.bound import fit_bound
+
+    print("robocal, serve's checks of one configuration: one-row path and a batch of one")
+    positions = robot.fk_positions(q)
+    items = list(range(len(q)))
+    for method in ("kinematic", "kriging"):
+        model = fitted[method]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            bound = fit_bound(model, robot, observations)
+            domain = model.domain_
+            inside = domain.check(q, positions).inside
+            one = per_call(lambda i, d=domain: d.inside_one(q[i], positions[i]), items, budget)
+            of_one = per_call(lambda i, d=domain: d._check(q[i:i + 1], np.ones(1, bool), positions[i:i + 1], None,
+                                                           None, "targets"), items[:40], budget / 4)
+            row(f"{method}: domain, inside_one", one)
+            row(f"{method}: domain, check of a batch of one", of_one)
+            one = per_call(lambda i, b=bound, s=inside: b.predict_one(q[i], s[i]), items, budget)
+            of_one = per_call(lambda i, b=bound, s=inside: b.predict(q[i:i + 1], inside=s[i:i + 1]), items[:40],
+                              budget / 4)
+            row(f"{method}: 95 % bound, predict_one", one, f"{int(inside.sum())} of {len(q)} inside")
+            row(f"{method}: 95 % bound, predict of a batch of one", of_one)
 
 
 def kriging_variance(budget):
@@ -203,7 +234,8 @@ def main():
     q[:, 1] = np.clip(q[:, 1], -2.8, -0.3)  # arm above the base, as in use
     print(f"robot: {robot.name}; {TARGETS} different targets; median us per call; one core")
     robocal_kinematics(robot, calibrated, q, budget)
-    robocal_compensation(robot, q, budget)
+    fitted, observations = robocal_compensation(robot, q, budget)
+    robocal_domain_and_bound(robot, fitted, observations, q, budget)
     kriging_variance(budget)
     print("peers, one call")
     value = pinocchio_fk(robot, q, budget)

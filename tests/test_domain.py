@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from robocal.errors import FileFormatError
+from robocal.errors import FileFormatError, InputError
 from robocal.interfaces import jobs, plots
 from robocal.io.datasets import ur5_tsinghua
 from robocal.io.library import load_robot
@@ -253,3 +253,63 @@ def test_coverage_plot_draws_every_joint(files, cell):
     assert (~arguments["inside"]).sum() >= 45
     fig = plots.domain_coverage(**arguments)
     assert len([ax for ax in fig.axes if ax.has_data()]) == 6
+
+
+def _probe(chain, domain, q, rng):
+    """Configurations on every side of ``domain``'s criteria: ``q`` itself, nudged, random
+    over the joint space (their TCP positions nudged by 40 mm RMS: the training box) and
+    at corners of the training ranges (far from every training configuration)."""
+    every = np.vstack([q, q + rng.normal(0.0, 0.05, q.shape), chain.random_configurations(len(q), rng)])
+    within = np.where(rng.random(q.shape) < 0.5, domain.joint_min, domain.joint_max)
+    return (np.vstack([every, within]),
+            np.vstack([chain.fk_positions(every) + rng.normal(0.0, 40.0, (len(every), 3)), chain.fk_positions(within)]))
+
+
+@pytest.mark.parametrize("robot", ["kr150-2", "ur5"])
+def test_one_configuration_is_judged_as_the_batch_judges_it(cell, robot):
+    # A spherical wrist (the KR 150-2 of the cell) and a UR-type arm trained on one elbow.
+    rng = np.random.default_rng(8)
+    if robot == "ur5":
+        chain = load_robot("ur5")
+        q = np.angle(np.exp(1j * chain.random_configurations(400, rng)))
+        q = q[arm_branches(chain, q)[1]["elbow"] == 0][:120]
+        domain = Domain.of(chain, _obs(chain, q))
+    else:
+        chain, _, q_cell, train, _, _, training = cell
+        q, domain = q_cell[train], Domain.of(chain, training)
+    # 120 configurations in six dimensions leave no gap wider than the measured radius:
+    # a quarter of it, so that the nearest-neighbour criterion decides some of them too.
+    domain = dataclasses.replace(domain, neighbour_radius=domain.neighbour_radius / 4.0)
+    joints, positions = _probe(chain, domain, q, rng)
+    batch = domain.check(joints, positions)
+    # Every criterion of the batch is met by some configuration.
+    categories = " ".join(batch.counts)
+    for what in ("beyond its training range", "branch", "beyond the training box", "far from every"):
+        assert what in categories, batch.counts
+    one = np.array([domain.inside_one(j, p) for j, p in zip(joints, positions)])
+    np.testing.assert_array_equal(one, batch.inside)
+    without_position = np.array([domain.inside_one(j) for j in joints])
+    np.testing.assert_array_equal(without_position, domain.check(joints).inside)
+    # check of one row gives the batch's row, reasons included.
+    for k in range(0, len(joints), 7):
+        row = domain.check(joints[k:k + 1], positions[k:k + 1])
+        assert row.inside[0] == batch.inside[k] and row.reasons[0] == batch.reasons[k]
+
+
+def test_one_configuration_with_the_re_registration_criterion_is_judged_by_the_batch(cell):
+    chain, _, q, train, _, other, training = cell
+    names = ("base_x", "base_rz", "tool_x")
+    domain = dataclasses.replace(Domain.of(chain, training), frames=(names, np.diag([0.01, 1e-6, 0.04]), 0.2))
+    joints = np.vstack([q[train[:40]], q[other[:40]]])
+    batch = domain.check(joints)
+    assert "base and tool pinned too loosely here" in batch.counts
+    np.testing.assert_array_equal([domain.inside_one(j) for j in joints], batch.inside)
+
+
+def test_an_unreachable_target_counts_as_inside_alone_as_in_a_batch(cell):
+    chain, _, _, _, _, _, training = cell
+    domain = Domain.of(chain, training)
+    nan = np.full(chain.n_joints, np.nan)
+    assert domain.inside_one(nan) and domain.check(nan[None]).inside[0]
+    with pytest.raises(InputError, match="robot with 6 joints"):
+        domain.inside_one(np.zeros(5))

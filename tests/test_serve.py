@@ -26,7 +26,7 @@ SERVE = [sys.executable, "-c", "from robocal.interfaces.cli import app; app()", 
 
 @pytest.fixture(scope="module")
 def setup(tmp_path_factory):
-    """Three models of one simulated UR5 (kinematic, kriging, hybrid), targets and what
+    """Four models of one simulated UR5 (kinematic, kriging, hybrid, auto), targets and what
     robocal compensate writes for them."""
     root = tmp_path_factory.mktemp("serve")
     meas = root / "meas.csv"
@@ -49,7 +49,7 @@ def setup(tmp_path_factory):
         for p, r, h in zip(xyz, np.degrees(rpy), hints):
             f.write(",".join(repr(float(v)) for v in [*p, *r, *h]) + "\n")
     models = {}
-    for method in ("kinematic", "kriging", "hybrid"):
+    for method in ("kinematic", "kriging", "hybrid", "auto"):
         model = root / f"{method}.json"
         # Kriging over the position from 120 poses spread over the joint space is predicted to
         # miss by more than the registered nominal robot: the server is tested with it anyway.
@@ -119,7 +119,9 @@ def check_answer(answer, expected):
 
 
 @pytest.mark.filterwarnings("ignore")
-@pytest.mark.parametrize("method", ["kinematic", "kriging", "hybrid"])
+# auto: the chosen model inside its domain and a parametric fallback outside, each through
+# the server's one-configuration domain check and bound.
+@pytest.mark.parametrize("method", ["kinematic", "kriging", "hybrid", "auto"])
 def test_answers_equal_compensate(setup, method):
     models, targets = setup
     model, commands = models[method]

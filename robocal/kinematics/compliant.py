@@ -75,6 +75,7 @@ class CompliantChain:
     name = _rigid_field("name")
     convention = _rigid_field("convention")
     joint_types = _rigid_field("joint_types")
+    joint_names = _rigid_field("joint_names")
     n_joints = _rigid_field("n_joints")
     revolute = _rigid_field("revolute")
     theta = _rigid_field("theta")
@@ -103,8 +104,13 @@ class CompliantChain:
     # ------------------------------------------------------------ deflection
     def gravity_torque(self, q):
         """(N, n) N·m, gravity along -z of the robot base."""
-        upright = self.rigid.replace(base=np.eye(4))
-        return self.mass_model.gravity_torque(upright, np.atleast_2d(np.asarray(q, dtype=float)))
+        return self.mass_model.gravity_torque(self._upright, np.atleast_2d(np.asarray(q, dtype=float)))
+
+    @cached_property
+    def _upright(self):
+        # The rigid chain with its base at the origin, kept: a new chain compiles its program
+        # again (some 0.3 ms), and the compensation asks for the torque a dozen times a target.
+        return self.rigid.replace(base=np.eye(4))
 
     def deflection(self, q):
         """(N, n) model-joint deflection (rad) at commanded joints q."""

@@ -270,7 +270,9 @@ class PointProgram:
     controller joints, column after column in one tuple of 6 n floats (column k, the
     derivative [dp; dw] of the pose by joint k as in ``fk_jacobian``, at [6 k, 6 k + 6]):
     ``np.array(columns).reshape(n, 6).T`` is the (6, n) Jacobian, in the column-major order
-    LAPACK takes without a copy.
+    LAPACK takes without a copy.  Built with ``marks`` (names of mark factors),
+    ``pose_marks(q)`` returns the pose and the frame at each of those marks (12 floats each,
+    in the order of ``marks``), for the identification Jacobian of one configuration.
     Equal to :func:`forward` to rounding (cos and sin from ``math`` instead of half-angle
     tangents).
     """
@@ -285,7 +287,7 @@ class PointProgram:
             chain.__dict__["_point_program"] = program
         return program
 
-    def __init__(self, ops, joint_map, revolute):
+    def __init__(self, ops, joint_map, revolute, marks=()):
         joint_map = np.asarray(joint_map, dtype=float)
         n = joint_map.shape[0]
         self.n_joints = n
@@ -299,24 +301,38 @@ class PointProgram:
             angle = f"m{i} + {float(offset)!r}" if offset else f"m{i}"
             lines.append(f"c{i} = cos({angle}); s{i} = sin({angle})")
         lines.append(", ".join(_NAMES) + " = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0")
-        body, marks = [], {}
+        body, marks, named = [], {}, tuple(marks)
+        snapshots = {}
         for op in ops:
             if op.kind == "mark" and op.name.startswith("J") and op.name[1:].isdigit():
                 k = int(op.name[1:]) - 1
                 marks[k] = True
                 body.append(f"j{k} = (zx, zy, zz, tx, ty, tz)")
+            if op.kind == "mark" and op.name in named:
+                snapshots[op.name] = f"n{len(snapshots)}"
+                body.append(f"{snapshots[op.name]} = (" + ", ".join(_NAMES) + ")")
             body += _op_source(op, constants)
         result = "(" + ", ".join(_NAMES) + ")"
         namespace = {"cos": math.cos, "sin": math.sin}
         namespace.update({f"k{i}": float(v) for i, v in enumerate(constants)})
-        pose_lines = lines + [b for b in body if not b.startswith("j")] + [f"return {result}"]
+        pose_lines = lines + [b for b in body if not b.startswith(("j", "n"))] + [f"return {result}"]
         source = "def pose(q):\n" + "\n".join("    " + line for line in pose_lines) + "\n"
         jac = self._jacobian_source(n, marks, revolute, joint_map) if len(marks) == n else None
         if jac is not None:
             source += ("def pose_jacobian(q):\n"
-                       + "\n".join("    " + line for line in lines + body + jac + [f"return {result}, columns"]) + "\n")
+                       + "\n".join("    " + line for line in lines + [b for b in body if not b.startswith("n")] + jac
+                                    + [f"return {result}, columns"]) + "\n")
+        if named:
+            missing = set(named) - set(snapshots)
+            if missing:
+                raise ValueError(f"no mark {sorted(missing)[0]!r} in the program")
+            listed = ", ".join(snapshots[m] for m in named)
+            source += ("def pose_marks(q):\n" + "\n".join(
+                "    " + line for line in lines + [b for b in body if not b.startswith("j")]
+                + [f"return {result}, ({listed},)"]) + "\n")
         exec(compile(source, "<robocal point program>", "exec"), namespace)  # noqa: S102 - our own source
         self.pose = namespace["pose"]
+        self.pose_marks = namespace.get("pose_marks")
         self.pose_jacobian = namespace.get("pose_jacobian")
         self.source = source
 

@@ -427,10 +427,16 @@ class Kriging:
         return correlation_from_squared(S, self.correlation, out=S)
 
     def _warn_extrapolation(self, X, Xs):
-        lo, hi = self._X_train.min(axis=0), self._X_train.max(axis=0)
-        margin = EXTRAPOLATION_MARGIN * (hi - lo)
-        excess = np.maximum(lo - margin - X, X - hi - margin)
-        relative = np.max(excess / np.where(hi > lo, hi - lo, 1.0), axis=1)
+        box = self.__dict__.get("_box")
+        if box is None or box[0] is not self._X_train:
+            # Kept with the training points it is of: a point at a time (robocal serve) paid
+            # for the training box at every prediction.
+            lo, hi = self._X_train.min(axis=0), self._X_train.max(axis=0)
+            margin = EXTRAPOLATION_MARGIN * (hi - lo)
+            box = self._box = (self._X_train, lo - margin, hi, margin, np.where(hi > lo, hi - lo, 1.0))
+        _, low, hi, margin, extent = box
+        excess = np.maximum(low - X, X - hi - margin)
+        relative = np.max(excess / extent, axis=1)
         outside = np.flatnonzero(relative > 0)
         if not len(outside):
             return
