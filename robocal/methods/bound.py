@@ -64,8 +64,8 @@ import numpy as np
 from ..errors import FileFormatError, InputError, RobocalWarning
 from ..io.observations import Observations
 from .domain import Domain
-from .model_sigma import (NearestTraining, PointPosterior, base_calibration, calibration_posterior,  # noqa: F401
-                          chain_of, joint_distance, model_sigma, posterior_sigma)
+from .model_sigma import (base_calibration, calibration_posterior, chain_of, joint_distance,  # noqa: F401
+                          model_sigma, posterior_sigma)
 
 # The share of poses the bound is to cover.
 COVERAGE = 0.95
@@ -197,34 +197,15 @@ class PositionBound:
         if not np.all(np.isfinite(joints)):
             return math.nan
         own = self if inside else (self.fallback or self)
-        return own._own_one(joints, bool(inside)) * self.set_up_factor
+        return own._point.bound(joints, bool(inside)) * self.set_up_factor
 
     @cached_property
     def _point(self):
-        """What :meth:`predict_one` prepares once: the posterior's one-configuration σ and
-        the search tree of the training configurations."""
-        chain = chain_of(self.method)
-        posterior = None if self.posterior is None else PointPosterior(chain, *self.posterior)
-        return posterior, NearestTraining(self.training_joints, chain.revolute)
+        """The one-configuration form of this bound's formula (:class:`.point_bound.PointBound`),
+        prepared at its first use."""
+        from .point_bound import PointBound
 
-    def _own_one(self, joints, inside):
-        """:meth:`_own` of one configuration (n,), a float."""
-        posterior, nearest = self._point
-        variance = 0.0
-        if self.posterior is not None:
-            sigma = posterior.sigma(joints)
-            if sigma is None:  # a chain the point path does not cover
-                sigma = float(posterior_sigma(chain_of(self.method), joints[None], *self.posterior)[0])
-            variance = variance + sigma * sigma
-        if self.method.compensator_.error_model is not None:
-            own = self.method.uncertainty(joints[None])
-            if own is not None:
-                own = float(np.asarray(own, dtype=float)[0])
-                variance = variance + own * own
-        sigma = math.sqrt(variance)
-        distance = None if inside else float(nearest.distance(joints[None])[0])
-        return outside_bound_one(self.inside_factor, self.residual_mm, sigma, distance, self.growth_per_rad,
-                                 self.sigma_growth_per_rad)
+        return PointBound(self)
 
     def _own(self, joints, inside):
         """This bound's formula at ``joints`` (all inside, or all outside)."""
@@ -303,22 +284,6 @@ def outside_bound(factor, residual, sigma, distance, growth, sigma_growth):
         bound = factor * scale * (1.0 + growth * distance)
     if sigma_growth is not None:
         bound = np.maximum(bound, factor * np.sqrt(scale ** 2 + (sigma_growth * sigma * distance) ** 2))
-    return bound
-
-
-def outside_bound_one(factor, residual, sigma, distance, growth, sigma_growth):
-    """:func:`outside_bound` of one configuration, on floats (the same operations)."""
-    scale = math.sqrt(sigma * sigma + residual * residual)
-    if distance is None:
-        return factor * scale
-    if growth is None and sigma_growth is None:
-        return math.nan
-    bound = 0.0
-    if growth is not None:
-        bound = factor * scale * (1.0 + growth * distance)
-    if sigma_growth is not None:
-        spread = sigma_growth * sigma * distance
-        bound = max(bound, factor * math.sqrt(scale * scale + spread * spread))
     return bound
 
 
