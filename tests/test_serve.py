@@ -184,6 +184,13 @@ def test_bad_requests_and_bad_clients_leave_the_server_serving(setup):
         with sock:
             for bad in BAD:  # each refused in one line, the connection kept
                 assert set(json.loads(ask(sock, reader, bad))) == {"error"}
+            # A posture hint in radians is refused naming them (as a target file's is); the
+            # same hint in degrees is answered.
+            in_degrees = json.loads(good[0][0])
+            in_radians = dict(in_degrees, q=[float(v) for v in np.radians(in_degrees["q"])])
+            answer = json.loads(ask(sock, reader, json.dumps(in_radians).encode()))
+            assert set(answer) == {"error"} and "radians" in answer["error"], answer
+            check_answer(ask(sock, reader, json.dumps(in_degrees).encode()), good[0][1])
             rng = np.random.default_rng(1)
             for k in range(300):
                 if rng.random() < 0.1:

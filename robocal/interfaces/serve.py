@@ -35,6 +35,7 @@ from collections import deque
 import numpy as np
 
 from ..errors import RobocalError
+from ..io.units import ONE_TURN, looks_like_radians
 from ..spatial import pose_to_xyz_rpy
 from .jobs import load_fitted
 
@@ -139,6 +140,11 @@ class Answerer:
     def compute(self, xyz, rxyz, hint):
         """The answer's fields for one target, as ``compensate`` writes them."""
         pose = target_pose(xyz, rxyz)
+        if hint is not None and looks_like_radians([v for v, r in zip(hint, self._revolute) if r], ONE_TURN):
+            # The one test of typed angles (robocal.io.units), as for a target file's hints: a
+            # posture in radians would pick another arm branch without a word.
+            raise BadRequest("q looks like radians (every joint within one turn, not whole degrees), but robocal "
+                             "reads degrees: send the posture hint in degrees")
         # The robot file's units (deg; mm for prismatic joints) as joints_from_file converts
         # them (the same factor), on floats: the array call costs more than the conversion.
         hint_q = None if hint is None else np.array(
