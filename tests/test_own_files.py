@@ -74,7 +74,7 @@ def test_files_of_several_kinds_pasted_together_are_refused(outputs, tmp_path):
 
 def test_a_kind_robocal_never_writes_is_refused(tmp_path):
     with pytest.raises(FileFormatError, match="says invented"):
-        recognise(["x", KIND_COLUMN], ["invented", "invented"])
+        recognise(["x", KIND_COLUMN], lambda name: ["invented", "invented"])
 
 
 def test_a_user_file_with_none_of_robocals_columns_is_no_kind():

@@ -12,13 +12,14 @@ them.
 """
 import csv
 import io
+from dataclasses import replace
 
 import numpy as np
 
 from ..errors import FileFormatError, InputError
 from ..spatial import compose_pose
 from .atomic import write_text_atomic
-from .file_kinds import KIND_COLUMN, check_kind, marked
+from .file_kinds import READERS, check, marked
 from .reading import read_text
 from .units import check_angles
 
@@ -66,10 +67,9 @@ def read_joints(path, chain, what="configurations"):
     ignored) -> ((N, n) rad, header).  One-line errors for missing columns, empty, non-numeric
     or NaN cells, radian-looking values and values beyond the joint limits."""
     header, rows = table(path)
-    kind_cells = [row[header.index(KIND_COLUMN)] for row in rows if len(row) == len(header)] \
-        if KIND_COLUMN in header else None
-    check_kind(path, header, kind_cells, ("measurements", "poses"), f"a file of {what}",
-               "measured or planned joint configurations (q1..qN)")
+    body = [row for row in rows if len(row) == len(header)]
+    check(path, replace(READERS["configurations"], reading_as=f"a file of {what}"), header=header,
+          column=lambda name: [row[header.index(name)] for row in body])
     names = [f"q{k}" for k in range(1, chain.n_joints + 1)]
     missing = [name for name in names if name not in header]
     if missing:
