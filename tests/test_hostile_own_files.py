@@ -4,11 +4,18 @@ measurements, compensate's commands as targets, a design plan as a fleet file, a
 model...), data of one robot given as another's, and ball-in-socket data given to the position
 methods and back. Each row is refused in one line that names what the file is, and nothing
 is written."""
+import atexit
+import functools
 import json
+import shutil
+import tempfile
+from pathlib import Path
 
 import pytest
 
-from hostile import invoke, nominal_fk, prepare, refuse
+from hostile import EXAMPLES as EXAMPLES_DIR
+from hostile import assert_clean_refusal, invoke, nominal_fk, prepare, refuse
+from robocal.io.file_kinds import KIND_COLUMN, KINDS, READERS, identify
 
 REFUSED = [
     # (id, args, extra files, what the error line says)
@@ -142,4 +149,154 @@ def test_a_calibrated_urdf_export_is_a_robot_file(tmp_path):
 def test_the_right_data_of_the_same_shape_pass(tmp_path, args, files):
     prepare(tmp_path, files)
     outcome = invoke(tmp_path, args)
+    assert outcome.code == 0, outcome.output
+
+
+# --------------------------------------------------------------------------------------------
+# Every kind of file robocal writes x every reader, generated from robocal.io.file_kinds: a new
+# kind or a new reader is in this table as soon as it is in KINDS or READERS (and the two
+# tests below fail until it has an example file and a command).
+
+def _run_to_file(base, name, args):
+    """A robocal command's stdout (its --json) saved as ``name`` in the folder ``base``."""
+    outcome = invoke(base, args)
+    assert outcome.code == 0, outcome.output
+    (base / name).write_text(outcome.result.stdout)
+
+
+def _iso_campaign(base):
+    """The ISO plan with every pose measured 0.1 mm off its command: a campaign."""
+    lines = (base / "iso.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    cmd = [header.index(c) for c in ("x_cmd", "y_cmd", "z_cmd")]
+    rows = [line.split(",") for line in lines[1:]]
+    (base / "campaign.csv").write_text("\n".join([lines[0] + ",x,y,z"] + [
+        ",".join(row + [repr(float(row[k]) + 0.1 * (i % 3)) for k in cmd]) for i, row in enumerate(rows)]) + "\n")
+    outcome = invoke(base, ["iso9283", "campaign.csv", "--report", "iso.html"])
+    assert outcome.code == 0, outcome.output
+
+
+def _fleet_summary(base):
+    from robocal.interfaces.fleet import SUMMARY_COLUMNS, write_summary
+
+    row = dict.fromkeys(SUMMARY_COLUMNS, "")
+    row.update(name="cell-1", status="ok", method="kinematic", n_train=60, n_test=0, mean_mm=0.1, max_mm=0.3)
+    (base / "fleet").mkdir()
+    write_summary(base / "fleet", [row], "fleet.toml")
+
+
+def _filter_summary(base):
+    from robocal.interfaces.filter import _summary
+
+    (base / "filter-summary.csv").write_text(_summary([["pick.script", 3, "p1", "filtered", "0.12", "0.01", "1",
+                                                        "0.3"]]))
+
+
+# kind -> (how to make it in a folder holding hostile.base_files' files, the file it is)
+EXAMPLES = {
+    "commands": (None, "cmds.csv"),
+    "poses": (None, "plan.csv"),
+    "evaluation": (None, "perpose.csv"),
+    "fleet-summary": (_fleet_summary, "fleet/summary.csv"),
+    "iso-plan": (None, "iso.csv"),
+    "filter-summary": (_filter_summary, "filter-summary.csv"),
+    "targets": (None, "targets.csv"),
+    "model": (None, "ur5_model.json"),
+    "truth": (None, "ur5_truth.json"),
+    "validation": (lambda base: _run_to_file(base, "val.json", ["validate", "ur5", "ur5.csv", "--folds", "3", "--json"]),
+                   "val.json"),
+    "evaluation-json": (lambda base: _run_to_file(base, "eval.json", ["evaluate", "ur5_model.json", "ur5.csv", "--json"]),
+                        "eval.json"),
+    "report": (None, "report.html"),
+    "iso-page": (_iso_campaign, "iso.html"),
+    "fleet-page": (_fleet_summary, "fleet/summary.html"),
+    "robot": (None, "ur5_cal.toml"),
+    "urdf": (None, "ur5_cal.urdf"),
+    "fixture": (None, "plate.toml"),
+    "fleet": (lambda base: shutil.copy(EXAMPLES_DIR / "fleet" / "fleet.toml", base / "fleet.toml"), "fleet.toml"),
+}
+# Simulated measurements are written unmarked: a measurement file is what a user gives.
+UNMARKED = {"measurements"}
+SUFFIX = {"CSV": ".csv", "JSON": ".json", "HTML": ".html", "TOML": ".toml", "XML": ".urdf"}
+
+# reader -> a command that reads the file F as it (a user's hand-made files beside it)
+READS = {
+    "measurements": ["calibrate", "ur5", "F", "--out", "m.json"],
+    "targets": ["compensate", "ur5_model.json", "F", "--out", "c.csv"],
+    "configurations": ["design", "ur5", "--n", "8", "--pool", "200", "--existing", "F", "--out", "p.csv"],
+    "campaign": ["iso9283", "F"],
+    "joint-log": ["import", "--points", "points.txt", "--joints", "F", "--out", "i.csv"],
+    "points": ["import", "--points", "F", "--joints", "joints.csv", "--out", "i.csv"],
+    "model": ["evaluate", "F", "ur5.csv"],
+    "truth": ["simulate", "ur5", "--n", "10", "--errors", "F", "--out", "s.csv"],
+    "validation": ["report", "ur5_model.json", "ur5.csv", "--validation", "F", "--out", "r.html"],
+    "robot": ["calibrate", "F", "ur5.csv", "--out", "m.json"],
+    "fixture": ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "F", "--out", "m.json"],
+    "fleet": ["fleet", "F", "--out", "fl"],
+}
+HAND_MADE = {"points.txt": "# mm\nP1 500 100 300\nP2 400 -100 350\n",
+             "joints.csv": "name,q1,q2,q3,q4,q5,q6\nP1,0,-90,90,0,90,0\nP2,10,-80,80,0,90,0\n"}
+
+
+@functools.cache
+def examples():
+    """A read-only folder of one file of every kind, made as a user makes them."""
+    base = Path(tempfile.mkdtemp(prefix="robocal-kinds-"))
+    atexit.register(shutil.rmtree, base, True)
+    prepare(base)
+    for make in dict.fromkeys(make for make, _ in EXAMPLES.values() if make is not None):
+        make(base)
+    return base
+
+
+def test_every_kind_robocal_writes_has_an_example():
+    assert set(EXAMPLES) == set(KINDS) - UNMARKED
+
+
+def test_every_reader_has_a_command():
+    assert set(READS) == set(READERS)
+
+
+@pytest.mark.parametrize("kind", sorted(EXAMPLES))
+def test_each_file_robocal_writes_says_its_kind(kind):
+    text = (examples() / EXAMPLES[kind][1]).read_text()
+    assert identify(text) == kind
+    if KINDS[kind].form == "CSV":  # in its own column, not only by its columns
+        assert text.splitlines()[0].split(",")[-1] == KIND_COLUMN
+
+
+WRONG = [(kind, reader) for kind in sorted(EXAMPLES) for reader in READERS if kind not in READERS[reader].accepts]
+
+
+@pytest.mark.parametrize("kind, reader", WRONG, ids=[f"{kind}-as-{reader}" for kind, reader in WRONG])
+def test_every_reader_refuses_every_other_kind_naming_it(tmp_path, kind, reader):
+    name = "F" + SUFFIX[KINDS[kind].form]
+    prepare(tmp_path, {**HAND_MADE, name: (examples() / EXAMPLES[kind][1]).read_bytes()})
+    outcome = invoke(tmp_path, [name if arg == "F" else arg for arg in READS[reader]])
+    assert_clean_refusal(outcome, f"{name} is {KINDS[kind].what}")
+    assert "not a" in outcome.lines[0], outcome.lines[0]
+
+
+GOOD = [
+    # (id, reader, the file's name, its content: text, or a callable of the base folder)
+    ("user-measurements", "measurements", "F.csv", lambda base: nominal_fk(base, noise_mm=0.01)),
+    ("user-targets", "targets", "F.csv", "x,y,z,rx,ry,rz\n-400,-150,300,180,0,0\n-350,100,350,180,0,90\n"),
+    ("shipped-targets", "targets", "F.csv", (EXAMPLES_DIR / "ur5-targets.csv").read_text()),
+    ("user-configurations", "configurations", "F.csv", "q1,q2,q3,q4,q5,q6\n0,-90,90,0,90,0\n30,-60,60,10,80,0\n"),
+    ("design-poses-as-configurations", "configurations", "F.csv", lambda base: (base / "plan.csv").read_text()),
+    ("user-joint-log", "joint-log", "F.csv", HAND_MADE["joints.csv"]),
+    ("user-points", "points", "F.txt", HAND_MADE["points.txt"]),
+    ("model", "model", "F.json", lambda base: (base / "ur5_model.json").read_text()),
+    ("truth", "truth", "F.json", lambda base: (base / "ur5_truth.json").read_text()),
+    ("validation", "validation", "F.json", lambda base: (examples() / "val.json").read_text()),
+    ("exported-robot-toml", "robot", "F.toml", lambda base: (base / "ur5_cal.toml").read_text()),
+    ("exported-urdf", "robot", "F.urdf", lambda base: (base / "ur5_cal.urdf").read_text()),
+    ("shipped-fixture", "fixture", "F.toml", (EXAMPLES_DIR / "plate-fixture.toml").read_text()),
+]
+
+
+@pytest.mark.parametrize("reader, name, content", [row[1:] for row in GOOD], ids=[row[0] for row in GOOD])
+def test_each_reader_still_reads_its_own_kind_and_users_files(tmp_path, reader, name, content):
+    prepare(tmp_path, {**HAND_MADE, name: content})
+    outcome = invoke(tmp_path, [name if arg == "F" else arg for arg in READS[reader]])
     assert outcome.code == 0, outcome.output

@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import FileFormatError, InputError
 from ..spatial import compose_pose
 from .atomic import write_text_atomic
-from .file_kinds import READERS, check, marked
+from .file_kinds import CSV_TABLE, READERS, check, marked
 from .reading import read_text
 from .units import check_angles
 
@@ -35,6 +35,7 @@ LIMIT_TOLERANCE = 0.5
 def table(path):
     """(header, rows of text) of a CSV file; FileFormatError for an empty one."""
     text = read_text(path, "CSV file", "table", form="CSV")
+    check(path, CSV_TABLE, text=text)  # robocal's JSON, HTML and TOML files, named
     first = text.splitlines()[0] if text.strip() else ""
     delimiter = ";" if first.count(";") > first.count(",") else ","
     rows = [row for row in csv.reader(io.StringIO(text), delimiter=delimiter) if any(cell.strip() for cell in row)]
