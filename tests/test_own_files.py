@@ -43,6 +43,11 @@ def outputs(tmp_path_factory):
     run_ok("design", "ur5", "--n", "12", "--pool", "400", "--out", root / "poses.csv")
     for kind in ("commands", "poses"):
         _without_kind_column(root / f"{kind}.csv", root / f"{kind}_unmarked.csv")
+    # cut to what a targets file holds, and the frame column robocal writes in its own words
+    rows = _rows(root / "commands.csv")
+    keep = [rows[0].index(name) for name in ("x", "y", "z", "rx", "ry", "rz", "q1", "q2", "q3", "q4", "q5", "q6",
+                                             "frame")]
+    _write(root / "commands_frame_only.csv", [[row[i] for i in keep] for row in rows])
     return root
 
 
@@ -75,6 +80,20 @@ def test_files_of_several_kinds_pasted_together_are_refused(outputs, tmp_path):
 def test_a_kind_robocal_never_writes_is_refused(tmp_path):
     with pytest.raises(FileFormatError, match="says invented"):
         recognise(["x", KIND_COLUMN], lambda name: ["invented", "invented"])
+
+
+@pytest.mark.parametrize("reader, says", [(read_targets, "not a targets file"),
+                                          (read_measurements, "not a measurement file")])
+def test_commands_cut_to_a_targets_columns_are_known_by_their_frame_text(outputs, reader, says):
+    with pytest.raises(FileFormatError, match=f"written by 'robocal compensate', {says}"):
+        reader(outputs / "commands_frame_only.csv")
+
+
+def test_a_user_frame_column_of_other_words_is_no_kind(outputs, tmp_path):
+    rows = _rows(outputs / "commands_frame_only.csv")
+    reached = [row[:-1] + ["tracker frame"] for row in rows[1:] if all(row)]
+    _write(tmp_path / "targets.csv", [rows[0]] + reached)
+    assert read_targets(tmp_path / "targets.csv").positions.shape == (len(reached), 3)
 
 
 def test_a_user_file_with_none_of_robocals_columns_is_no_kind():
