@@ -126,6 +126,8 @@ READERS = {
     "joint-log": Reader("a joint log", "the controller's joint log (a name or time column and q1..qN)",
                         ("measurements",)),
     "points": Reader("a tracker point file", "the tracker's export of named points (name x y z)"),
+    "placements": Reader("a placements file", "the fixture's placements: x, y, z (mm) and rx, ry, rz (deg) of the "
+                         "fixture frame in the robot base frame, one row each"),
     "model": Reader("a model file", "the model file 'robocal calibrate' wrote (JSON)", ("model",)),
     "truth": Reader("a truth file", "the file 'robocal simulate --truth' wrote, or a preset name", ("truth",)),
     "validation": Reader("a validation file", "what 'robocal validate ... --json > FILE' wrote", ("validation",)),

@@ -44,6 +44,12 @@ def table(path):
     return [name.strip() for name in rows[0]], rows[1:]
 
 
+def _cells(header, rows):
+    """column(name) -> the cells of that column in the rows as long as the header."""
+    body = [row for row in rows if len(row) == len(header)]
+    return lambda name: [row[header.index(name)] for row in body]
+
+
 def numbers(path, header, rows, names, unit=""):
     """(len(rows), len(names)) values of the named columns; FileFormatError naming the first
     cell that is empty, not a number, NaN or infinite."""
@@ -68,9 +74,8 @@ def read_joints(path, chain, what="configurations"):
     ignored) -> ((N, n) rad, header).  One-line errors for missing columns, empty, non-numeric
     or NaN cells, radian-looking values and values beyond the joint limits."""
     header, rows = table(path)
-    body = [row for row in rows if len(row) == len(header)]
     check(path, replace(READERS["configurations"], reading_as=f"a file of {what}"), header=header,
-          column=lambda name: [row[header.index(name)] for row in body])
+          column=_cells(header, rows))
     names = [f"q{k}" for k in range(1, chain.n_joints + 1)]
     missing = [name for name in names if name not in header]
     if missing:
@@ -126,6 +131,7 @@ def read_placements(path):
     """(K, 4, 4) fixture poses (robot base frame, mm) and their ids from a placements CSV
     (module notes)."""
     header, rows = table(path)
+    check(path, "placements", header=header, column=_cells(header, rows))
     columns = ["x", "y", "z", "rx", "ry", "rz"]
     missing = [c for c in columns if c not in header]
     if missing:
