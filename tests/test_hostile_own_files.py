@@ -63,7 +63,7 @@ REFUSED = [
     ("export-truth", ["export", "ur5_truth.json", "--out", "e.toml"], None, "written by 'robocal simulate --truth', not a model file"),
     ("export-commands", ["export", "cmds.csv", "--out", "e.toml"], None, "written by 'robocal compensate', not a model file"),
     ("export-robot-file", ["export", "ur5_cal.toml", "--out", "e.toml"], None, "written by 'robocal export', not a model file"),
-    ("export-toml-as-urdf-base", ["export", "ur5_model.json", "--format", "urdf", "--urdf", "ur5_cal.toml", "--out", "e.urdf"], None, "is not well-formed XML"),
+    ("export-toml-as-urdf-base", ["export", "ur5_model.json", "--format", "urdf", "--urdf", "ur5_cal.toml", "--out", "e.urdf"], None, "written by 'robocal export', not a URDF file"),
     ("design-existing-commands", ["design", "ur5", "--n", "5", "--pool", "200", "--existing", "cmds.csv", "--out", "p.csv"], None, "written by 'robocal compensate'"),
     ("design-existing-per-pose", ["design", "ur5", "--n", "5", "--pool", "200", "--existing", "perpose.csv", "--out", "p.csv"], None, "written by 'robocal evaluate --per-pose'"),
     ("design-candidates-model", ["design", "ur5", "--n", "5", "--candidates", "ur5_model.json", "--out", "p.csv"], None, "lacks columns q1, q2, q3, q4, q5, q6"),
@@ -232,6 +232,7 @@ READS = {
     "truth": ["simulate", "ur5", "--n", "10", "--errors", "F", "--out", "s.csv"],
     "validation": ["report", "ur5_model.json", "ur5.csv", "--validation", "F", "--out", "r.html"],
     "robot": ["calibrate", "F", "ur5.csv", "--out", "m.json"],
+    "urdf": ["export", "ur5_model.json", "--format", "urdf", "--urdf", "F", "--out", "o.urdf"],
     "fixture": ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "F", "--out", "m.json"],
     "fleet": ["fleet", "F", "--out", "fl"],
 }

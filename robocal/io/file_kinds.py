@@ -134,6 +134,7 @@ READERS = {
     "robot": Reader("a robot file", "a built-in robot name, a robot .toml or a .urdf file", ("robot", "urdf"),
                     (("model", "to re-register a model on a new set-up, give it to 'robocal calibrate MODEL.json "
                                "MEAS.csv --method frames'"),)),
+    "urdf": Reader("a URDF file", "the robot's URDF (XML with a <robot> element)", ("urdf",)),
     "fixture": Reader("a fixture file", "the fixture's TOML ([sockets] with id = [x, y, z] in mm)", ("fixture",)),
     "fleet": Reader("a fleet file", "the fleet's TOML (one [[robot]] table per robot)", ("fleet",)),
 }
