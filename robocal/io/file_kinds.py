@@ -75,7 +75,8 @@ KINDS = {kind.name: kind for kind in (
          columns=(("error_mm", "bound95_mm"), ("bound95_mm", "in_domain"), ("x_measured", "x_model", "error_mm"))),
     Kind("fleet-summary", "robocal's fleet summary", "robocal fleet",
          columns=(("name", "status", "method", "n_train", "n_test", "mean_mm"),)),
-    Kind("iso-plan", "robocal's ISO 9283 plan (the poses to visit, nothing measured yet)", "robocal iso9283 plan"),
+    Kind("iso-plan", "an ISO 9283 campaign plan (the poses to visit; a campaign once measured)",
+         "robocal iso9283 plan"),
     Kind("filter-summary", "robocal's filter summary (what filter changed in each program line)", "robocal filter",
          columns=(("file", "line", "status", "moved_mm", "turned_deg"),)),
     # Targets are what a user writes; the examples robocal ships say what they are, so that
