@@ -8,7 +8,7 @@ import pytest
 
 from refusals import assert_refused, copy_inputs, run_ok
 from robocal.errors import FileFormatError
-from robocal.io.file_kinds import KIND_COLUMN, recognise
+from robocal.io.file_kinds import KIND_COLUMN, identify, recognise
 from robocal.io.tables import read_measurements, read_targets
 
 
@@ -122,3 +122,17 @@ def test_a_design_with_the_measured_positions_added_is_a_measurement_file(output
            + [row + [m[i] for i in xyz] for row, m in zip(rows[1:], measured)])
     assert read_measurements(tmp_path / "measured.csv").positions.shape == (12, 3)
     assert Path(tmp_path / "measured.csv").exists()
+
+
+def test_a_file_of_long_lines_is_known_from_its_first_lines_wherever_they_are_cut():
+    """identify() reads a text's first 256 KiB only; the line it would cut is left out, so a
+    kind cell cut in two is never taken for a kind robocal does not write."""
+    line = "1.0," + "2" * 3000 + ",commands\n"
+    header = "x,note," + KIND_COLUMN + "\n"
+    cuts = 0
+    for blank in range(len(line)):  # blank lines move where the cut falls
+        prefix = header + "\n" * blank
+        if (4 * 65536 - len(prefix)) % len(line) > len(line) - len("commands\n"):  # inside the kind cell
+            cuts += 1
+            assert identify(prefix + line * 200) == "commands"
+    assert cuts == len("commands")

@@ -208,8 +208,11 @@ def identify(text: str) -> str | None:
     lines = head.splitlines()
     header_line = next((line for line in lines if line.strip() and not line.lstrip().startswith("#")), "")
     delimiter = ";" if header_line.count(";") > header_line.count(",") else ","
+    sample = text[:_HEAD * 4]
+    if len(text) > len(sample):  # whole lines only: a cut kind cell is no kind robocal writes
+        sample = sample[:sample.rfind("\n") + 1]
     rows = []
-    reader = csv.reader(io.StringIO(text[:_HEAD * 4]), delimiter=delimiter)
+    reader = csv.reader(io.StringIO(sample), delimiter=delimiter)
     try:
         for row in reader:
             if row and any(cell.strip() for cell in row) and not row[0].lstrip().startswith("#"):
@@ -255,11 +258,11 @@ def check(path, reader: str | Reader, *, text: str | None = None, header=None, c
     by = f", written by '{found.written_by}'" if found.written_by else ""
     hint = dict(wants.hints).get(kind)
     raise WrongKind(f"{path} is {found.what}{by}, not {wants.reading_as}: give {wants.instead}"
-                          + (f"; {hint}" if hint else ""))
+                    + (f"; {hint}" if hint else ""))
 
 
 def check_kind(path, header, kind_cells, accepts, reading_as: str, instead: str) -> str | None:
-    """:func:`check` for a reader that names what it takes itself (``accepts``,
-    ``reading_as``, ``instead``) and has the :data:`KIND_COLUMN` cells only."""
+    """:func:`check` as callers written before it call it (a reader that names what it takes
+    itself and has the :data:`KIND_COLUMN` cells only); new readers call :func:`check`."""
     return check(path, Reader(reading_as, instead, tuple(accepts)), header=header,
                  column=(lambda name: kind_cells if name == KIND_COLUMN else []) if kind_cells is not None else None)
