@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -93,8 +94,11 @@ class Choice(Constraint):
         return "<" + " | ".join(self.values + ((f"FILE{self.or_file}",) if self.or_file else ())) + ">"
 
     def _takes(self, value):
-        # Equality for strings only: an array compared with == would give an array.
-        return isinstance(value, str) and (value in self.values or bool(self.or_file and value.endswith(self.or_file)))
+        # Equality for strings only: an array compared with == would give an array.  A file
+        # that exists is taken whatever its ending: its reader says what it is if it is not
+        # one (robocal.io.file_kinds).
+        return isinstance(value, str) and (value in self.values or bool(self.or_file and (
+            value.endswith(self.or_file) or os.path.isfile(value))))
 
     def parse(self, text):
         if self._takes(text):

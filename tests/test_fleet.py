@@ -19,6 +19,7 @@ from robocal.errors import InputError
 from robocal.interfaces.cli import app
 from robocal.interfaces.fleet import SUMMARY_COLUMNS, fitted_content, fleet_job, read_fleet
 from robocal.interfaces.jobs import evaluate_job, simulate_job
+from robocal.io.file_kinds import KIND_COLUMN
 
 runner = CliRunner()
 try:
@@ -169,7 +170,7 @@ def test_a_robot_with_a_damaged_file_fails_alone(serial_run, data):
     assert seen == [(1, 3), (2, 3), (3, 3)]
     assert (result["ok"], result["failed"]) == (2, 1)
     rows = {row["name"]: row for row in summary(out)}
-    assert list(summary(out)[0]) == list(SUMMARY_COLUMNS)
+    assert list(summary(out)[0]) == [*SUMMARY_COLUMNS, KIND_COLUMN]
     assert rows["cell3-bad"]["status"] == "failed" and "twelve degrees" in rows["cell3-bad"]["message"]
     assert rows["cell3-bad"]["mean_mm"] == "" and not (out / "cell3-bad").exists()
     for name in ("cell1-ur5", "cell2-irb"):

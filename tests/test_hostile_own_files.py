@@ -4,82 +4,89 @@ measurements, compensate's commands as targets, a design plan as a fleet file, a
 model...), data of one robot given as another's, and ball-in-socket data given to the position
 methods and back. Each row is refused in one line that names what the file is, and nothing
 is written."""
+import atexit
+import functools
 import json
+import shutil
+import tempfile
+from pathlib import Path
 
 import pytest
 
-from hostile import invoke, nominal_fk, prepare, refuse
+from hostile import EXAMPLES as EXAMPLES_DIR
+from hostile import assert_clean_refusal, invoke, nominal_fk, prepare, refuse
+from robocal.io.file_kinds import KIND_COLUMN, KINDS, READERS, identify
 
 REFUSED = [
     # (id, args, extra files, what the error line says)
     ("calibrate-commands", ["calibrate", "ur5", "cmds.csv", "--out", "m.json"], None, "written by 'robocal compensate', not a measurement file"),
     ("calibrate-per-pose", ["calibrate", "ur5", "perpose.csv", "--out", "m.json"], None, "written by 'robocal evaluate --per-pose'"),
     ("calibrate-plan", ["calibrate", "ur5", "plan.csv", "--out", "m.json"], None, "planned poses, written by 'robocal design'"),
-    ("calibrate-model-as-robot", ["calibrate", "ur5_model.json", "ur5.csv", "--out", "m.json"], None, "a robot file must end in .toml or .urdf"),
-    ("calibrate-report-as-robot", ["calibrate", "report.html", "ur5.csv", "--out", "m.json"], None, "a robot file must end in .toml or .urdf"),
-    ("calibrate-iso-plan", ["calibrate", "ur5", "iso.csv", "--out", "m.json"], None, "neither measured positions nor constraint data"),
-    ("calibrate-truth-as-robot", ["calibrate", "ur5_truth.json", "ur5.csv", "--out", "m.json"], None, "a robot file must end in .toml or .urdf"),
-    ("calibrate-fixture-as-robot", ["calibrate", "plate.toml", "ur5.csv", "--out", "m.json"], None, "unknown key 'sockets'"),
+    ("calibrate-model-as-robot", ["calibrate", "ur5_model.json", "ur5.csv", "--out", "m.json"], None, "is a robocal model file, written by 'robocal calibrate', not a robot file"),
+    ("calibrate-report-as-robot", ["calibrate", "report.html", "ur5.csv", "--out", "m.json"], None, "is robocal's HTML report, written by 'robocal report', not a robot file"),
+    ("calibrate-iso-plan", ["calibrate", "ur5", "iso.csv", "--out", "m.json"], None, "written by 'robocal iso9283 plan', not a measurement file"),
+    ("calibrate-truth-as-robot", ["calibrate", "ur5_truth.json", "ur5.csv", "--out", "m.json"], None, "written by 'robocal simulate --truth', not a robot file"),
+    ("calibrate-fixture-as-robot", ["calibrate", "plate.toml", "ur5.csv", "--out", "m.json"], None, "is a fixture file (socket centres), not a robot file"),
     ("calibrate-sockets-as-positions", ["calibrate", "kr150-2", "sockets.csv", "--out", "m.json"], None, "has no x, y, z columns"),
     ("calibrate-positions-with-fixture", ["calibrate", "kr150-2", "kr.csv", "--method", "constraint", "--fixture", "plate.toml", "--out", "m.json"], None, "has no fixture and socket columns"),
-    ("calibrate-robot-file-as-fixture", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "ur5_cal.toml", "--out", "m.json"], None, "has no [sockets] table"),
-    ("calibrate-model-as-fixture", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "sock_model.json", "--out", "m.json"], None, "is not valid TOML"),
+    ("calibrate-robot-file-as-fixture", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "ur5_cal.toml", "--out", "m.json"], None, "written by 'robocal export', not a fixture file"),
+    ("calibrate-model-as-fixture", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "sock_model.json", "--out", "m.json"], None, "is a robocal model file, written by 'robocal calibrate', not a fixture file"),
     ("frames-from-built-in-name", ["calibrate", "ur5", "ur5.csv", "--method", "frames", "--out", "m.json"], None, "check the path of the model file"),
-    ("frames-from-report", ["calibrate", "report.html", "ur5.csv", "--method", "frames", "--out", "m.json"], None, "not a robocal model file"),
-    ("evaluate-commands-as-model", ["evaluate", "cmds.csv", "ur5.csv"], None, "not a robocal model file"),
+    ("frames-from-report", ["calibrate", "report.html", "ur5.csv", "--method", "frames", "--out", "m.json"], None, "is robocal's HTML report, written by 'robocal report', not a model file"),
+    ("evaluate-commands-as-model", ["evaluate", "cmds.csv", "ur5.csv"], None, "written by 'robocal compensate', not a model file"),
     ("evaluate-commands-as-measurements", ["evaluate", "ur5_model.json", "cmds.csv"], None, "written by 'robocal compensate'"),
-    ("evaluate-report-as-model", ["evaluate", "report.html", "ur5.csv"], None, "not a robocal model file"),
-    ("evaluate-truth-as-model", ["evaluate", "ur5_truth.json", "ur5.csv"], None, 'no "schema": "robocal.model"'),
+    ("evaluate-report-as-model", ["evaluate", "report.html", "ur5.csv"], None, "written by 'robocal report', not a model file"),
+    ("evaluate-truth-as-model", ["evaluate", "ur5_truth.json", "ur5.csv"], None, "written by 'robocal simulate --truth', not a model file"),
     ("evaluate-per-pose-as-measurements", ["evaluate", "ur5_model.json", "perpose.csv"], None, "written by 'robocal evaluate --per-pose'"),
     ("evaluate-plan-as-measurements", ["evaluate", "ur5_model.json", "plan.csv"], None, "written by 'robocal design'"),
-    ("evaluate-robot-file-as-model", ["evaluate", "ur5_cal.toml", "ur5.csv"], None, "not a robocal model file"),
-    ("evaluate-iso-plan", ["evaluate", "ur5_model.json", "iso.csv"], None, "neither measured positions nor constraint data"),
+    ("evaluate-robot-file-as-model", ["evaluate", "ur5_cal.toml", "ur5.csv"], None, "written by 'robocal export', not a model file"),
+    ("evaluate-iso-plan", ["evaluate", "ur5_model.json", "iso.csv"], None, "written by 'robocal iso9283 plan', not a measurement file"),
     ("evaluate-sockets-on-position-model", ["evaluate", "ur5_model.json", "sockets.csv"], None, "stores no fixture"),
     ("evaluate-per-pose-over-its-input", ["evaluate", "ur5_model.json", "ur5.csv", "--per-pose", "ur5.csv"], None, "is also an input of this command"),
     ("compensate-commands-as-targets", ["compensate", "ur5_model.json", "cmds.csv", "--out", "o.csv"], None, "not a targets file"),
     ("compensate-measurements-as-targets", ["compensate", "ur5_model.json", "ur5.csv", "--out", "o.csv"], None, "lacks columns rx, ry, rz"),
     ("compensate-plan-as-targets", ["compensate", "ur5_model.json", "plan.csv", "--out", "o.csv"], None, "written by 'robocal design', not a targets file"),
     ("compensate-per-pose-as-targets", ["compensate", "ur5_model.json", "perpose.csv", "--out", "o.csv"], None, "not a targets file"),
-    ("compensate-iso-plan-as-targets", ["compensate", "ur5_model.json", "iso.csv", "--out", "o.csv"], None, "lacks columns x, y, z, rx, ry, rz"),
-    ("compensate-report-as-model", ["compensate", "report.html", "targets.csv", "--out", "o.csv"], None, "not a robocal model file"),
-    ("compensate-truth-as-model", ["compensate", "ur5_truth.json", "targets.csv", "--out", "o.csv"], None, "not a robocal model file"),
+    ("compensate-iso-plan-as-targets", ["compensate", "ur5_model.json", "iso.csv", "--out", "o.csv"], None, "written by 'robocal iso9283 plan', not a targets file"),
+    ("compensate-report-as-model", ["compensate", "report.html", "targets.csv", "--out", "o.csv"], None, "written by 'robocal report', not a model file"),
+    ("compensate-truth-as-model", ["compensate", "ur5_truth.json", "targets.csv", "--out", "o.csv"], None, "written by 'robocal simulate --truth', not a model file"),
     ("compensate-out-over-targets", ["compensate", "ur5_model.json", "targets.csv", "--out", "targets.csv"], None, "is also an input"),
     ("compensate-out-over-model", ["compensate", "ur5_model.json", "targets.csv", "--out", "ur5_model.json"], None, "names a JSON file"),
     ("report-commands-as-measurements", ["report", "ur5_model.json", "cmds.csv", "--out", "r.html"], None, "written by 'robocal compensate'"),
-    ("report-report-as-model", ["report", "report.html", "ur5.csv", "--out", "r.html"], None, "not a robocal model file"),
-    ("report-model-as-validation", ["report", "ur5_model.json", "ur5.csv", "--validation", "ur5_model.json", "--out", "r.html"], None, "no 'cross_validation' in it"),
-    ("report-report-as-validation", ["report", "ur5_model.json", "ur5.csv", "--validation", "report.html", "--out", "r.html"], None, "not the JSON 'robocal validate --json' prints"),
+    ("report-report-as-model", ["report", "report.html", "ur5.csv", "--out", "r.html"], None, "written by 'robocal report', not a model file"),
+    ("report-model-as-validation", ["report", "ur5_model.json", "ur5.csv", "--validation", "ur5_model.json", "--out", "r.html"], None, "is a robocal model file, written by 'robocal calibrate', not a validation file"),
+    ("report-report-as-validation", ["report", "ur5_model.json", "ur5.csv", "--validation", "report.html", "--out", "r.html"], None, "written by 'robocal report', not a validation file"),
     ("report-measurements-as-iso", ["report", "ur5_model.json", "ur5.csv", "--iso", "ur5.csv", "--out", "r.html"], None, "lacks columns x_cmd, y_cmd, z_cmd"),
-    ("report-commands-as-iso", ["report", "ur5_model.json", "ur5.csv", "--iso", "cmds.csv", "--out", "r.html"], None, "lacks columns x_cmd, y_cmd, z_cmd"),
+    ("report-commands-as-iso", ["report", "ur5_model.json", "ur5.csv", "--iso", "cmds.csv", "--out", "r.html"], None, "written by 'robocal compensate', not an ISO 9283 campaign"),
     ("report-out-over-model", ["report", "ur5_model.json", "ur5.csv", "--out", "ur5_model.json"], None, "names a JSON file"),
-    ("export-report", ["export", "report.html", "--out", "e.toml"], None, "not a robocal model file"),
-    ("export-truth", ["export", "ur5_truth.json", "--out", "e.toml"], None, "not a robocal model file"),
-    ("export-commands", ["export", "cmds.csv", "--out", "e.toml"], None, "not a robocal model file"),
-    ("export-robot-file", ["export", "ur5_cal.toml", "--out", "e.toml"], None, "not a robocal model file"),
-    ("export-toml-as-urdf-base", ["export", "ur5_model.json", "--format", "urdf", "--urdf", "ur5_cal.toml", "--out", "e.urdf"], None, "is not well-formed XML"),
+    ("export-report", ["export", "report.html", "--out", "e.toml"], None, "written by 'robocal report', not a model file"),
+    ("export-truth", ["export", "ur5_truth.json", "--out", "e.toml"], None, "written by 'robocal simulate --truth', not a model file"),
+    ("export-commands", ["export", "cmds.csv", "--out", "e.toml"], None, "written by 'robocal compensate', not a model file"),
+    ("export-robot-file", ["export", "ur5_cal.toml", "--out", "e.toml"], None, "written by 'robocal export', not a model file"),
+    ("export-toml-as-urdf-base", ["export", "ur5_model.json", "--format", "urdf", "--urdf", "ur5_cal.toml", "--out", "e.urdf"], None, "written by 'robocal export', not a URDF file"),
     ("design-existing-commands", ["design", "ur5", "--n", "5", "--pool", "200", "--existing", "cmds.csv", "--out", "p.csv"], None, "written by 'robocal compensate'"),
     ("design-existing-per-pose", ["design", "ur5", "--n", "5", "--pool", "200", "--existing", "perpose.csv", "--out", "p.csv"], None, "written by 'robocal evaluate --per-pose'"),
-    ("design-candidates-model", ["design", "ur5", "--n", "5", "--candidates", "ur5_model.json", "--out", "p.csv"], None, "lacks columns q1, q2, q3, q4, q5, q6"),
-    ("design-fixture-model", ["design", "kr150-2", "--n", "6", "--fixture", "sock_model.json", "--region", "1000,1500,-300,300,0,200", "--out", "p.csv"], None, "is not valid TOML"),
-    ("design-placements-plan", ["design", "kr150-2", "--n", "6", "--fixture", "plate.toml", "--placements", "plan.csv", "--out", "p.csv"], None, "a placements file gives the fixture frame"),
-    ("fleet-plan", ["fleet", "plan.csv", "--out", "F"], None, "is not valid TOML"),
-    ("fleet-model", ["fleet", "ur5_model.json", "--out", "F"], None, "is not valid TOML"),
-    ("fleet-fixture", ["fleet", "plate.toml", "--out", "F"], None, "a fleet file holds [[robot]] tables only"),
-    ("fleet-robot-file", ["fleet", "ur5_cal.toml", "--out", "F"], None, "a fleet file holds [[robot]] tables only"),
-    ("simulate-errors-model", ["simulate", "ur5", "--n", "10", "--errors", "ur5_model.json", "--out", "s.csv"], None, "not a robocal truth file"),
-    ("simulate-errors-report", ["simulate", "ur5", "--n", "10", "--errors", "report.html", "--out", "s.csv"], None, "--errors must be one of"),
-    ("simulate-model-as-robot", ["simulate", "ur5_model.json", "--n", "10", "--out", "s.csv"], None, "a robot file must end in .toml or .urdf"),
-    ("simulate-robot-file-as-fixture", ["simulate", "kr150-2", "--sampling", "sockets", "--fixture", "ur5_cal.toml", "--out", "s.csv"], None, "has no [sockets] table"),
+    ("design-candidates-model", ["design", "ur5", "--n", "5", "--candidates", "ur5_model.json", "--out", "p.csv"], None, "is a robocal model file, written by 'robocal calibrate', not a CSV table"),
+    ("design-fixture-model", ["design", "kr150-2", "--n", "6", "--fixture", "sock_model.json", "--region", "1000,1500,-300,300,0,200", "--out", "p.csv"], None, "written by 'robocal calibrate', not a fixture file"),
+    ("design-placements-plan", ["design", "kr150-2", "--n", "6", "--fixture", "plate.toml", "--placements", "plan.csv", "--out", "p.csv"], None, "written by 'robocal design', not a placements file"),
+    ("fleet-plan", ["fleet", "plan.csv", "--out", "F"], None, "written by 'robocal design', not a fleet file"),
+    ("fleet-model", ["fleet", "ur5_model.json", "--out", "F"], None, "written by 'robocal calibrate', not a fleet file"),
+    ("fleet-fixture", ["fleet", "plate.toml", "--out", "F"], None, "is a fixture file (socket centres), not a fleet file"),
+    ("fleet-robot-file", ["fleet", "ur5_cal.toml", "--out", "F"], None, "written by 'robocal export', not a fleet file"),
+    ("simulate-errors-model", ["simulate", "ur5", "--n", "10", "--errors", "ur5_model.json", "--out", "s.csv"], None, "written by 'robocal calibrate', not a truth file"),
+    ("simulate-errors-report", ["simulate", "ur5", "--n", "10", "--errors", "report.html", "--out", "s.csv"], None, "written by 'robocal report', not a truth file"),
+    ("simulate-model-as-robot", ["simulate", "ur5_model.json", "--n", "10", "--out", "s.csv"], None, "written by 'robocal calibrate', not a robot file"),
+    ("simulate-robot-file-as-fixture", ["simulate", "kr150-2", "--sampling", "sockets", "--fixture", "ur5_cal.toml", "--out", "s.csv"], None, "written by 'robocal export', not a fixture file"),
     ("iso-measurements", ["iso9283", "ur5.csv"], None, "lacks columns x_cmd, y_cmd, z_cmd"),
-    ("iso-commands", ["iso9283", "cmds.csv"], None, "lacks columns x_cmd, y_cmd, z_cmd"),
-    ("iso-design-plan", ["iso9283", "plan.csv"], None, "lacks columns x_cmd, y_cmd, z_cmd, x, y, z"),
+    ("iso-commands", ["iso9283", "cmds.csv"], None, "written by 'robocal compensate', not an ISO 9283 campaign"),
+    ("iso-design-plan", ["iso9283", "plan.csv"], None, "written by 'robocal design', not an ISO 9283 campaign"),
     ("iso-own-plan-as-campaign", ["iso9283", "iso.csv", "--model", "ur5_model.json"], None, "lacks columns x, y, z"),
     ("validate-commands", ["validate", "ur5", "cmds.csv", "--folds", "3"], None, "written by 'robocal compensate'"),
     ("compare-per-pose", ["compare", "ur5", "perpose.csv"], None, "written by 'robocal evaluate --per-pose'"),
-    ("import-plan-as-joint-log", ["import", "--points", "ur5.csv", "--joints", "plan.csv", "--out", "i.csv"], None, "has no name column"),
-    ("import-model-as-points", ["import", "--points", "ur5_model.json", "--joints", "ur5.csv", "--out", "i.csv"], None, "do not split into the same number of fields"),
-    ("serve-report", ["serve", "report.html", "--port", "0"], None, "not a robocal model file"),
-    ("serve-commands", ["serve", "cmds.csv", "--port", "0"], None, "not a robocal model file"),
+    ("import-plan-as-joint-log", ["import", "--points", "ur5.csv", "--joints", "plan.csv", "--out", "i.csv"], None, "written by 'robocal design', not a joint log"),
+    ("import-model-as-points", ["import", "--points", "ur5_model.json", "--joints", "ur5.csv", "--out", "i.csv"], None, "written by 'robocal calibrate', not a tracker point file"),
+    ("serve-report", ["serve", "report.html", "--port", "0"], None, "written by 'robocal report', not a model file"),
+    ("serve-commands", ["serve", "cmds.csv", "--port", "0"], None, "written by 'robocal compensate', not a model file"),
     # wrong robot
     ("ur5-data-as-ur10", ["calibrate", "ur10", "ur5.csv", "--out", "o.json"], None, "tolerances"),
     ("ur5-data-as-kr150", ["calibrate", "kr150-2", "ur5.csv", "--out", "o.json"], None, "lies beyond joint 2's limits"),
@@ -142,4 +149,157 @@ def test_a_calibrated_urdf_export_is_a_robot_file(tmp_path):
 def test_the_right_data_of_the_same_shape_pass(tmp_path, args, files):
     prepare(tmp_path, files)
     outcome = invoke(tmp_path, args)
+    assert outcome.code == 0, outcome.output
+
+
+# --------------------------------------------------------------------------------------------
+# Every kind of file robocal writes x every reader, generated from robocal.io.file_kinds: a new
+# kind or a new reader is in this table as soon as it is in KINDS or READERS (and the two
+# tests below fail until it has an example file and a command).
+
+def _run_to_file(base, name, args):
+    """A robocal command's stdout (its --json) saved as ``name`` in the folder ``base``."""
+    outcome = invoke(base, args)
+    assert outcome.code == 0, outcome.output
+    (base / name).write_text(outcome.result.stdout)
+
+
+def _iso_campaign(base):
+    """The ISO plan with every pose measured 0.1 mm off its command: a campaign."""
+    lines = (base / "iso.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    cmd = [header.index(c) for c in ("x_cmd", "y_cmd", "z_cmd")]
+    rows = [line.split(",") for line in lines[1:]]
+    (base / "campaign.csv").write_text("\n".join([lines[0] + ",x,y,z"] + [
+        ",".join(row + [repr(float(row[k]) + 0.1 * (i % 3)) for k in cmd]) for i, row in enumerate(rows)]) + "\n")
+    outcome = invoke(base, ["iso9283", "campaign.csv", "--report", "iso.html"])
+    assert outcome.code == 0, outcome.output
+
+
+def _fleet_summary(base):
+    from robocal.interfaces.fleet import SUMMARY_COLUMNS, write_summary
+
+    row = dict.fromkeys(SUMMARY_COLUMNS, "")
+    row.update(name="cell-1", status="ok", method="kinematic", n_train=60, n_test=0, mean_mm=0.1, max_mm=0.3)
+    (base / "fleet").mkdir()
+    write_summary(base / "fleet", [row], "fleet.toml")
+
+
+def _filter_summary(base):
+    from robocal.interfaces.filter import _summary
+
+    (base / "filter-summary.csv").write_text(_summary([["pick.script", 3, "p1", "filtered", "0.12", "0.01", "1",
+                                                        "0.3"]]))
+
+
+# kind -> (how to make it in a folder holding hostile.base_files' files, the file it is)
+EXAMPLES = {
+    "commands": (None, "cmds.csv"),
+    "poses": (None, "plan.csv"),
+    "evaluation": (None, "perpose.csv"),
+    "fleet-summary": (_fleet_summary, "fleet/summary.csv"),
+    "iso-plan": (None, "iso.csv"),
+    "filter-summary": (_filter_summary, "filter-summary.csv"),
+    "targets": (None, "targets.csv"),
+    "model": (None, "ur5_model.json"),
+    "truth": (None, "ur5_truth.json"),
+    "validation": (lambda base: _run_to_file(base, "val.json", ["validate", "ur5", "ur5.csv", "--folds", "3", "--json"]),
+                   "val.json"),
+    "evaluation-json": (lambda base: _run_to_file(base, "eval.json", ["evaluate", "ur5_model.json", "ur5.csv", "--json"]),
+                        "eval.json"),
+    "report": (None, "report.html"),
+    "iso-page": (_iso_campaign, "iso.html"),
+    "fleet-page": (_fleet_summary, "fleet/summary.html"),
+    "robot": (None, "ur5_cal.toml"),
+    "urdf": (None, "ur5_cal.urdf"),
+    "fixture": (None, "plate.toml"),
+    "fleet": (lambda base: shutil.copy(EXAMPLES_DIR / "fleet" / "fleet.toml", base / "fleet.toml"), "fleet.toml"),
+}
+# Simulated measurements are written unmarked: a measurement file is what a user gives.
+UNMARKED = {"measurements"}
+SUFFIX = {"CSV": ".csv", "JSON": ".json", "HTML": ".html", "TOML": ".toml", "XML": ".urdf"}
+
+# reader -> a command that reads the file F as it (a user's hand-made files beside it)
+READS = {
+    "measurements": ["calibrate", "ur5", "F", "--out", "m.json"],
+    "targets": ["compensate", "ur5_model.json", "F", "--out", "c.csv"],
+    "configurations": ["design", "ur5", "--n", "8", "--pool", "200", "--existing", "F", "--out", "p.csv"],
+    "campaign": ["iso9283", "F"],
+    "joint-log": ["import", "--points", "points.txt", "--joints", "F", "--out", "i.csv"],
+    "points": ["import", "--points", "F", "--joints", "joints.csv", "--out", "i.csv"],
+    "placements": ["design", "kr150-2", "--n", "12", "--fixture", "plate.toml", "--placements", "F", "--out", "p.csv"],
+    "model": ["evaluate", "F", "ur5.csv"],
+    "truth": ["simulate", "ur5", "--n", "10", "--errors", "F", "--out", "s.csv"],
+    "validation": ["report", "ur5_model.json", "ur5.csv", "--validation", "F", "--out", "r.html"],
+    "robot": ["calibrate", "F", "ur5.csv", "--out", "m.json"],
+    "urdf": ["export", "ur5_model.json", "--format", "urdf", "--urdf", "F", "--out", "o.urdf"],
+    "fixture": ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "F", "--out", "m.json"],
+    "fleet": ["fleet", "F", "--out", "fl"],
+}
+HAND_MADE = {"points.txt": "# mm\nP1 500 100 300\nP2 400 -100 350\n",
+             "joints.csv": "name,q1,q2,q3,q4,q5,q6\nP1,0,-90,90,0,90,0\nP2,10,-80,80,0,90,0\n"}
+
+
+@functools.cache
+def examples():
+    """A read-only folder of one file of every kind, made as a user makes them."""
+    base = Path(tempfile.mkdtemp(prefix="robocal-kinds-"))
+    atexit.register(shutil.rmtree, base, True)
+    prepare(base)
+    for make in dict.fromkeys(make for make, _ in EXAMPLES.values() if make is not None):
+        make(base)
+    return base
+
+
+def test_every_kind_robocal_writes_has_an_example():
+    assert set(EXAMPLES) == set(KINDS) - UNMARKED
+
+
+def test_every_reader_has_a_command():
+    assert set(READS) == set(READERS)
+
+
+@pytest.mark.parametrize("kind", sorted(EXAMPLES))
+def test_each_file_robocal_writes_says_its_kind(kind):
+    text = (examples() / EXAMPLES[kind][1]).read_text()
+    assert identify(text) == kind
+    if KINDS[kind].form == "CSV":  # in its own column, not only by its columns
+        assert text.splitlines()[0].split(",")[-1] == KIND_COLUMN
+
+
+WRONG = [(kind, reader) for kind in sorted(EXAMPLES) for reader in READERS if kind not in READERS[reader].accepts]
+
+
+@pytest.mark.parametrize("kind, reader", WRONG, ids=[f"{kind}-as-{reader}" for kind, reader in WRONG])
+def test_every_reader_refuses_every_other_kind_naming_it(tmp_path, kind, reader):
+    name = "F" + SUFFIX[KINDS[kind].form]
+    prepare(tmp_path, {**HAND_MADE, name: (examples() / EXAMPLES[kind][1]).read_bytes()})
+    outcome = invoke(tmp_path, [name if arg == "F" else arg for arg in READS[reader]])
+    assert_clean_refusal(outcome, f"{name} is {KINDS[kind].what}")
+    assert "not a" in outcome.lines[0], outcome.lines[0]
+
+
+GOOD = [
+    # (id, reader, the file's name, its content: text, or a callable of the base folder)
+    ("user-measurements", "measurements", "F.csv", lambda base: nominal_fk(base, noise_mm=0.01)),
+    ("user-targets", "targets", "F.csv", "x,y,z,rx,ry,rz\n-400,-150,300,180,0,0\n-350,100,350,180,0,90\n"),
+    ("shipped-targets", "targets", "F.csv", (EXAMPLES_DIR / "ur5-targets.csv").read_text()),
+    ("user-configurations", "configurations", "F.csv", "q1,q2,q3,q4,q5,q6\n0,-90,90,0,90,0\n30,-60,60,10,80,0\n"),
+    ("design-poses-as-configurations", "configurations", "F.csv", lambda base: (base / "plan.csv").read_text()),
+    ("user-joint-log", "joint-log", "F.csv", HAND_MADE["joints.csv"]),
+    ("user-points", "points", "F.txt", HAND_MADE["points.txt"]),
+    ("user-placements", "placements", "F.csv", "fixture,x,y,z,rx,ry,rz\nA,1500,0,300,0,0,0\nB,1400,300,250,0,0,30\n"),
+    ("model", "model", "F.json", lambda base: (base / "ur5_model.json").read_text()),
+    ("truth", "truth", "F.json", lambda base: (base / "ur5_truth.json").read_text()),
+    ("validation", "validation", "F.json", lambda base: (examples() / "val.json").read_text()),
+    ("exported-robot-toml", "robot", "F.toml", lambda base: (base / "ur5_cal.toml").read_text()),
+    ("exported-urdf", "robot", "F.urdf", lambda base: (base / "ur5_cal.urdf").read_text()),
+    ("shipped-fixture", "fixture", "F.toml", (EXAMPLES_DIR / "plate-fixture.toml").read_text()),
+]
+
+
+@pytest.mark.parametrize("reader, name, content", [row[1:] for row in GOOD], ids=[row[0] for row in GOOD])
+def test_each_reader_still_reads_its_own_kind_and_users_files(tmp_path, reader, name, content):
+    prepare(tmp_path, {**HAND_MADE, name: content})
+    outcome = invoke(tmp_path, [name if arg == "F" else arg for arg in READS[reader]])
     assert outcome.code == 0, outcome.output

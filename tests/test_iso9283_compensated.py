@@ -133,7 +133,7 @@ def refusal_folder(campaign, tmp_path_factory):
 @pytest.mark.parametrize("args, says", [
     ("iso9283 nojoints.csv --model model.json", "has no joint command q1..q6"),
     ("iso9283 fivejoints.csv --model model.json", "has joint columns q1..q5, but the model's robot"),
-    ("iso9283 measured.csv --model measured.csv", "not a robocal model file"),
+    ("iso9283 measured.csv --model measured.csv", "written by 'robocal iso9283 plan', not a model file"),
     ("iso9283 measured.csv --report iso.pdf", "give --report a .html file name"),
     ("iso9283 measured.csv --report nofolder/iso.html", "nofolder"),
     ("iso9283 measured.csv --instrument tracker", "give --report iso.html too"),

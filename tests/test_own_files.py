@@ -8,7 +8,7 @@ import pytest
 
 from refusals import assert_refused, copy_inputs, run_ok
 from robocal.errors import FileFormatError
-from robocal.io.file_kinds import KIND_COLUMN, recognise
+from robocal.io.file_kinds import KIND_COLUMN, identify, recognise
 from robocal.io.tables import read_measurements, read_targets
 
 
@@ -43,6 +43,11 @@ def outputs(tmp_path_factory):
     run_ok("design", "ur5", "--n", "12", "--pool", "400", "--out", root / "poses.csv")
     for kind in ("commands", "poses"):
         _without_kind_column(root / f"{kind}.csv", root / f"{kind}_unmarked.csv")
+    # cut to what a targets file holds, and the frame column robocal writes in its own words
+    rows = _rows(root / "commands.csv")
+    keep = [rows[0].index(name) for name in ("x", "y", "z", "rx", "ry", "rz", "q1", "q2", "q3", "q4", "q5", "q6",
+                                             "frame")]
+    _write(root / "commands_frame_only.csv", [[row[i] for i in keep] for row in rows])
     return root
 
 
@@ -74,7 +79,21 @@ def test_files_of_several_kinds_pasted_together_are_refused(outputs, tmp_path):
 
 def test_a_kind_robocal_never_writes_is_refused(tmp_path):
     with pytest.raises(FileFormatError, match="says invented"):
-        recognise(["x", KIND_COLUMN], ["invented", "invented"])
+        recognise(["x", KIND_COLUMN], lambda name: ["invented", "invented"])
+
+
+@pytest.mark.parametrize("reader, says", [(read_targets, "not a targets file"),
+                                          (read_measurements, "not a measurement file")])
+def test_commands_cut_to_a_targets_columns_are_known_by_their_frame_text(outputs, reader, says):
+    with pytest.raises(FileFormatError, match=f"written by 'robocal compensate', {says}"):
+        reader(outputs / "commands_frame_only.csv")
+
+
+def test_a_user_frame_column_of_other_words_is_no_kind(outputs, tmp_path):
+    rows = _rows(outputs / "commands_frame_only.csv")
+    reached = [row[:-1] + ["tracker frame"] for row in rows[1:] if all(row)]
+    _write(tmp_path / "targets.csv", [rows[0]] + reached)
+    assert read_targets(tmp_path / "targets.csv").positions.shape == (len(reached), 3)
 
 
 def test_a_user_file_with_none_of_robocals_columns_is_no_kind():
@@ -103,3 +122,17 @@ def test_a_design_with_the_measured_positions_added_is_a_measurement_file(output
            + [row + [m[i] for i in xyz] for row, m in zip(rows[1:], measured)])
     assert read_measurements(tmp_path / "measured.csv").positions.shape == (12, 3)
     assert Path(tmp_path / "measured.csv").exists()
+
+
+def test_a_file_of_long_lines_is_known_from_its_first_lines_wherever_they_are_cut():
+    """identify() reads a text's first 256 KiB only; the line it would cut is left out, so a
+    kind cell cut in two is never taken for a kind robocal does not write."""
+    line = "1.0," + "2" * 3000 + ",commands\n"
+    header = "x,note," + KIND_COLUMN + "\n"
+    cuts = 0
+    for blank in range(len(line)):  # blank lines move where the cut falls
+        prefix = header + "\n" * blank
+        if (4 * 65536 - len(prefix)) % len(line) > len(line) - len("commands\n"):  # inside the kind cell
+            cuts += 1
+            assert identify(prefix + line * 200) == "commands"
+    assert cuts == len("commands")

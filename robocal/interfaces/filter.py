@@ -395,4 +395,4 @@ def _key_of(language_name):
 
 
 def _summary(rows):
-    return csv_text(SUMMARY_COLUMNS, rows)
+    return csv_text(SUMMARY_COLUMNS, rows, "filter-summary")

@@ -103,7 +103,7 @@ def read_fleet(path):
     if not path.exists():
         raise FileFormatError(f"{path} does not exist: give the fleet file (TOML, one [[robot]] table per robot)")
     # A folder, a pipe or a device: the one bounded reader says which, in one line.
-    document = load_toml(path, "fleet file", "fix that line")
+    document = load_toml(path, "fleet file", "fix that line", reader="fleet")
     unknown = sorted(set(document) - {"robot"})
     if unknown:
         raise InputError(f"{path}: unknown key {unknown[0]!r} at the top: a fleet file holds [[robot]] tables only")
@@ -391,7 +391,8 @@ def _check_inputs_are_not_outputs(robots, folders, out, fleet_file):
 
 def write_summary(out, rows, fleet_file):
     """DIR/summary.csv (SUMMARY_COLUMNS) and DIR/summary.html; returns their paths."""
-    text = csv_text(SUMMARY_COLUMNS, ([_cell(row[column]) for column in SUMMARY_COLUMNS] for row in rows))
+    text = csv_text(SUMMARY_COLUMNS, ([_cell(row[column]) for column in SUMMARY_COLUMNS] for row in rows),
+                    "fleet-summary")
     csv_path, html_path = out / SUMMARY_CSV, out / SUMMARY_HTML
     write_text_atomic(csv_path, text)
     write_text_atomic(html_path, summary_html(rows, fleet_file))
@@ -446,5 +447,5 @@ def fitted_content(model_path):
             return {key: strip(entry) for key, entry in value.items() if not key.endswith("seconds")}
         return [strip(entry) for entry in value] if isinstance(value, list) else value
 
-    document = load_json(model_path, "model file", "model")
+    document = load_json(model_path, "model file", "model", reader="model")
     return strip({key: value for key, value in document.items() if key not in ("created", "checksum")})

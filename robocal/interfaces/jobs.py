@@ -361,7 +361,8 @@ def _true_robot(chain, errors, seed):
     """The true robot of --errors: a preset, or a truth file (JSON) of this same robot."""
     from ..simulation import PRESETS, make_true_robot, read_truth, uniform_joints
 
-    if errors in PRESETS or not errors.endswith(".json"):
+    # Any file is read as a truth file, so that another of robocal's files is named (file_kinds).
+    if errors in PRESETS or not (errors.endswith(".json") or os.path.isfile(errors)):
         return make_true_robot(chain, errors, seed=seed)
     truth = read_truth(errors)
     q = uniform_joints(chain, 20, np.random.default_rng(0))

@@ -54,12 +54,15 @@ def _png(fig):
 
 
 def _read_validation(path):
+    from ..io.file_kinds import WrongKind
     from ..io.reading import load_json
 
     if not Path(path).is_file():
         raise FileFormatError(f"{path} does not exist: write it with 'robocal validate ... --json > FILE'")
     try:
-        doc = load_json(path, "validation file", "settings")
+        doc = load_json(path, "validation file", "settings", reader="validation")
+    except WrongKind:  # says what the file is and what to give
+        raise
     except FileFormatError as exc:
         raise FileFormatError(f"{path}: not the JSON 'robocal validate --json' prints ({exc})") from None
     if not isinstance(doc, dict) or "cross_validation" not in doc:

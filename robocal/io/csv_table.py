@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robocal.errors import FileFormatError
+from robocal.io.file_kinds import CSV_TABLE, check
 from robocal.io.reading import read_text
 
 POSITION_COLUMNS = ("x", "y", "z")
@@ -165,7 +166,9 @@ def _records(path: str):
 
 
 def _read_text(path: str) -> str:
-    return read_text(path, "CSV file", "table", form="CSV")
+    text = read_text(path, "CSV file", "table", form="CSV")
+    check(path, CSV_TABLE, text=text)  # robocal's JSON, HTML and TOML files, named
+    return text
 
 
 # A header cell may carry its unit: "x[m]", "q2[rad]", "rz[deg]".  Factors to deg and mm.

@@ -12,7 +12,7 @@ import numpy as np
 from robocal.errors import InputError
 from robocal.io.atomic import write_text_atomic
 from robocal.io.csv_table import JOINT_COLUMN, ORIENTATION_COLUMNS, POSITION_COLUMNS, SIGMA_COLUMNS
-from robocal.io.file_kinds import marked
+from robocal.io.file_kinds import marked, marked_rows
 
 
 def write_measurements(path: str | os.PathLike, data) -> Path:
@@ -165,9 +165,12 @@ def write_per_pose(path, rows, measured, predicted, error, bound, inside) -> Pat
     return _write_csv(path, marked(columns, "evaluation"))
 
 
-def csv_text(header, rows) -> str:
+def csv_text(header, rows, kind: str | None = None) -> str:
     """The CSV text of ``header`` (column names) and ``rows`` (sequences of cells, written as
-    they are), one line each with "\n" line ends: for summaries written beside other outputs."""
+    they are), one line each with "\n" line ends: for summaries written beside other outputs;
+    with ``kind`` (robocal.io.file_kinds) ending in the column that says which file it is."""
+    if kind is not None:
+        header, rows = marked_rows(header, rows, kind)
     stream = io.StringIO()
     writer = csv.writer(stream, lineterminator="\n")
     writer.writerow(header)

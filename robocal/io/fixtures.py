@@ -111,7 +111,7 @@ def read_fixture(path: str | os.PathLike) -> Fixture:
         FileFormatError: the file is missing, is not TOML, or does not describe a usable
             fixture; the message names the file and says what to change.
     """
-    document = load_toml(path, "fixture file")
+    document = load_toml(path, "fixture file", reader="fixture")
     sockets = document.get("sockets")
     if not isinstance(sockets, dict):
         raise FileFormatError(

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import FileFormatError
 from .csv_table import _read_table
+from .file_kinds import KIND_COLUMN, check
 
 COMMANDED = ("x_cmd", "y_cmd", "z_cmd")
 ATTAINED = ("x", "y", "z")
@@ -51,6 +52,7 @@ def read_iso_campaign(path) -> IsoCampaign:
             orientation columns on one side only.
     """
     table = _read_table(path)
+    check(table.path, "campaign", header=table.header, column=table.column)
     missing = [c for c in COMMANDED + ATTAINED if c not in table.header]
     if missing:
         raise FileFormatError(f"{table.path} lacks column{'s' if len(missing) > 1 else ''} {', '.join(missing)}: an "
@@ -87,7 +89,7 @@ def _joint_command(table):
 def write_plan(path, plan, chain):
     """Write ``plan`` (:class:`~robocal.acceptance.iso9283.CampaignPlan`) as a campaign file
     without measured columns: pose, cycle, x_cmd..rz_cmd (mm, deg) and q1..qN (deg), every
-    cycle visiting P1..P5; atomically."""
+    cycle visiting P1..P5, and the column that says it is a plan (robocal.io.file_kinds); atomically."""
     import csv
     import io
 
@@ -96,9 +98,10 @@ def write_plan(path, plan, chain):
     degrees = chain.joints_to_file(plan.joints)
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["pose", "cycle", *COMMANDED, *COMMANDED_ANGLES] + [f"q{k}" for k in range(1, chain.n_joints + 1)])
+    writer.writerow(["pose", "cycle", *COMMANDED, *COMMANDED_ANGLES] + [f"q{k}" for k in range(1, chain.n_joints + 1)]
+                    + [KIND_COLUMN])
     for cycle in range(1, plan.cycles + 1):
         for name, position, joints in zip(plan.names, plan.positions, degrees):
             writer.writerow([name, cycle, *(repr(float(v)) for v in position), *(repr(float(v)) for v in plan.rpy_deg),
-                             *(repr(float(v)) for v in joints)])
+                             *(repr(float(v)) for v in joints), "iso-plan"])
     return write_text_atomic(path, buffer.getvalue())

@@ -73,5 +73,10 @@ def load_robot(spec, *, root=None, tip=None) -> Chain:
     if suffix == ".toml":
         return read_robot(path)
     if path.exists():
+        if path.is_file():  # robocal's other files are named (a model, a truth file, a report...)
+            from .file_kinds import check
+            from .reading import read_text
+
+            check(path, "robot", text=read_text(path, "robot file", "settings"))
         raise InputError(f"{text}: a robot file must end in .toml or .urdf")
     return builtin(text)

@@ -37,6 +37,7 @@ from pathlib import Path
 from .. import __version__
 from ..errors import FileFormatError, InputError
 from .atomic import write_text_atomic
+from .file_kinds import check
 from .reading import read_text
 from .robot_file import chain_from_dict, chain_to_dict, robot_to_toml
 from ..kinematics.chain import Chain
@@ -174,6 +175,7 @@ def load_model(path, robot=None) -> ModelFile:
         if not path.is_file():  # missing, a directory, a device: said as for every file
             raise
         raise FileFormatError(f"{path}: not a robocal model file ({str(exc).replace(str(path), 'it')})") from None
+    check(path, "model", text=text)
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import FileFormatError, InputError
 from .csv_table import JOINT_COLUMN, _read_table
+from .file_kinds import check
 from .tables import Measurements
 
 NAME_COLUMNS = ("name", "point", "id", "label", "target")
@@ -102,6 +103,7 @@ def join(points, joints_path, *, by=None, max_dt=MAX_DT):
         InputError: no row could be joined.
     """
     table = _read_table(joints_path)
+    check(table.path, "joint-log", header=table.header, column=table.column)
     indices = sorted(int(m.group(1)) for name in table.header if (m := JOINT_COLUMN.fullmatch(name)))
     if not indices or indices != list(range(1, len(indices) + 1)):
         raise FileFormatError(f"{table.path}: a joint log needs the columns q1..qN (deg, or tagged such as q1[rad])")

@@ -12,13 +12,14 @@ them.
 """
 import csv
 import io
+from dataclasses import replace
 
 import numpy as np
 
 from ..errors import FileFormatError, InputError
 from ..spatial import compose_pose
 from .atomic import write_text_atomic
-from .file_kinds import KIND_COLUMN, check_kind, marked
+from .file_kinds import CSV_TABLE, READERS, check, marked
 from .reading import read_text
 from .units import check_angles
 
@@ -34,12 +35,19 @@ LIMIT_TOLERANCE = 0.5
 def table(path):
     """(header, rows of text) of a CSV file; FileFormatError for an empty one."""
     text = read_text(path, "CSV file", "table", form="CSV")
+    check(path, CSV_TABLE, text=text)  # robocal's JSON, HTML and TOML files, named
     first = text.splitlines()[0] if text.strip() else ""
     delimiter = ";" if first.count(";") > first.count(",") else ","
     rows = [row for row in csv.reader(io.StringIO(text), delimiter=delimiter) if any(cell.strip() for cell in row)]
     if not rows:
         raise FileFormatError(f"{path} is empty: give a CSV with columns q1 ... qN (deg)")
     return [name.strip() for name in rows[0]], rows[1:]
+
+
+def _cells(header, rows):
+    """column(name) -> the cells of that column in the rows as long as the header."""
+    body = [row for row in rows if len(row) == len(header)]
+    return lambda name: [row[header.index(name)] for row in body]
 
 
 def numbers(path, header, rows, names, unit=""):
@@ -66,10 +74,8 @@ def read_joints(path, chain, what="configurations"):
     ignored) -> ((N, n) rad, header).  One-line errors for missing columns, empty, non-numeric
     or NaN cells, radian-looking values and values beyond the joint limits."""
     header, rows = table(path)
-    kind_cells = [row[header.index(KIND_COLUMN)] for row in rows if len(row) == len(header)] \
-        if KIND_COLUMN in header else None
-    check_kind(path, header, kind_cells, ("measurements", "poses"), f"a file of {what}",
-               "measured or planned joint configurations (q1..qN)")
+    check(path, replace(READERS["configurations"], reading_as=f"a file of {what}"), header=header,
+          column=_cells(header, rows))
     names = [f"q{k}" for k in range(1, chain.n_joints + 1)]
     missing = [name for name in names if name not in header]
     if missing:
@@ -125,6 +131,7 @@ def read_placements(path):
     """(K, 4, 4) fixture poses (robot base frame, mm) and their ids from a placements CSV
     (module notes)."""
     header, rows = table(path)
+    check(path, "placements", header=header, column=_cells(header, rows))
     columns = ["x", "y", "z", "rx", "ry", "rz"]
     missing = [c for c in columns if c not in header]
     if missing:

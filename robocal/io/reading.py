@@ -158,15 +158,25 @@ def parse_json(text: str, path: str | os.PathLike, what: str):
         ) from None
 
 
-def load_json(path: str | os.PathLike, what: str, kind: str = "model"):
-    """Read and parse the JSON file ``path`` (every check of this module)."""
-    return parse_json(read_text(path, what, kind, lines=False), path, what)
+def load_json(path: str | os.PathLike, what: str, kind: str = "model", *, reader: str | None = None):
+    """Read and parse the JSON file ``path`` (every check of this module); ``reader`` (a key
+    of robocal.io.file_kinds.READERS) refuses robocal's files of other kinds, named."""
+    text = read_text(path, what, kind, lines=False)
+    if reader is not None:
+        from .file_kinds import check
+
+        check(path, reader, text=text)
+    return parse_json(text, path, what)
 
 
-def load_toml(path: str | os.PathLike, what: str, hint: str = "") -> dict:
+def load_toml(path: str | os.PathLike, what: str, hint: str = "", *, reader: str | None = None) -> dict:
     """Read and parse the TOML file ``path``; ``hint`` is added to a syntax error's line
-    ("fix the file or regenerate it with 'robocal export'")."""
+    ("fix the file or regenerate it with 'robocal export'"); ``reader`` as for :func:`load_json`."""
     text = read_text(path, what, "settings")
+    if reader is not None:
+        from .file_kinds import check
+
+        check(path, reader, text=text)
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:

@@ -232,7 +232,7 @@ def _convention_fields(path, doc, convention, columns):
 
 def read_robot(path) -> Chain:
     """Read a robot TOML file."""
-    doc = load_toml(path, "robot file", "fix the file or regenerate it with 'robocal export'")
+    doc = load_toml(path, "robot file", "fix the file or regenerate it with 'robocal export'", reader="robot")
     return chain_from_dict(doc, str(path))
 
 

@@ -27,7 +27,7 @@ from robocal.io.csv_table import (  # noqa: F401  (the column names are this mod
     _read_table,
 )
 from robocal.io.csv_writing import write_commands, write_measurements  # noqa: F401  (re-exported)
-from robocal.io.file_kinds import KIND_COLUMN, check_kind
+from robocal.io.file_kinds import KIND_COLUMN, check
 from robocal.io.units import check_angles
 
 _NAMED_COLUMNS = POSITION_COLUMNS + ORIENTATION_COLUMNS + SIGMA_COLUMNS + CONSTRAINT_COLUMNS + (KIND_COLUMN,)
@@ -269,8 +269,7 @@ def read_measurements(path: str | os.PathLike, n_joints: int | None = None, join
     table = _named_joints(_read_table(path), joint_names)
     # A design's poses file becomes a measurement file when the measured x, y, z (or the
     # sockets) are added to it.
-    kind = check_kind(table.path, table.header, _kind_cells(table), ("measurements", "poses"), "a measurement file",
-                      "measured data: q1..qN with the x, y, z the instrument measured")
+    kind = check(table.path, "measurements", header=table.header, column=table.column)
     joint_names = _check_header(table, n_joints)
     has_positions = _column_group_present(table, POSITION_COLUMNS, "measured positions")
     has_orientations = _column_group_present(table, ORIENTATION_COLUMNS, "measured orientations")
@@ -319,8 +318,7 @@ def read_targets(path: str | os.PathLike, n_joints: int | None = None, joint_nam
         InputError: orientations that look like radians.
     """
     table = _named_joints(_read_table(path), joint_names)
-    check_kind(table.path, table.header, _kind_cells(table), ("measurements", "targets"), "a targets file",
-               "the targets themselves (x, y, z, rx, ry, rz)")
+    check(table.path, "targets", header=table.header, column=table.column)
     joint_names = _check_header(table, n_joints, joints_required=False)
     missing = [name for name in POSITION_COLUMNS + ORIENTATION_COLUMNS if name not in table.header]
     if missing:
@@ -338,11 +336,6 @@ def read_targets(path: str | os.PathLike, n_joints: int | None = None, joint_nam
     # The one test of typed angles (robocal.io.units): a file of radians is refused.
     check_angles(targets.orientations, f"the rx, ry, rz of {targets.path}")
     return targets
-
-
-def _kind_cells(table):
-    """The cells of the column that says which robocal file this is (None: it has none)."""
-    return table.column(KIND_COLUMN) if KIND_COLUMN in table.header else None
 
 
 def _check_header(table: _Table, n_joints: int | None, joints_required: bool = True) -> list[str]:

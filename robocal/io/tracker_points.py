@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import FileFormatError, InputError
+from .file_kinds import check
 from .reading import read_text
 
 LENGTHS = {"mm": 1.0, "millimeters": 1.0, "millimetres": 1.0, "m": 1000.0, "meters": 1000.0, "metres": 1000.0,
@@ -113,6 +114,7 @@ def read_points(path, units=None) -> TrackerPoints:
     if units is not None and units.lower() not in LENGTHS:
         raise InputError(f"--units {units}: give one of mm, m, cm, in, um")
     text = read_text(path, "point file", "table")
+    check(path, "points", text=text)
     stated, data = set(), []
     for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()

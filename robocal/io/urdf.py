@@ -25,6 +25,7 @@ import numpy as np
 
 from robocal.errors import FileFormatError, InputError
 from robocal.io.atomic import write_text_atomic
+from robocal.io.file_kinds import check
 from robocal.io.reading import check_line_lengths, read_bytes
 from robocal.kinematics import Chain
 from robocal.spatial import compose_pose, make_transform, matrix_to_rpy, rot_x, rot_y, rot_z, translation
@@ -150,6 +151,7 @@ def _parse(path: Path) -> ET.Element:
     """The ``<robot>`` element of a URDF file, or a one-line error naming the file."""
     raw = read_bytes(path, "URDF file", "settings")
     check_line_lengths(raw, path, "URDF file")
+    check(path, "urdf", text=raw[:65536].decode("utf-8", errors="replace"))  # robocal's other files, named
     try:
         robot = ET.fromstring(raw)
     except ET.ParseError as error:

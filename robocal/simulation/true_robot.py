@@ -272,5 +272,5 @@ def write_truth(path, truth):
 
 def read_truth(path):
     """Read a truth file written by :func:`write_truth`."""
-    doc = load_json(path, "truth file", "settings")
+    doc = load_json(path, "truth file", "settings", reader="truth")
     return TrueRobot.from_dict(doc, str(path))
