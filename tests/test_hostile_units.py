@@ -147,3 +147,47 @@ def test_iso9283_plan_refuses_typed_numbers_in_other_units(option, value, says, 
     assert result.exit_code != 0 and says in result.output
     assert "Traceback" not in result.output and len(result.output.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def truth_with(change):
+    """The base truth file (simulate --truth) with ``change(document)`` applied."""
+    def make(base):
+        document = json.loads((base / "ur5_truth.json").read_text())
+        change(document)
+        return json.dumps(document)
+    return make
+
+
+def _units(**units):
+    return lambda document: document.__setitem__("units", {**document["units"], **units})
+
+
+# A truth file's numbers are read in mm and degrees: an entry saying otherwise is refused
+# (robocal.io.schema.stated_units), as is an entry robocal would not read at all.
+TRUTH_REFUSED = [
+    ("lengths-metres", _units(lengths="m"), "units says lengths are in 'm', but this file's lengths are read in mm"),
+    ("angles-radians", _units(angles="rad"), "units says angles are in 'rad', but this file's angles are read in deg"),
+    ("masses-grams", _units(masses="g"), "units says masses are in 'g'"),
+    ("unit-not-text", _units(lengths=1000), "units says lengths are in 1000"),
+    ("unknown-quantity", _units(time="s"), "units has unknown key 'time'"),
+    ("units-not-a-table", lambda d: d.__setitem__("units", "m"), "units must be a table of units"),
+    ("misspelt-units-key", lambda d: d.__setitem__("unit", {"lengths": "m"}), "unknown key 'unit': did you mean 'units'?"),
+]
+
+
+@pytest.mark.parametrize("change, says", [row[1:] for row in TRUTH_REFUSED], ids=[row[0] for row in TRUTH_REFUSED])
+def test_truth_file_units_other_than_mm_and_degrees_are_refused(tmp_path, change, says):
+    refuse(tmp_path, ["simulate", "ur5", "--n", "10", "--errors", "t.json", "--out", "s.csv"],
+           {"t.json": truth_with(change)}, says)
+
+
+@pytest.mark.parametrize("change", [
+    _units(lengths="millimetres", angles="degrees"), _units(lengths="MM", angles="Deg", masses="kg"),
+    lambda d: d.pop("units"),
+], ids=["spelt-out", "other-case", "no-units-entry"])
+def test_truth_file_stating_mm_and_degrees_simulates_what_the_written_one_does(tmp_path, change):
+    prepare(tmp_path, {"t.json": truth_with(change)})
+    for truth, out in (("t.json", "a.csv"), ("ur5_truth.json", "b.csv")):
+        outcome = invoke(tmp_path, ["simulate", "ur5", "--n", "10", "--seed", "3", "--errors", truth, "--out", out])
+        assert outcome.code == 0, outcome.output
+    assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
