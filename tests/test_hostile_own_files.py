@@ -59,7 +59,7 @@ REFUSED = [
     ("export-toml-as-urdf-base", ["export", "ur5_model.json", "--format", "urdf", "--urdf", "ur5_cal.toml", "--out", "e.urdf"], None, "is not well-formed XML"),
     ("design-existing-commands", ["design", "ur5", "--n", "5", "--pool", "200", "--existing", "cmds.csv", "--out", "p.csv"], None, "written by 'robocal compensate'"),
     ("design-existing-per-pose", ["design", "ur5", "--n", "5", "--pool", "200", "--existing", "perpose.csv", "--out", "p.csv"], None, "written by 'robocal evaluate --per-pose'"),
-    ("design-candidates-model", ["design", "ur5", "--n", "5", "--candidates", "ur5_model.json", "--out", "p.csv"], None, "lacks columns q1, q2, q3, q4, q5, q6"),
+    ("design-candidates-model", ["design", "ur5", "--n", "5", "--candidates", "ur5_model.json", "--out", "p.csv"], None, "ur5_model.json is a robocal model file (JSON), not a table"),
     ("design-fixture-model", ["design", "kr150-2", "--n", "6", "--fixture", "sock_model.json", "--region", "1000,1500,-300,300,0,200", "--out", "p.csv"], None, "is not valid TOML"),
     ("design-placements-plan", ["design", "kr150-2", "--n", "6", "--fixture", "plate.toml", "--placements", "plan.csv", "--out", "p.csv"], None, "a placements file gives the fixture frame"),
     ("fleet-plan", ["fleet", "plan.csv", "--out", "F"], None, "is not valid TOML"),
@@ -77,7 +77,7 @@ REFUSED = [
     ("validate-commands", ["validate", "ur5", "cmds.csv", "--folds", "3"], None, "written by 'robocal compensate'"),
     ("compare-per-pose", ["compare", "ur5", "perpose.csv"], None, "written by 'robocal evaluate --per-pose'"),
     ("import-plan-as-joint-log", ["import", "--points", "ur5.csv", "--joints", "plan.csv", "--out", "i.csv"], None, "has no name column"),
-    ("import-model-as-points", ["import", "--points", "ur5_model.json", "--joints", "ur5.csv", "--out", "i.csv"], None, "do not split into the same number of fields"),
+    ("import-model-as-points", ["import", "--points", "ur5_model.json", "--joints", "ur5.csv", "--out", "i.csv"], None, "ur5_model.json is a robocal model file (JSON), not a table"),
     ("serve-report", ["serve", "report.html", "--port", "0"], None, "not a robocal model file"),
     ("serve-commands", ["serve", "cmds.csv", "--port", "0"], None, "not a robocal model file"),
     # wrong robot

@@ -9,10 +9,15 @@ with the kinds it takes.  Files written before the column existed (or with it de
 recognised by the columns only robocal writes (:data:`SIGNATURES`).
 
 JSON and TOML files say what they are in a key of their own (``"schema": "robocal.model"``,
-the truth file's ``"format"``); their readers check it.
+the truth file's ``"format"``); their readers check it.  A file of another format given where a
+table belongs (a report, a model file, a robot file, a program) is named by
+:func:`text_format` from its first lines, which the bounded reader of tables
+(:func:`robocal.io.reading.read_table_text`) asks before any row is read: "an HTML page
+(robocal's report?)", not a row count or a parser's complaint about field sizes.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from ..errors import FileFormatError
@@ -97,3 +102,43 @@ def check_kind(path, header, kind_cells, accepts, reading_as: str, instead: str)
     found = KINDS[kind]
     by = f", written by '{found.written_by}'" if found.written_by else ""
     raise FileFormatError(f"{path} is {found.what}{by}, not {reading_as}: give {instead}")
+
+
+# What robocal's other files and a user's other files begin with (their first non-blank
+# characters), and what to call them: checked in this order.
+_TOML_HEADER = re.compile(r"^\s*\[\[?\s*[A-Za-z_][\w.\-\"' ]*\]\]?\s*(#.*)?$", re.M)
+# A key and a TOML value (text, number, list, table, boolean): not Excel's "sep=," line.
+_TOML_KEY = re.compile(r"^\s*[A-Za-z_][\w\-]*\s*=\s*([\"'\[{0-9+\-]|true\b|false\b|inf\b|nan\b)", re.M)
+_PROGRAM = re.compile(r"^\s*(def\s+\w+\s*\(|&ACCESS\b|&REL\b|DEF\s+\w+\s*\(|MODULE\s+\w+)", re.I | re.M)
+# How much of a file is looked at: the signs of a format are in its first lines.
+_HEAD_CHARS = 4096
+
+
+def text_format(text: str) -> str | None:
+    """What the text of a file is when it is plainly not a table, as a phrase ("an HTML
+    page (robocal's report?)", "a JSON document (a robocal model file?)"); None when it may
+    be one.  Only what a table cannot begin with is named: a table's first line is a header
+    of names, which none of these is."""
+    head = text[:_HEAD_CHARS].lstrip("\ufeff \t\r\n")
+    lowered = head[:200].lower()
+    if lowered.startswith(("<!doctype html", "<html")):
+        return "an HTML page (robocal's report?)" if "robocal" in head.lower() else "an HTML page"
+    if lowered.startswith("<"):
+        return "a URDF robot description (XML)" if "<robot" in head.lower() else "an XML document"
+    if head.startswith("{") or (head.startswith("[") and not _TOML_HEADER.match(head.splitlines()[0])):
+        if '"robocal.model"' in head:
+            return "a robocal model file (JSON)"
+        if '"robocal-truth"' in head:
+            return "robocal's truth file (JSON, written by simulate --truth)"
+        return "a JSON document (a robocal model file?)"
+    # TOML files often open with comments; a table's first line is its header.
+    first = next((line for line in head.splitlines() if line.strip() and not line.lstrip().startswith("#")), "")
+    if _TOML_HEADER.match(first) or _TOML_KEY.match(first):
+        if re.search(r"^\s*\[\[\s*joints\s*\]\]", head, re.M):
+            return "a robot file (TOML)"
+        if re.search(r"^\s*\[\s*sockets\s*\]", head, re.M):
+            return "a fixture file (TOML)"
+        return "a TOML file (settings, a robot or a fixture?)"
+    if _PROGRAM.match(head):
+        return "a robot program"
+    return None

@@ -19,7 +19,7 @@ from ..errors import FileFormatError, InputError
 from ..spatial import compose_pose
 from .atomic import write_text_atomic
 from .file_kinds import KIND_COLUMN, check_kind, marked
-from .reading import read_text
+from .csv_table import _check_header_line, _records
 from .units import check_angles
 
 # Joint values in a file that all lie within this (and spread by at least RADIAN_SPREAD over
@@ -32,14 +32,15 @@ LIMIT_TOLERANCE = 0.5
 
 
 def table(path):
-    """(header, rows of text) of a CSV file; FileFormatError for an empty one."""
-    text = read_text(path, "CSV file", "table", form="CSV")
-    first = text.splitlines()[0] if text.strip() else ""
-    delimiter = ";" if first.count(";") > first.count(",") else ","
-    rows = [row for row in csv.reader(io.StringIO(text), delimiter=delimiter) if any(cell.strip() for cell in row)]
+    """(header, rows of text) of a CSV file, read by the one CSV reader (robocal.io.csv_table:
+    other formats named, sep= honoured, other separators refused); FileFormatError for an
+    empty one."""
+    rows = [cells for _, cells in _records(str(path)) if any(cell.strip() for cell in cells)]
     if not rows:
         raise FileFormatError(f"{path} is empty: give a CSV with columns q1 ... qN (deg)")
-    return [name.strip() for name in rows[0]], rows[1:]
+    header = [name.strip() for name in rows[0]]
+    _check_header_line(str(path), header)
+    return header, rows[1:]
 
 
 def numbers(path, header, rows, names, unit=""):
