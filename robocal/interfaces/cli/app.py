@@ -23,7 +23,7 @@ from ... import __version__
 from ...errors import RobocalError, RobocalWarning
 from ...io.atomic import outputs_together
 from .options import Refused
-from .rendering import err, out, say
+from .rendering import before_result, err, out, say
 
 # typer.BadParameter is click's; its bases are the errors click raises while parsing.
 UsageError = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
@@ -130,20 +130,60 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
         err.print(f"warning: {category.__name__}: {message}")
 
 
+@contextlib.contextmanager
+def held_warnings():
+    """Hold the warnings raised in the body until its data are accepted: until the first
+    line of its result is printed (:func:`robocal.interfaces.cli.rendering.before_result`)
+    or the body ends without an error.  A body that ends in an error (a refusal) or an
+    interruption drops them: a warning about data that are then refused is not printed
+    before the refusal (a reader's "rows 2..41 are identical", then "1 distinct pose"), the
+    refusal is the one line.  Warnings raised after the release are shown as they come."""
+    shown = warnings.showwarning
+    held, state = [], {"released": False}
+
+    def hold(message, category, filename, lineno, file=None, line=None):
+        if state["released"]:
+            shown(message, category, filename, lineno, file, line)
+        else:
+            held.append((message, category, filename, lineno, file, line))
+
+    def release():
+        state["released"] = True
+        while held:
+            shown(*held.pop(0))
+
+    warnings.showwarning = hold
+    before_result(release)
+    try:
+        yield
+    except typer.Exit:  # a status of the command's own (fleet: a robot failed): its results stand
+        release()
+        raise
+    else:
+        release()
+    finally:
+        held.clear()
+        if warnings.showwarning is hold:
+            warnings.showwarning = shown
+        state["released"] = True
+
+
 # --------------------------------------------------------------------------- errors and interruptions
 DEBUG = typer.Option(False, "--debug", help="Show tracebacks of errors.")
 
 
-def verb(*args, **kwargs):
-    """Decorator of a command: registered on the app, its user errors one line (:func:`user_errors`)."""
+def verb(*args, hold_warnings=True, **kwargs):
+    """Decorator of a command: registered on the app, its user errors one line
+    (:func:`user_errors`), its warnings held until its data are accepted
+    (:func:`held_warnings`; ``hold_warnings=False`` for a command that runs until stopped)."""
     def decorate(func):
-        command(*args, **kwargs)(user_errors(func))
+        command(*args, **kwargs)(user_errors(func, hold_warnings))
         return func
 
     return decorate
 
 
-def user_errors(func):
+def user_errors(func, hold_warnings=False):
     """Turn RobocalError (and a system's refusal of a file) into one line on stderr and exit
     status 2; add ``--debug`` to the command (it is also accepted before the command).  The
     command's outputs are one unit (:func:`robocal.io.atomic.outputs_together`): a command
@@ -156,7 +196,8 @@ def user_errors(func):
             _state["debug"] = True
         _warned.clear()  # once per command: a command run again (in one process) warns again
         try:
-            with outputs_together(keep_on=(typer.Exit,)):
+            with held_warnings() if hold_warnings else contextlib.nullcontext(), \
+                    outputs_together(keep_on=(typer.Exit,)):
                 return func(*args, **kwargs)
         except RobocalError as exc:
             if _state["debug"]:
