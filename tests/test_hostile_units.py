@@ -191,3 +191,52 @@ def test_truth_file_stating_mm_and_degrees_simulates_what_the_written_one_does(t
         outcome = invoke(tmp_path, ["simulate", "ur5", "--n", "10", "--seed", "3", "--errors", truth, "--out", out])
         assert outcome.code == 0, outcome.output
     assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
+
+
+def positions(change):
+    """ur5.csv with its x, y, z replaced by ``change(k, xyz)`` on data row k."""
+    def make(base):
+        rows = list(csv.reader(io.StringIO((base / "ur5.csv").read_text())))
+        columns = [rows[0].index(c) for c in XYZ]
+        out = io.StringIO()
+        writer = csv.writer(out, lineterminator="\n")
+        writer.writerow(rows[0])
+        first = [float(rows[1][c]) for c in columns]
+        for k, row in enumerate(rows[1:]):
+            new = change(k, first)
+            writer.writerow([repr(new[columns.index(i)]) if i in columns else v for i, v in enumerate(row)])
+        return out.getvalue()
+    return make
+
+
+# Positions that do not move while the robot does are no unit's: the message says they do not
+# vary, not that they are "not in mm" (robocal.io.units, the one check of every verb).
+STILL = {
+    "same-xyz": positions(lambda k, p: p),
+    "same-xyz-jitter-5um": positions(lambda k, p: [v + 0.005 * math.sin(7 * k + i) for i, v in enumerate(p)]),
+    "same-xyz-metres": positions(lambda k, p: [v / 1000 for v in p]),
+}
+STILL_VERBS = {
+    "calibrate": ["calibrate", "ur5", "m.csv", "--out", "o.json"],
+    "evaluate": ["evaluate", "ur5_model.json", "m.csv"],
+    "report": ["report", "ur5_model.json", "m.csv", "--out", "r.html"],
+    "validate": ["validate", "ur5", "m.csv", "--folds", "3"],
+    "design-existing": ["design", "ur5", "--n", "6", "--pool", "100", "--existing", "m.csv", "--out", "p.csv"],
+}
+
+
+@pytest.mark.parametrize("content", list(STILL.values()), ids=list(STILL))
+@pytest.mark.parametrize("args", list(STILL_VERBS.values()), ids=list(STILL_VERBS))
+def test_positions_that_do_not_vary_are_named_so(tmp_path, args, content):
+    outcome = refuse(tmp_path, args, {"m.csv": content}, "do not move with the robot")
+    assert "not in mm" not in outcome.lines[0] and "look like" not in outcome.lines[0]
+
+
+def test_positions_that_move_little_with_a_robot_that_moves_little_are_read(tmp_path):
+    # A small box (40 mm): the positions vary little because the TCP does, in mm.
+    prepare(tmp_path)
+    outcome = invoke(tmp_path, ["simulate", "ur5", "--sampling", "lhs", "--n", "30", "--seed", "5", "--box",
+                                "-420,-380,-120,-80,380,420", "--out", "small.csv"])
+    assert outcome.code == 0, outcome.output
+    outcome = invoke(tmp_path, ["evaluate", "ur5_model.json", "small.csv"])
+    assert outcome.code == 0, outcome.output

@@ -52,6 +52,9 @@ EVIDENCE_POSES = 300
 # 1/25.4, cm 1/10, micrometres 1000; the band leaves a factor of 2 to cm and 20 to µm, for a
 # tool the robot file does not have.
 SPREAD_RATIO_BAND = (0.2, 50.0)
+# Positions spreading this many times less than the largest unit robocal knows (metres) would
+# make them do not move at all: no unit explains them, they are the same point over and over.
+STILL_FACTOR = 20.0
 # The model must move this much (RMS, mm) over the poses for the ratio to mean anything.
 SPREAD_JUDGED_MM = 10.0
 # Rounds of base (rigid fit) and tool (least squares) registration.
@@ -165,16 +168,29 @@ def check_measurement_units(chain, joint_values, positions, path):
     if low <= ratio <= high:
         return
     others = {name: 1.0 / factor for name, factor in LENGTH_UNITS.items() if name != "mm"}
+    if ratio < min(others.values()) / STILL_FACTOR:
+        _refuse_still_positions(chain, positions, measured, model, path)
     unit = min(others, key=lambda name: abs(np.log(max(ratio, 1e-300) / others[name])))
-    if measured == 0.0:
-        looks = "every row gives the same position"
-    elif abs(np.log(ratio / others[unit])) > np.log(2.0):
+    if abs(np.log(ratio / others[unit])) > np.log(2.0):
         looks = f"they are not in mm for this robot (1 mm of the model is {ratio:.3g} in the file)"
     else:
         looks = f"they look like {unit}"
     raise InputError(
         f"the measured positions of {path or 'the data'} spread {measured:.3g} over these poses where the "
         f"model of '{chain.name}' spreads {model:.0f} mm: {looks}; give x, y, z in mm (or check the robot file)")
+
+
+def _refuse_still_positions(chain, positions, measured, model, path):
+    """InputError for measured positions that do not move while the robot's TCP does: no unit
+    makes them positions of these poses (the same x, y, z copied down, an instrument that
+    stayed on one point)."""
+    found = (f"all {len(positions)} rows give the same x, y, z" if len(np.unique(positions, axis=0)) == 1 else
+             f"they spread only {measured:.3g} over the {len(positions)} rows")
+    raise InputError(
+        f"the measured positions of {path or 'the data'} do not move with the robot: {found}, where the model of "
+        f"'{chain.name}' "
+        f"moves its TCP {model:.0f} mm over these poses; give each pose's own measured x, y, z (mm) (was the "
+        "column filled down, or did the instrument lose its target?)")
 
 
 def check_hint_units(chain, hint_values, target_positions, path):
