@@ -182,3 +182,24 @@ def test_a_held_warning_is_printed_before_the_result_in_a_pipe(tmp_path):
     lines = done.stdout.splitlines()
     warned = [k for k, line in enumerate(lines) if "are identical" in line]
     assert len(warned) == 1 and warned[0] < min(k for k, line in enumerate(lines) if BOX.search(line)), lines
+
+
+def _option_names():
+    """(command, every name of its options: --accept-extrapolation, --no-network, ...)."""
+    import typer
+
+    group = typer.main.get_command(app)
+    for name in sorted(group.commands):
+        params = group.commands[name].params
+        yield name, sorted({opt for p in params for opt in (*p.opts, *p.secondary_opts) if opt.startswith("-")})
+
+
+OPTION_NAMES = list(_option_names())
+
+
+@pytest.mark.parametrize("verb, names", OPTION_NAMES, ids=[row[0] for row in OPTION_NAMES])
+def test_help_in_80_columns_shows_every_option_name_whole(verb, names):
+    shown = set(BOX.sub(" ", _help(verb, 80)).replace(",", " ").split())
+    cut = [name for name in names if name not in shown]
+    assert cut == [], cut
+    assert "…" not in _help(verb, 80)

@@ -17,6 +17,8 @@ import warnings
 
 import numpy as np
 import typer
+from rich.table import Table
+from typer import rich_utils
 from typer.core import TyperCommand, TyperGroup
 
 from ... import __version__
@@ -38,6 +40,48 @@ def _plain_flags(params):
         if getattr(param, "is_flag", False) and getattr(param, "metavar", None) is None:
             param.metavar = ""
     return params
+
+
+def _longest_word(renderable):
+    """The length of the longest word of a cell of --help (a Text, typer's Columns of them,
+    Markdown or a string)."""
+    if hasattr(renderable, "renderables"):  # typer's help cell: Columns of texts
+        return max((_longest_word(item) for item in renderable.renderables), default=0)
+    text = getattr(renderable, "plain", getattr(renderable, "markup", renderable))
+    return max((len(word) for word in str(text).split()), default=0) if isinstance(text, str) else 0
+
+
+class _HelpTable(Table):
+    """The tables of --help (typer builds them through ``rich_utils.Table``): the columns that
+    name options, arguments and commands never wrap, so that a narrow terminal (an 80-column
+    log) shrinks the type and help columns and never cuts a name short with "…";
+    and the help column gives the type column the width of its longest choice when it can
+    keep its own longest word ("full+compliance+gain s" was broken).  An options row is
+    [required marker,] long names, short names, their negations, type, help; a commands row
+    is name, help."""
+
+    def add_row(self, *renderables, **kwargs):
+        super().add_row(*renderables, **kwargs)
+        count = len(renderables)
+        names = range(count - 2) if count >= 6 else range(1) if count == 2 else ()
+        for column in names:
+            self.columns[column].no_wrap = True
+
+    def _calculate_column_widths(self, console, options):
+        widths = super()._calculate_column_widths(console, options)
+        if len(widths) >= 6 and self.columns:
+            kind, help_ = len(widths) - 2, len(widths) - 1
+            longest = [max((_longest_word(cell) for cell in self.columns[c].cells), default=0)
+                       + self._get_padding_width(c) for c in (kind, help_)]
+            need = longest[0] - widths[kind]
+            if need > 0 and widths[help_] - need >= longest[1]:
+                widths[kind] += need
+                widths[help_] -= need
+        return widths
+
+
+# Every command's help is drawn by typer's rich_utils: one change covers them all.
+rich_utils.Table = _HelpTable
 
 
 class _Command(TyperCommand):
