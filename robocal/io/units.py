@@ -228,10 +228,24 @@ def reach_mm(chain):
     return float(np.linalg.norm(rigid.fk_positions(joints), axis=1).max())
 
 
-def check_lengths(size, smallest_mm, what, owner):
+def apart(*values):
+    """The numbers ``values`` as texts with the fewest significant digits (three at least)
+    that print different numbers differently: a message comparing 4.996 with 5.005 must not
+    say "5, where at least 5"."""
+    values = [float(v) for v in values]
+    for digits in range(3, 18):
+        texts = [f"{v:.{digits}g}" for v in values]
+        if len(set(texts)) == len(set(values)):
+            return texts
+    return [repr(v) for v in values]
+
+
+def check_lengths(size, smallest_mm, what, owner, measure="largest"):
     """InputError when ``size`` (the largest length of ``what``, as typed, > 0) lies below
     ``smallest_mm``, the least a length of ``owner`` (a phrase: "a UR5 reaching 850 mm")
-    can be in mm; the message names metres when they make it one.  A
+    can be in mm; ``measure`` says what ``size`` is ("largest", "distance from the origin" for a
+    point judged by its distance from the origin).  The message names metres when they make
+    it one, and prints the two numbers it compares so that they differ (:func:`apart`).  A
     zero size (a tool on the flange, a box at the origin) says nothing and passes."""
     size = float(size)
     if not np.isfinite(size) or size == 0.0 or size >= smallest_mm:
@@ -239,7 +253,8 @@ def check_lengths(size, smallest_mm, what, owner):
     # Metres are what a length typed 1000 times too small is (a SI habit, a ROS export);
     # below even that, the numbers are no length of this kind in any unit.
     looks = "they look like metres" if size * LENGTH_UNITS["metres"] >= smallest_mm else "they are not mm"
-    raise InputError(f"{what}: largest {size:.3g}, where {owner} needs at least {smallest_mm:.3g} mm: {looks}; "
+    shown, least = apart(size, smallest_mm)
+    raise InputError(f"{what}: {measure} {shown}, where {owner} needs at least {least} mm: {looks}; "
                      "give them in mm")
 
 
@@ -251,7 +266,8 @@ def check_robot_lengths(chain, values, what, *, position=False):
     size = np.linalg.norm(values) if position else np.abs(values).max(initial=0.0)
     reach = reach_mm(chain)
     check_lengths(size, reach * SMALLEST_REACH_SHARE, what,
-                  f"a length about robot '{chain.name}' (reach {reach:.0f} mm)")
+                  f"a length about robot '{chain.name}' (reach {reach:.0f} mm)",
+                  "distance from the origin" if position else "largest")
 
 
 # --------------------------------------------------------------------------- typed angles
