@@ -240,3 +240,43 @@ def test_positions_that_move_little_with_a_robot_that_moves_little_are_read(tmp_
     assert outcome.code == 0, outcome.output
     outcome = invoke(tmp_path, ["evaluate", "ur5_model.json", "small.csv"])
     assert outcome.code == 0, outcome.output
+
+
+def filled_down(start, count=None):
+    """ur5.csv with rows ``start`` .. ``start + count`` given the x, y, z of the row before
+    (a column filled down in a spreadsheet, an instrument that lost its target)."""
+    def make(base):
+        rows = list(csv.reader(io.StringIO((base / "ur5.csv").read_text())))
+        columns = [rows[0].index(c) for c in XYZ]
+        end = len(rows) if count is None else start + 1 + count
+        held = [rows[start][c] for c in columns]
+        for row in rows[start + 1:end]:
+            for c, v in zip(columns, held):
+                row[c] = v
+        out = io.StringIO()
+        csv.writer(out, lineterminator="\n").writerows(rows)
+        return out.getvalue()
+    return make
+
+
+# Some rows' positions stuck at an earlier row's while the robot moves: named by row, as not
+# following the robot (robocal.methods.plausibility.check_measured), not as another robot's.
+FILLED = {"half-filled-down": filled_down(20), "three-filled-down": filled_down(30, 3)}
+
+
+@pytest.mark.parametrize("content", list(FILLED.values()), ids=list(FILLED))
+@pytest.mark.parametrize("args", list(STILL_VERBS.values()), ids=list(STILL_VERBS))
+def test_positions_stuck_while_the_robot_moves_are_named_by_row(tmp_path, args, content):
+    outcome = refuse(tmp_path, args, {"m.csv": content}, "the positions do not follow the robot")
+    assert "the same measured x, y, z as an earlier row" in outcome.lines[0]
+
+
+def test_a_pose_visited_again_with_the_same_reading_is_calibrated(tmp_path):
+    # The same point read again at joints a thousandth of a degree apart: a repeat visit.
+    def again(base):
+        header, *rows = (base / "ur5.csv").read_text().splitlines()
+        repeats = [",".join([repr(float(r.split(",")[0]) + 0.001)] + r.split(",")[1:]) for r in rows[:3]]
+        return "\n".join([header, *rows, *repeats]) + "\n"
+    prepare(tmp_path, {"m.csv": again})
+    outcome = invoke(tmp_path, ["calibrate", "ur5", "m.csv", "--out", "o.json"])
+    assert outcome.code == 0, outcome.output
