@@ -396,6 +396,7 @@ SEPARATORS_REFUSED = [
     ("spaces", ur5(lambda t: t.replace(",", " ")), "its columns are separated by spaces"),
     ("aligned-spaces", ur5(lambda t: t.replace(",", "   ")), "its columns are separated by spaces"),
     ("semicolons", ur5(lambda t: t.replace(",", ";")), "its columns are separated by semicolons"),
+    ("markdown-table", ur5(lambda t: "\n".join("| " + r.replace(",", " | ") + " |" for r in t.splitlines()) + "\n"), "its columns are separated by vertical bars"),
     ("sep-tab-stated", ur5(lambda t: "sep=\t\n" + t.replace(",", "\t")), "its first line (sep=) says the columns are separated by a tab"),
     ("sep-pipe-stated", ur5(lambda t: "sep=|\n" + t.replace(",", "|")), "separated by '|'"),
 ]

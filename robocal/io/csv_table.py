@@ -254,7 +254,7 @@ def _check_header_line(path: str, header: list[str]) -> None:
 def _other_separator(line: str) -> str:
     """What separates the names of a header line read as one column ("tabs", "spaces"), or
     "" when it is one name."""
-    for mark, name in ((";", "semicolons"), ("\t", "tabs")):
+    for mark, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "vertical bars (a Markdown table?)")):
         if mark in line:
             return name
     return "spaces" if len(line.split()) > 1 else ""
