@@ -45,7 +45,7 @@ def check_measured(chain, observations):
     pass."""
     if observations.positions is None or observations.n_poses == 0:
         return
-    _check_positions_follow_the_robot(chain, observations)
+    check_positions_follow_the_robot(chain, observations)
     gap = np.linalg.norm(chain.fk_positions(observations.joints) - observations.positions, axis=1).max()
     if gap < NOMINAL_GAP_MM:
         raise InputError(f"{observations.path or 'the data'}: its positions are the nominal robot's own forward "
@@ -65,7 +65,7 @@ def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.
         return None
     # Positions stuck while the robot moves are named as such, before they are judged as
     # another robot's (which they would look like).
-    _check_positions_follow_the_robot(chain, observations)
+    check_positions_follow_the_robot(chain, observations)
     if prior == "none":
         return None
     count = observations.n_poses
@@ -109,9 +109,12 @@ def check_model_data(model, observations, where):
     check_measured(model.nominal, observations)
 
 
-def _check_positions_follow_the_robot(chain, observations):
-    """InputError naming the rows whose measured x, y, z repeat an earlier row's exactly while
-    the nominal robot puts their TCPs :data:`STUCK_MM` or more apart."""
+def check_positions_follow_the_robot(chain, observations):
+    """Before any fit (every method's, the robot-data check's): InputError naming the rows
+    whose measured x, y, z repeat an earlier row's exactly while the nominal robot puts their
+    TCPs :data:`STUCK_MM` or more apart."""
+    if observations.positions is None or observations.n_poses < 2:
+        return
     _, inverse, counts = np.unique(observations.positions, axis=0, return_inverse=True, return_counts=True)
     inverse = inverse.reshape(-1)
     if counts.max() == 1:
