@@ -150,9 +150,12 @@ def refuse(folder, args, files, says):
     return outcome
 
 
-def run_process(folder, args, timeout=30, env=None, stdin=subprocess.DEVNULL):
-    """``python -m robocal ARGS`` in ``folder`` as a user runs it, output in a pipe."""
+def run_process(folder, args, timeout=30, env=None, stdin=subprocess.DEVNULL, stderr_into_stdout=False):
+    """``python -m robocal ARGS`` in ``folder`` as a user runs it, output in a pipe
+    (``stderr_into_stdout``: one pipe for both, in the order they were written, as a log
+    of ``robocal ... 2>&1`` has them)."""
     environment = dict(os.environ, PYTHONPATH=str(REPO), COLUMNS="80", **(env or {}))
+    streams = {"stdout": subprocess.PIPE, "stderr": subprocess.STDOUT} if stderr_into_stdout else \
+        {"capture_output": True}
     return subprocess.run([sys.executable, "-m", "robocal", *map(str, args)], cwd=folder,
-                          env=environment, capture_output=True, text=True, timeout=timeout,
-                          stdin=stdin)
+                          env=environment, text=True, timeout=timeout, stdin=stdin, **streams)

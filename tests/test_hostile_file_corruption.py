@@ -7,6 +7,7 @@ numbers, trailing commas) give the same answer as the clean file."""
 import gzip
 import json
 import os
+from pathlib import Path
 
 import pytest
 
@@ -52,6 +53,7 @@ CSV_REFUSED = [
     ("nul-bytes", ur5(lambda t: t.replace("\n", "\x00\n", 3)), "is not a text CSV file"),
     ("gzip", ur5(lambda t: gzip.compress(t.encode())), "is not a text CSV file"),
     ("comment-line", ur5(lambda t: "# measured 2026\n" + t), "line 1 is a comment"),
+    ("sep-semicolon-with-decimal-commas", ur5(lambda t: "sep=;\n" + t.replace(",", ";").replace(".", ",")), "use '.' as the decimal point"),
     ("negative-sigma", ur5(lambda t: t.replace(",0.02,0.02,0.02", ",-0.02,0.02,0.02", 2)), "a standard deviation must be > 0"),
     ("zero-sigma", ur5(lambda t: t.replace(",0.02,0.02,0.02", ",0,0,0", 2)), "a standard deviation must be > 0"),
 ]
@@ -108,7 +110,7 @@ TARGETS_REFUSED = [
     ("inf", targets(lambda t: t.replace("-38.323", "inf")), "'inf' is not a finite number"),
     ("semicolons-decimal-commas", targets(lambda t: t.replace(",", ";").replace(".", ",")), "is not comma-separated"),
     ("duplicate-rx", targets(lambda t: t.replace("ry", "rx", 1)), "column 'rx' appears twice"),
-    ("truncated", targets(lambda t: t[: len(t) // 2]), "cells but the header has 12 columns"),
+    ("truncated", targets(lambda t: t[: len(t) // 2]), "cells but the header has 13 columns"),
 ]
 
 
@@ -339,3 +341,89 @@ def test_an_output_under_a_file_says_the_file_is_not_a_folder(tmp_path):
     (tmp_path / "afile").write_text("")
     result = CliRunner().invoke(app, ["simulate", "ur5", "--n", "10", "--out", str(tmp_path / "afile" / "o.csv")])
     assert result.exit_code != 0 and "is a file, not a directory" in result.output
+
+
+# Every reader of a table, given a file of another format, names what the file is in one line
+# (robocal.io.file_kinds.text_format, asked by the bounded reader of tables), whichever verb
+# reads it: never a row count, a field-size complaint or a traceback.
+PROGRAMS = Path(__file__).resolve().parent / "data" / "programs"
+POINTS = "name,x,y,z\nP1,100,200,300\nP2,110,210,310\nP3,120,220,320\n"
+TABLE_READERS = [
+    ("measurements", ["calibrate", "ur5", "{f}", "--out", "o.json"]),
+    ("evaluate-data", ["evaluate", "ur5_model.json", "{f}"]),
+    ("targets", ["compensate", "ur5_model.json", "{f}", "--out", "o.csv"]),
+    ("candidates", ["design", "ur5", "--n", "6", "--candidates", "{f}", "--out", "p.csv"]),
+    ("existing", ["design", "ur5", "--n", "6", "--pool", "100", "--existing", "{f}", "--out", "p.csv"]),
+    ("placements", ["design", "kr150-2", "--n", "6", "--fixture", "plate.toml", "--placements", "{f}", "--out", "p.csv"]),
+    ("tracker-points", ["import", "--points", "{f}", "--joints", "ur5.csv", "--out", "j.csv"]),
+    ("joint-log", ["import", "--points", "pts.csv", "--joints", "{f}", "--out", "j.csv"]),
+    ("iso-campaign", ["iso9283", "{f}"]),
+]
+OTHER_FORMATS = [
+    # robocal's own files are named by their kind (robocal.io.file_kinds.check) ...
+    ("report.html", "is robocal's HTML report, written by 'robocal report', not a"),
+    ("ur5_model.json", "is a robocal model file, written by 'robocal calibrate', not a"),
+    ("ur5_truth.json", "is a truth file (the simulated robot's true errors), written by 'robocal simulate --truth', not"),
+    ("plate.toml", "is a fixture file (socket centres), not a"),
+    ("ur5_cal.toml", "is a robot file, written by 'robocal export', not a"),
+    ("ur5_cal.urdf", "is a URDF robot description, written by 'robocal export --format urdf', not a"),
+    # ... other files by their format (robocal.io.file_kinds.text_format).
+    ("doc.json", "is a JSON document (a robocal model file?), not a table"),
+    ("prog.script", "is a robot program, not a table"),
+    ("prog.src", "is a robot program, not a table"),
+]
+
+
+@pytest.mark.parametrize("name, says", OTHER_FORMATS, ids=[row[0] for row in OTHER_FORMATS])
+@pytest.mark.parametrize("args", [row[1] for row in TABLE_READERS], ids=[row[0] for row in TABLE_READERS])
+def test_a_file_of_another_format_given_as_a_table_is_named(tmp_path, args, name, says):
+    files = {"pts.csv": POINTS, "doc.json": '[\n  {"a": 1, "b": [2, 3]}\n]\n',
+             "prog.script": (PROGRAMS / "urscript" / "feeder_to_tray.script").read_text(),
+             "prog.src": next((PROGRAMS / "krl").glob("*.src")).read_text(errors="replace")}
+    refuse(tmp_path, [a.format(f=name) for a in args], files, f"{name} {says}")
+
+
+def sep_line(separator, data="ur5.csv"):
+    """Excel's export of ``data`` with its separator stated on a first line sep=X."""
+    def make(base):
+        body = (base / data).read_text()
+        return f"sep={separator}\r\n" + body.replace(",", separator).replace("\n", "\r\n")
+    return make
+
+
+# Columns separated by anything but the comma, unstated, are refused saying what separates
+# them, by every CSV reader; stated on Excel's first line (sep=, or sep=;) they are read.
+SEPARATORS_REFUSED = [
+    ("tabs", ur5(lambda t: t.replace(",", "\t")), "its columns are separated by tabs"),
+    ("spaces", ur5(lambda t: t.replace(",", " ")), "its columns are separated by spaces"),
+    ("aligned-spaces", ur5(lambda t: t.replace(",", "   ")), "its columns are separated by spaces"),
+    ("semicolons", ur5(lambda t: t.replace(",", ";")), "its columns are separated by semicolons"),
+    ("markdown-table", ur5(lambda t: "\n".join("| " + r.replace(",", " | ") + " |" for r in t.splitlines()) + "\n"), "its columns are separated by vertical bars"),
+    ("sep-tab-stated", ur5(lambda t: "sep=\t\n" + t.replace(",", "\t")), "its first line (sep=) says the columns are separated by a tab"),
+    ("sep-pipe-stated", ur5(lambda t: "sep=|\n" + t.replace(",", "|")), "separated by '|'"),
+]
+SEPARATOR_READERS = [row for row in TABLE_READERS
+                     if row[0] in ("measurements", "candidates", "existing", "joint-log", "iso-campaign")]
+
+
+@pytest.mark.parametrize("content, says", [r[1:] for r in SEPARATORS_REFUSED], ids=[r[0] for r in SEPARATORS_REFUSED])
+@pytest.mark.parametrize("args", [row[1] for row in SEPARATOR_READERS], ids=[row[0] for row in SEPARATOR_READERS])
+def test_columns_not_separated_by_commas_are_refused_saying_by_what(tmp_path, args, content, says):
+    refuse(tmp_path, [a.format(f="f.csv") for a in args], {"f.csv": content, "pts.csv": POINTS}, says)
+
+
+@pytest.mark.parametrize("separator", [",", ";"], ids=["sep-comma", "sep-semicolon"])
+def test_an_excel_sep_line_is_honoured(tmp_path, separator):
+    prepare(tmp_path, {"m.csv": sep_line(separator), "t.csv": sep_line(separator, "targets.csv"),
+                       "c.csv": sep_line(separator, "plan.csv")})
+    assert invoke(tmp_path, ["calibrate", "ur5", "m.csv", "--out", "o.json"]).code == 0
+    got = invoke(tmp_path, ["evaluate", "o.json", "ur5.csv", "--json"])
+    want = invoke(tmp_path, ["evaluate", "ur5_model.json", "ur5.csv", "--json"])
+    assert json.loads(got.result.stdout)["mean_mm"] == pytest.approx(json.loads(want.result.stdout)["mean_mm"], rel=1e-9)
+    # Targets and a design's candidates too: the same answer as the comma file.
+    assert invoke(tmp_path, ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"]).code == 0
+    assert (tmp_path / "o.csv").read_text() == text("cmds.csv")
+    for data, out in (("c.csv", "a.csv"), ("plan.csv", "b.csv")):
+        outcome = invoke(tmp_path, ["design", "ur5", "--n", "10", "--candidates", data, "--out", out])
+        assert outcome.code == 0, outcome.output
+    assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()

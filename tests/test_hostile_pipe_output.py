@@ -11,7 +11,7 @@ import re
 import pytest
 from typer.testing import CliRunner
 
-from hostile import invoke, prepare, run_process
+from hostile import invoke, prepare, refuse, run_process
 from robocal.interfaces.cli import app
 
 VERBS = ["simulate", "evaluate", "compensate", "filter", "serve", "report", "export", "compare", "validate",
@@ -128,3 +128,78 @@ def test_a_stream_without_utf8_gets_the_output_not_a_traceback(tmp_path, env, ar
     result = run_process(tmp_path, args, timeout=120, env=env)
     assert result.returncode == 0 and "Traceback" not in result.stderr, result.stderr
     assert result.stdout.strip()
+
+
+def _rows(name, change):
+    """The base file ``name`` with its data rows replaced by ``change(rows)``."""
+    def make(base):
+        header, *rows = (base / name).read_text().splitlines()
+        return "\n".join([header, *change(rows)]) + "\n"
+    return make
+
+
+# Data a reader warns about (identical rows) and a verb then refuses: the refusal is the one
+# line, the reader's warning is not printed before it (robocal.interfaces.cli.app.held_warnings).
+SAME_ROW = _rows("ur5.csv", lambda rows: [rows[0]] * 40)
+WARNED_THEN_REFUSED = [
+    ("calibrate", ["calibrate", "ur5", "s.csv", "--out", "o.json"], "1 distinct poses"),
+    ("calibrate-kriging", ["calibrate", "ur5", "s.csv", "--method", "kriging", "--out", "o.json"], "1 distinct pose(s)"),
+    ("calibrate-auto", ["calibrate", "ur5", "s.csv", "--method", "auto", "--out", "o.json"], "measure poses spread over the workspace"),
+    ("compare", ["compare", "ur5", "s.csv"], "measure poses spread over the workspace"),
+    ("validate", ["validate", "ur5", "s.csv", "--folds", "3"], "1 distinct poses"),
+    ("reregister", ["calibrate", "ur5_model.json", "s.csv", "--method", "frames", "--out", "o.json"], "1 distinct pose(s)"),
+    ("tagged-radians-beyond-limits", ["calibrate", "ur5", "r.csv", "--out", "o.json"], "lies beyond joint"),
+]
+
+
+@pytest.mark.parametrize("args, says", [r[1:] for r in WARNED_THEN_REFUSED], ids=[r[0] for r in WARNED_THEN_REFUSED])
+def test_data_warned_about_and_then_refused_give_the_refusal_alone(tmp_path, args, says):
+    # r.csv: identical rows too, and joint values tagged radians that are degrees (refused
+    # by the joint limits after the reader has read, and warned of, the repeats).
+    tagged = _rows("ur5.csv", lambda rows: rows + rows[:3])
+    files = {"s.csv": SAME_ROW,
+             "r.csv": lambda base: tagged(base).replace("q1,q2,q3,q4,q5,q6", ",".join(f"q{k}[rad]" for k in range(1, 7)), 1)}
+    refuse(tmp_path, args, files, says)
+
+
+@pytest.mark.parametrize("args", [
+    ["calibrate", "ur5", "d.csv", "--out", "o.json"], ["evaluate", "ur5_model.json", "d.csv"],
+    ["evaluate", "ur5_model.json", "d.csv", "--json"], ["report", "ur5_model.json", "d.csv", "--out", "r.html"],
+], ids=["calibrate", "evaluate", "evaluate-json", "report"])
+def test_data_warned_about_and_accepted_still_show_the_warning_once(tmp_path, args):
+    prepare(tmp_path, {"d.csv": _rows("ur5.csv", lambda rows: rows + rows[:3])})
+    outcome = invoke(tmp_path, args)
+    assert outcome.code == 0, outcome.output
+    warned = [line for line in outcome.lines if "are identical" in line]
+    assert len(warned) == 1 and "rows 2 and 62" in warned[0], outcome.lines
+
+
+def test_a_held_warning_is_printed_before_the_result_in_a_pipe(tmp_path):
+    prepare(tmp_path, {"d.csv": _rows("ur5.csv", lambda rows: rows + rows[:3])})
+    done = run_process(tmp_path, ["evaluate", "ur5_model.json", "d.csv"], env={"PYTHONUNBUFFERED": "1"},
+                       stderr_into_stdout=True)
+    assert done.returncode == 0, done.stdout
+    lines = done.stdout.splitlines()
+    warned = [k for k, line in enumerate(lines) if "are identical" in line]
+    assert len(warned) == 1 and warned[0] < min(k for k, line in enumerate(lines) if BOX.search(line)), lines
+
+
+def _option_names():
+    """(command, every name of its options: --accept-extrapolation, --no-network, ...)."""
+    import typer
+
+    group = typer.main.get_command(app)
+    for name in sorted(group.commands):
+        params = group.commands[name].params
+        yield name, sorted({opt for p in params for opt in (*p.opts, *p.secondary_opts) if opt.startswith("-")})
+
+
+OPTION_NAMES = list(_option_names())
+
+
+@pytest.mark.parametrize("verb, names", OPTION_NAMES, ids=[row[0] for row in OPTION_NAMES])
+def test_help_in_80_columns_shows_every_option_name_whole(verb, names):
+    shown = set(BOX.sub(" ", _help(verb, 80)).replace(",", " ").split())
+    cut = [name for name in names if name not in shown]
+    assert cut == [], cut
+    assert "…" not in _help(verb, 80)

@@ -3,6 +3,7 @@
 that put every pose below the floor, beyond the reach or outside the walls are refused in one
 line saying what to change, and nothing is written."""
 import csv
+import json
 
 import pytest
 
@@ -89,3 +90,37 @@ def test_a_plan_the_robot_can_execute_from_given_poses_is_designed(tmp_path, arg
     outcome = invoke(tmp_path, args)
     assert outcome.code == 0, outcome.output
     assert len(list(csv.DictReader(open(tmp_path / "p.csv")))) == 12
+
+
+# iso9283 plan's refusals print the numbers they compare or repeat so that a user can tell
+# them apart: a centre typed to the tenth is not shown rounded, and a length just below the
+# least the check allows is not shown equal to it (robocal.io.units.apart).
+ISO_NUMBERS = [
+    ("centre-tenths", "400.4,0,0.6", "about 400.4, 0, 0.6 mm is reachable"),
+    ("centre-just-too-near", "5,0,0", "distance from the origin 5, where a length about robot 'Universal Robots UR5' (reach 1001 mm) needs at least 5.003 mm"),
+    ("centre-3-4-0-is-5-away", "3,4,0", "distance from the origin 5, "),
+    ("centre-4.996", "4.996,0,0", "distance from the origin 4.996, "),
+]
+
+
+@pytest.mark.parametrize("centre, says", [row[1:] for row in ISO_NUMBERS], ids=[row[0] for row in ISO_NUMBERS])
+def test_iso_plan_refusal_prints_the_numbers_it_compares_apart(tmp_path, centre, says):
+    refuse(tmp_path, ["iso9283", "plan", "ur5", "--centre", centre, "--out", "i.csv"], None, says)
+
+
+def test_apart_prints_close_numbers_differently_and_equal_ones_alike():
+    from robocal.io.units import apart
+
+    assert apart(0.648, 5.00345) == ["0.648", "5"]
+    assert apart(4.996, 5.00345) == ["4.996", "5.003"]
+    assert apart(5.0, 5.00345) == ["5", "5.003"]
+    assert apart(2.0, 2.0) == ["2", "2"]
+
+
+def test_iso_plan_at_a_reachable_centre_typed_to_the_tenth_is_planned(tmp_path):
+    prepare(tmp_path)
+    outcome = invoke(tmp_path, ["iso9283", "plan", "ur5", "--centre", "400.4,-100.6,400.2", "--edge", "150.5",
+                                "--out", "i.csv", "--json"])
+    assert outcome.code == 0, outcome.output
+    planned = json.loads(outcome.result.stdout)
+    assert planned["cube_centre_mm"] == [400.4, -100.6, 400.2] and planned["cube_edge_mm"] == 150.5

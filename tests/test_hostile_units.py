@@ -65,8 +65,8 @@ REFUSED = [
     ("simulate-hint-radians", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", *BOX, "--hint", "0,-1.57,1.57,-1.57,-1.57,0", "--out", "s.csv"], None, "--hint look like radians"),
     ("simulate-box-min-above-max", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", "--box", "400,-400,-400,-100,100,500", "--out", "s.csv"], None, "must not exceed high"),
     ("design-box-metres", ["design", "ur5", "--n", "12", "--pool", "200", "--box", "-0.4,0.4,-0.4,0.4,0.1,0.5", "--out", "p.csv"], None, "they look like metres"),
-    ("design-tool-metres", ["design", "ur5", "--n", "12", "--pool", "200", "--tool", "0,0,0.1", "--out", "p.csv"], None, "--tool: largest 0.1"),
-    ("design-tracker-metres", ["design", "ur5", "--n", "12", "--pool", "200", "--tracker", "2,0,0.5", "--out", "p.csv"], None, "--tracker: largest 2.06"),
+    ("design-tool-metres", ["design", "ur5", "--n", "12", "--pool", "200", "--tool", "0,0,0.1", "--out", "p.csv"], None, "--tool: distance from the origin 0.1"),
+    ("design-tracker-metres", ["design", "ur5", "--n", "12", "--pool", "200", "--tracker", "2,0,0.5", "--out", "p.csv"], None, "--tracker: distance from the origin 2.06"),
     ("design-rpy-radians", ["design", "ur5", "--n", "12", "--pool", "200", *BOX, "--rpy", "3.1416,0,0", "--out", "p.csv"], None, "the angles of --rpy look like radians"),
     ("design-hint-radians", ["design", "ur5", "--n", "12", "--pool", "200", *BOX, "--hint", "0,-1.57,1.57,-1.57,-1.57,0", "--out", "p.csv"], None, "--hint look like radians"),
     ("design-walls-metres", ["design", "ur5", "--n", "12", "--pool", "200", "--walls", "-0.8,0.8,-0.8,0.8", "--out", "p.csv"], None, "--walls: largest 0.8"),
@@ -147,3 +147,136 @@ def test_iso9283_plan_refuses_typed_numbers_in_other_units(option, value, says, 
     assert result.exit_code != 0 and says in result.output
     assert "Traceback" not in result.output and len(result.output.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def truth_with(change):
+    """The base truth file (simulate --truth) with ``change(document)`` applied."""
+    def make(base):
+        document = json.loads((base / "ur5_truth.json").read_text())
+        change(document)
+        return json.dumps(document)
+    return make
+
+
+def _units(**units):
+    return lambda document: document.__setitem__("units", {**document["units"], **units})
+
+
+# A truth file's numbers are read in mm and degrees: an entry saying otherwise is refused
+# (robocal.io.schema.stated_units), as is an entry robocal would not read at all.
+TRUTH_REFUSED = [
+    ("lengths-metres", _units(lengths="m"), "units says lengths are in 'm', but this file's lengths are read in mm"),
+    ("angles-radians", _units(angles="rad"), "units says angles are in 'rad', but this file's angles are read in deg"),
+    ("masses-grams", _units(masses="g"), "units says masses are in 'g'"),
+    ("unit-not-text", _units(lengths=1000), "units says lengths are in 1000"),
+    ("unknown-quantity", _units(time="s"), "units has unknown key 'time'"),
+    ("units-not-a-table", lambda d: d.__setitem__("units", "m"), "units must be a table of units"),
+    ("misspelt-units-key", lambda d: d.__setitem__("unit", {"lengths": "m"}), "unknown key 'unit': did you mean 'units'?"),
+]
+
+
+@pytest.mark.parametrize("change, says", [row[1:] for row in TRUTH_REFUSED], ids=[row[0] for row in TRUTH_REFUSED])
+def test_truth_file_units_other_than_mm_and_degrees_are_refused(tmp_path, change, says):
+    refuse(tmp_path, ["simulate", "ur5", "--n", "10", "--errors", "t.json", "--out", "s.csv"],
+           {"t.json": truth_with(change)}, says)
+
+
+@pytest.mark.parametrize("change", [
+    _units(lengths="millimetres", angles="degrees"), _units(lengths="MM", angles="Deg", masses="kg"),
+    lambda d: d.pop("units"),
+], ids=["spelt-out", "other-case", "no-units-entry"])
+def test_truth_file_stating_mm_and_degrees_simulates_what_the_written_one_does(tmp_path, change):
+    prepare(tmp_path, {"t.json": truth_with(change)})
+    for truth, out in (("t.json", "a.csv"), ("ur5_truth.json", "b.csv")):
+        outcome = invoke(tmp_path, ["simulate", "ur5", "--n", "10", "--seed", "3", "--errors", truth, "--out", out])
+        assert outcome.code == 0, outcome.output
+    assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
+
+
+def positions(change):
+    """ur5.csv with its x, y, z replaced by ``change(k, xyz)`` on data row k."""
+    def make(base):
+        rows = list(csv.reader(io.StringIO((base / "ur5.csv").read_text())))
+        columns = [rows[0].index(c) for c in XYZ]
+        out = io.StringIO()
+        writer = csv.writer(out, lineterminator="\n")
+        writer.writerow(rows[0])
+        first = [float(rows[1][c]) for c in columns]
+        for k, row in enumerate(rows[1:]):
+            new = change(k, first)
+            writer.writerow([repr(new[columns.index(i)]) if i in columns else v for i, v in enumerate(row)])
+        return out.getvalue()
+    return make
+
+
+# Positions that do not move while the robot does are no unit's: the message says they do not
+# vary, not that they are "not in mm" (robocal.io.units, the one check of every verb).
+STILL = {
+    "same-xyz": positions(lambda k, p: p),
+    "same-xyz-jitter-5um": positions(lambda k, p: [v + 0.005 * math.sin(7 * k + i) for i, v in enumerate(p)]),
+    "same-xyz-metres": positions(lambda k, p: [v / 1000 for v in p]),
+}
+STILL_VERBS = {
+    "calibrate": ["calibrate", "ur5", "m.csv", "--out", "o.json"],
+    "evaluate": ["evaluate", "ur5_model.json", "m.csv"],
+    "report": ["report", "ur5_model.json", "m.csv", "--out", "r.html"],
+    "validate": ["validate", "ur5", "m.csv", "--folds", "3"],
+    "design-existing": ["design", "ur5", "--n", "6", "--pool", "100", "--existing", "m.csv", "--out", "p.csv"],
+}
+
+
+@pytest.mark.parametrize("content", list(STILL.values()), ids=list(STILL))
+@pytest.mark.parametrize("args", list(STILL_VERBS.values()), ids=list(STILL_VERBS))
+def test_positions_that_do_not_vary_are_named_so(tmp_path, args, content):
+    outcome = refuse(tmp_path, args, {"m.csv": content}, "do not move with the robot")
+    assert "not in mm" not in outcome.lines[0] and "look like" not in outcome.lines[0]
+
+
+def test_positions_that_move_little_with_a_robot_that_moves_little_are_read(tmp_path):
+    # A small box (40 mm): the positions vary little because the TCP does, in mm.
+    prepare(tmp_path)
+    outcome = invoke(tmp_path, ["simulate", "ur5", "--sampling", "lhs", "--n", "30", "--seed", "5", "--box",
+                                "-420,-380,-120,-80,380,420", "--out", "small.csv"])
+    assert outcome.code == 0, outcome.output
+    outcome = invoke(tmp_path, ["evaluate", "ur5_model.json", "small.csv"])
+    assert outcome.code == 0, outcome.output
+
+
+def filled_down(start, count=None):
+    """ur5.csv with rows ``start`` .. ``start + count`` given the x, y, z of the row before
+    (a column filled down in a spreadsheet, an instrument that lost its target)."""
+    def make(base):
+        rows = list(csv.reader(io.StringIO((base / "ur5.csv").read_text())))
+        columns = [rows[0].index(c) for c in XYZ]
+        end = len(rows) if count is None else start + 1 + count
+        held = [rows[start][c] for c in columns]
+        for row in rows[start + 1:end]:
+            for c, v in zip(columns, held):
+                row[c] = v
+        out = io.StringIO()
+        csv.writer(out, lineterminator="\n").writerows(rows)
+        return out.getvalue()
+    return make
+
+
+# Some rows' positions stuck at an earlier row's while the robot moves: named by row, as not
+# following the robot (robocal.methods.plausibility.check_measured), not as another robot's.
+FILLED = {"half-filled-down": filled_down(20), "three-filled-down": filled_down(30, 3)}
+
+
+@pytest.mark.parametrize("content", list(FILLED.values()), ids=list(FILLED))
+@pytest.mark.parametrize("args", list(STILL_VERBS.values()), ids=list(STILL_VERBS))
+def test_positions_stuck_while_the_robot_moves_are_named_by_row(tmp_path, args, content):
+    outcome = refuse(tmp_path, args, {"m.csv": content}, "the positions do not follow the robot")
+    assert "the same measured x, y, z as an earlier row" in outcome.lines[0]
+
+
+def test_a_pose_visited_again_with_the_same_reading_is_calibrated(tmp_path):
+    # The same point read again at joints a thousandth of a degree apart: a repeat visit.
+    def again(base):
+        header, *rows = (base / "ur5.csv").read_text().splitlines()
+        repeats = [",".join([repr(float(r.split(",")[0]) + 0.001)] + r.split(",")[1:]) for r in rows[:3]]
+        return "\n".join([header, *rows, *repeats]) + "\n"
+    prepare(tmp_path, {"m.csv": again})
+    outcome = invoke(tmp_path, ["calibrate", "ur5", "m.csv", "--out", "o.json"])
+    assert outcome.code == 0, outcome.output

@@ -27,7 +27,9 @@ def _api_rows():
 
     chain = builtin("ur5")
     q = chain.random_configurations(60, rng=1)
-    p = chain.fk_positions(q)
+    # Measured positions: the nominal robot's own (which the data check refuses as targets,
+    # not measurements) plus an instrument's 0.05 mm noise.
+    p = chain.fk_positions(q) + np.random.default_rng(2).normal(0.0, 0.05, (60, 3))
     q_nan, p_nan, p_inf = q.copy(), p.copy(), p.copy()
     q_nan[3, 2], p_nan[4, 1], p_inf[4, 1] = np.nan, np.nan, np.inf
     rng = np.random.default_rng(0)
@@ -201,7 +203,8 @@ def test_error_models_refuse_one_pose_repeated(name):
     chain = builtin("ur5")
     q = np.repeat(chain.random_configurations(1, rng=0), 50, axis=0)
     with pytest.raises(InputError, match="1 distinct pose"):
-        make_method(name).fit(chain, Observations.of(q, chain.fk_positions(q)))
+        # One measured point (0.05 mm off the nominal robot's: a measurement, not its FK).
+        make_method(name).fit(chain, Observations.of(q, chain.fk_positions(q) + 0.05))
 
 
 def test_constraint_calibration_needs_a_distance_between_sockets():

@@ -331,8 +331,11 @@ def plan_campaign(chain, *, centre=None, edge_mm=None, rpy_deg=(180.0, 0.0, 0.0)
             solved = solve_ik(mounted, targets, hint=sample[np.argmin(np.linalg.norm(tcp - middle, axis=1))])
             if solved.success.all() and volume.inside(mounted, solved.q).all():
                 return CampaignPlan(("P1", "P2", "P3", "P4", "P5"), points, rpy, solved.q, middle, float(edge), cycles)
-    raise InputError(f"no ISO 9283 cube of edge {', '.join(f'{e:.0f}' for e in edges)} mm "
-                     + ("" if centre is None else f"about {', '.join(f'{v:.0f}' for v in centres[0])} mm ")
+    # The numbers as given (a centre or an edge typed to the tenth is not shown rounded to
+    # another one), the edges tried to the mm.
+    shown = ", ".join(f"{e:g}" for e in edges) if edge_mm is not None else ", ".join(f"{e:.0f}" for e in edges)
+    raise InputError(f"no ISO 9283 cube of edge {shown} mm "
+                     + ("" if centre is None else f"about {', '.join(f'{v:g}' for v in centres[0])} mm ")
                      + f"is reachable by '{chain.name}' with the TCP at "
                      f"rx, ry, rz = {', '.join(f'{v:g}' for v in rpy)} deg on one arm branch: give --centre, --edge "
                      "or --rpy")

@@ -30,13 +30,22 @@ EQUATIONS_PER_PARAMETER = 3
 NOMINAL_GAP_MM = 0.01
 
 
+# A measured position repeated exactly on rows where the nominal robot's TCP lies this far
+# apart (mm) did not follow the robot: no instrument reads the same point to every written
+# decimal for poses that far apart (repeat visits of one pose lie micrometres apart).
+STUCK_MM = 10.0
+
+
 def check_measured(chain, observations):
     """InputError, in one line, when every measured position of ``observations`` is
     ``chain``'s own forward kinematics of its joints, within :data:`NOMINAL_GAP_MM`: the file
-    holds targets or a plan computed from the nominal robot, not measurements.  Ball-in-socket
-    data (no positions) pass."""
+    holds targets or a plan computed from the nominal robot, not measurements; or when a
+    position is repeated exactly on rows whose poses lie :data:`STUCK_MM` apart (a column
+    filled down, an instrument that lost its target).  Ball-in-socket data (no positions)
+    pass."""
     if observations.positions is None or observations.n_poses == 0:
         return
+    check_positions_follow_the_robot(chain, observations)
     gap = np.linalg.norm(chain.fk_positions(observations.joints) - observations.positions, axis=1).max()
     if gap < NOMINAL_GAP_MM:
         raise InputError(f"{observations.path or 'the data'}: its positions are the nominal robot's own forward "
@@ -52,7 +61,12 @@ def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.
     the calibration that judged them (fitted to at most CHECK_POSES of them), or None.
     Positions the robot's own forward kinematics computed are :func:`check_measured`'s to
     refuse, after the fit has checked what it is given."""
-    if observations.positions is None or prior == "none":
+    if observations.positions is None:
+        return None
+    # Positions stuck while the robot moves are named as such, before they are judged as
+    # another robot's (which they would look like).
+    check_positions_follow_the_robot(chain, observations)
+    if prior == "none":
         return None
     count = observations.n_poses
     pick = np.linspace(0, count - 1, min(count, CHECK_POSES)).astype(int)
@@ -93,3 +107,34 @@ def check_model_data(model, observations, where):
     check_robot_data(model.nominal, observations, options.get("prior", "tolerances"),
                      options.get("tolerance_scale", 1.0))
     check_measured(model.nominal, observations)
+
+
+def check_positions_follow_the_robot(chain, observations):
+    """Before any fit (every method's, the robot-data check's): InputError naming the rows
+    whose measured x, y, z repeat an earlier row's exactly while the nominal robot puts their
+    TCPs :data:`STUCK_MM` or more apart."""
+    if observations.positions is None or observations.n_poses < 2:
+        return
+    _, inverse, counts = np.unique(observations.positions, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.reshape(-1)
+    if counts.max() == 1:
+        return
+    model = chain.fk_positions(observations.joints)
+    rows = np.asarray(observations.rows)
+    stuck, first, apart = [], None, 0.0
+    for group in np.flatnonzero(counts > 1):
+        members = np.flatnonzero(inverse == group)
+        distance = float(np.linalg.norm(model[members] - model[members[0]], axis=1).max())
+        if distance >= STUCK_MM:
+            stuck += list(members[1:])
+            if first is None or members[0] < first:
+                first, apart = members[0], distance
+    if not stuck:
+        return
+    lines = [str(int(line)) for line in rows[np.sort(stuck)]]
+    named = f"rows {', '.join(lines[:5])}" + (f" and {len(lines) - 5} more" if len(lines) > 5 else "") \
+        if len(lines) > 1 else f"row {lines[0]}"
+    raise InputError(f"{observations.path or 'the data'} {named}: the same measured x, y, z as an earlier row "
+                     f"(row {int(rows[first])}) for poses whose TCPs lie up to {apart:.0f} mm apart: the positions do "
+                     "not follow the robot (a column filled down, an instrument that lost its target?); give those "
+                     "rows their measured x, y, z or remove them")

@@ -2,7 +2,11 @@
 
 :func:`_read_table` reads a comma-separated file with a header through the one bounded
 reader (:mod:`robocal.io.reading`) into a :class:`_Table` of strings, checking its shape (a
-header, one cell per column in every row, no unnamed column with values).  A header cell may
+header, one cell per column in every row, no unnamed column with values).  Every CSV reader
+of robocal gets its rows from :func:`_records`: a file of another format is named (a report, a
+model file), a first line ``sep=,`` or ``sep=;`` (Excel's way of stating the separator) is
+honoured, and columns separated by semicolons, tabs or spaces without it are refused in one
+line saying so (DESIGN.md: CSV files are comma-separated).  A header cell may
 carry its unit in brackets (``x[m]``, ``q2[rad]``); :class:`_Table` gives numbers in
 robocal's units (degrees, mm).  :mod:`robocal.io.tables` gives the columns their meaning.
 """
@@ -18,8 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robocal.errors import FileFormatError
-from robocal.io.file_kinds import CSV_TABLE, check
-from robocal.io.reading import read_text
+from robocal.io.reading import read_table_text
 
 POSITION_COLUMNS = ("x", "y", "z")
 ORIENTATION_COLUMNS = ("rx", "ry", "rz")
@@ -153,10 +156,12 @@ def _read_table(path: str | os.PathLike) -> _Table:
     return _without_blank_unnamed_columns(table)
 
 
-def _records(path: str):
-    """Yield (line number, cells) of every non-blank line of a CSV file."""
-    text = _read_text(path)
-    reader = csv.reader(io.StringIO(text, newline=""))
+def _records(path: str, what: str = "CSV file"):
+    """Yield (line number, cells) of every non-blank line of a CSV file (``what`` names it in
+    messages: "candidates file")."""
+    text = read_table_text(path, what)
+    text, delimiter = _stated_separator(path, text)
+    reader = csv.reader(io.StringIO(text, newline=""), delimiter=delimiter)
     try:
         for cells in reader:
             if cells:
@@ -165,10 +170,25 @@ def _records(path: str):
         raise FileFormatError(f"{path}, row {reader.line_num}: {error}: check the quoting of that line") from None
 
 
-def _read_text(path: str) -> str:
-    text = read_text(path, "CSV file", "table", form="CSV")
-    check(path, CSV_TABLE, text=text)  # robocal's JSON, HTML and TOML files, named
-    return text
+# Excel writes the separator it used as a first line "sep=;" (and reads it back so).
+_SEPARATOR_LINE = re.compile(r'\A\ufeff?[ \t]*"?sep=(.?)"?[ \t]*(\r\n|\r|\n|\Z)', re.I)
+# The separators a first line sep= may state: the comma robocal's files use, and the
+# semicolon of spreadsheets whose decimal mark is a comma (the numbers must still use '.').
+_STATED_SEPARATORS = (",", ";")
+
+
+def _stated_separator(path: str, text: str) -> tuple[str, str]:
+    """(text, separator): a first line ``sep=X`` is read and blanked (the rows keep their
+    line numbers); without one the separator is the comma."""
+    match = _SEPARATOR_LINE.match(text)
+    if match is None:
+        return text, ","
+    separator = match.group(1)
+    if separator not in _STATED_SEPARATORS:
+        shown = {"\t": "a tab", " ": "a space", "": "nothing"}.get(separator, repr(separator))
+        raise FileFormatError(f"{path}: its first line (sep=) says the columns are separated by {shown}: "
+                              "robocal reads ',' (or ';' after a first line sep=;): export it with ','")
+    return match.group(2) + text[match.end():], separator
 
 
 # A header cell may carry its unit: "x[m]", "q2[rad]", "rz[deg]".  Factors to deg and mm.
@@ -212,10 +232,13 @@ def _check_header_line(path: str, header: list[str]) -> None:
     if header[0].lstrip().startswith("#"):
         raise FileFormatError(f"{path}: line 1 is a comment ('#'); comment lines are not read: delete them so that "
                               "the first line names the columns (q1,q2,…,x,y,z)")
-    if len(header) == 1 and re.search(r"[;\t]", header[0]):
-        raise FileFormatError(
-            f"{path} is not comma-separated: export it with ',' between fields and '.' as the decimal point"
-        )
+    if len(header) == 1:
+        found = _other_separator(header[0])
+        if found:
+            raise FileFormatError(
+                f"{path} is not comma-separated: its columns are separated by {found}; robocal reads ',' between "
+                "fields (or ';' after a first line sep=;) and '.' as the decimal point: export it so"
+            )
     if all(_is_number(cell) for cell in header):
         raise FileFormatError(
             f"{path}: the first line holds numbers, not column names: add a header line such as q1,q2,…,x,y,z"
@@ -226,6 +249,15 @@ def _check_header_line(path: str, header: list[str]) -> None:
             raise FileFormatError(f"{path}: column '{name}' appears twice "
                                   f"(columns {seen[name]} and {column}): rename or delete one")
         seen[name] = column
+
+
+def _other_separator(line: str) -> str:
+    """What separates the names of a header line read as one column ("tabs", "spaces"), or
+    "" when it is one name."""
+    for mark, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "vertical bars (a Markdown table?)")):
+        if mark in line:
+            return name
+    return "spaces" if len(line.split()) > 1 else ""
 
 
 def _is_number(text: str) -> bool:

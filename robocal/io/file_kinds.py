@@ -20,6 +20,11 @@ what the file is.  So:
 CSV files written before the column existed (or with it cut off) are recognised by the
 columns only robocal writes (:attr:`Kind.columns`).  A user's own files (no
 :data:`KIND_COLUMN`, none of those columns) are never refused here.
+
+A file of another format given where a table belongs, not one of robocal's kinds (a JSON or
+XML document, a TOML file, a robot program), is named by :func:`text_format` from its first
+lines, which the bounded reader of tables (:func:`robocal.io.reading.read_table_text`) asks
+after :func:`check`: "an XML document", not a row count or a parser's complaint.
 """
 from __future__ import annotations
 
@@ -266,3 +271,43 @@ def check_kind(path, header, kind_cells, accepts, reading_as: str, instead: str)
     itself and has the :data:`KIND_COLUMN` cells only); new readers call :func:`check`."""
     return check(path, Reader(reading_as, instead, tuple(accepts)), header=header,
                  column=(lambda name: kind_cells if name == KIND_COLUMN else []) if kind_cells is not None else None)
+
+
+# What robocal's other files and a user's other files begin with (their first non-blank
+# characters), and what to call them: checked in this order.
+_TOML_HEADER = re.compile(r"^\s*\[\[?\s*[A-Za-z_][\w.\-\"' ]*\]\]?\s*(#.*)?$", re.M)
+# A key and a TOML value (text, number, list, table, boolean): not Excel's "sep=," line.
+_TOML_KEY = re.compile(r"^\s*[A-Za-z_][\w\-]*\s*=\s*([\"'\[{0-9+\-]|true\b|false\b|inf\b|nan\b)", re.M)
+_PROGRAM = re.compile(r"^\s*(def\s+\w+\s*\(|&ACCESS\b|&REL\b|DEF\s+\w+\s*\(|MODULE\s+\w+)", re.I | re.M)
+# How much of a file is looked at: the signs of a format are in its first lines.
+_HEAD_CHARS = 4096
+
+
+def text_format(text: str) -> str | None:
+    """What the text of a file is when it is plainly not a table, as a phrase ("an HTML
+    page (robocal's report?)", "a JSON document (a robocal model file?)"); None when it may
+    be one.  Only what a table cannot begin with is named: a table's first line is a header
+    of names, which none of these is."""
+    head = text[:_HEAD_CHARS].lstrip("\ufeff \t\r\n")
+    lowered = head[:200].lower()
+    if lowered.startswith(("<!doctype html", "<html")):
+        return "an HTML page (robocal's report?)" if "robocal" in head.lower() else "an HTML page"
+    if lowered.startswith("<"):
+        return "a URDF robot description (XML)" if "<robot" in head.lower() else "an XML document"
+    if head.startswith("{") or (head.startswith("[") and not _TOML_HEADER.match(head.splitlines()[0])):
+        if '"robocal.model"' in head:
+            return "a robocal model file (JSON)"
+        if '"robocal-truth"' in head:
+            return "robocal's truth file (JSON, written by simulate --truth)"
+        return "a JSON document (a robocal model file?)"
+    # TOML files often open with comments; a table's first line is its header.
+    first = next((line for line in head.splitlines() if line.strip() and not line.lstrip().startswith("#")), "")
+    if _TOML_HEADER.match(first) or _TOML_KEY.match(first):
+        if re.search(r"^\s*\[\[\s*joints\s*\]\]", head, re.M):
+            return "a robot file (TOML)"
+        if re.search(r"^\s*\[\s*sockets\s*\]", head, re.M):
+            return "a fixture file (TOML)"
+        return "a TOML file (settings, a robot or a fixture?)"
+    if _PROGRAM.match(head):
+        return "a robot program"
+    return None

@@ -19,8 +19,8 @@ import numpy as np
 from ..errors import FileFormatError, InputError
 from ..spatial import compose_pose
 from .atomic import write_text_atomic
-from .file_kinds import CSV_TABLE, READERS, check, marked
-from .reading import read_text
+from .file_kinds import READERS, check, marked
+from .csv_table import _check_header_line, _records
 from .units import check_angles
 
 # Joint values in a file that all lie within this (and spread by at least RADIAN_SPREAD over
@@ -33,15 +33,15 @@ LIMIT_TOLERANCE = 0.5
 
 
 def table(path):
-    """(header, rows of text) of a CSV file; FileFormatError for an empty one."""
-    text = read_text(path, "CSV file", "table", form="CSV")
-    check(path, CSV_TABLE, text=text)  # robocal's JSON, HTML and TOML files, named
-    first = text.splitlines()[0] if text.strip() else ""
-    delimiter = ";" if first.count(";") > first.count(",") else ","
-    rows = [row for row in csv.reader(io.StringIO(text), delimiter=delimiter) if any(cell.strip() for cell in row)]
+    """(header, rows of text) of a CSV file, read by the one CSV reader (robocal.io.csv_table:
+    other formats named, sep= honoured, other separators refused); FileFormatError for an
+    empty one."""
+    rows = [cells for _, cells in _records(str(path)) if any(cell.strip() for cell in cells)]
     if not rows:
         raise FileFormatError(f"{path} is empty: give a CSV with columns q1 ... qN (deg)")
-    return [name.strip() for name in rows[0]], rows[1:]
+    header = [name.strip() for name in rows[0]]
+    _check_header_line(str(path), header)
+    return header, rows[1:]
 
 
 def _cells(header, rows):

@@ -145,6 +145,25 @@ def read_text(path: str | os.PathLike, what: str, kind: str = "table", *, lines:
     return decode(raw, path, what, form)
 
 
+def read_table_text(path: str | os.PathLike, what: str = "CSV file", reader: str | None = None) -> str:
+    """The text of the table ``path`` (:func:`read_text`), refused in one line when it is
+    one of robocal's files that is not a table (:func:`robocal.io.file_kinds.check`) or
+    plainly a file of another format (:func:`robocal.io.file_kinds.text_format`: a report,
+    a model, a robot or fixture file, a program): every reader of tables (measurements,
+    targets, candidates, placements, ISO campaigns, joint logs, tracker points) reads here;
+    ``reader``: the :data:`~robocal.io.file_kinds.READERS` entry that names what it wants
+    (default: any CSV table)."""
+    from .file_kinds import CSV_TABLE, check, text_format
+
+    text = read_text(path, what, "table", form="CSV")
+    check(path, reader or CSV_TABLE, text=text)  # robocal's own files, named by kind
+    found = text_format(text)
+    if found is not None:
+        raise FileFormatError(f"{path} is {found}, not a table: give the {what} (a table of numbers, one row per "
+                              "line, with a header line naming the columns)")
+    return text
+
+
 def parse_json(text: str, path: str | os.PathLike, what: str):
     """The JSON document ``text`` of ``path``, refused in one line when it is not JSON or
     nests deeper than Python's recursion allows (a hostile file, never one robocal wrote)."""

@@ -6,7 +6,9 @@ asks here for each value it uses, with ``where`` saying which (``'ur5.toml: join
 :func:`keys` return the value in its plain form, or raise :class:`FileFormatError` in one
 line naming the place, what it must be and what was found (shortened).  So a value of the
 wrong type, a missing key or a table nested where a number belongs is one line, never a
-``TypeError`` deep in the code that uses it.
+``TypeError`` deep in the code that uses it.  A document that states its units (a truth
+file's ``units``) has them checked by :func:`stated_units`: a unit robocal does not read
+there is refused, never ignored.
 """
 from __future__ import annotations
 
@@ -86,3 +88,24 @@ def keys(document, where, allowed, required=()):
     if missing:
         raise FileFormatError(f"{where} lacks {', '.join(missing)}")
     return document
+
+
+def stated_units(value, where, expected):
+    """Check the ``units`` entry of a document (``{"lengths": "mm", "angles": "deg"}``):
+    ``expected`` maps each quantity to the spellings of the one unit robocal reads it in
+    (the first is the one to write).  A quantity robocal does not know, or a unit other than
+    its own (metres, radians), is refused in one line: the numbers of the document are read
+    in robocal's units whatever the entry says, so an entry saying otherwise must not pass
+    unnoticed."""
+    first = next(iter(expected))
+    table(value, where, f'a table of units such as {{"{first}": "{expected[first][0]}"}}')
+    keys(value, where, tuple(expected))
+    for quantity, spellings in expected.items():
+        if quantity not in value:
+            continue
+        unit = value[quantity]
+        if not isinstance(unit, str) or unit.strip().lower() not in {s.lower() for s in spellings}:
+            raise FileFormatError(f"{where} says {quantity} are in {shown(unit)}, but this file's {quantity} are "
+                                  f"read in {spellings[0]}: convert the numbers to {spellings[0]} and say "
+                                  f"{spellings[0]!r}, or write the file again with robocal")
+    return value

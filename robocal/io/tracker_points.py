@@ -23,8 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import FileFormatError, InputError
-from .file_kinds import check
-from .reading import read_text
+from .reading import read_table_text
 
 LENGTHS = {"mm": 1.0, "millimeters": 1.0, "millimetres": 1.0, "m": 1000.0, "meters": 1000.0, "metres": 1000.0,
            "cm": 10.0, "in": 25.4, "inch": 25.4, "inches": 25.4, "um": 1e-3, "µm": 1e-3}
@@ -113,8 +112,7 @@ def read_points(path, units=None) -> TrackerPoints:
     """
     if units is not None and units.lower() not in LENGTHS:
         raise InputError(f"--units {units}: give one of mm, m, cm, in, um")
-    text = read_text(path, "point file", "table")
-    check(path, "points", text=text)
+    text = read_table_text(path, "point file", reader="points")
     stated, data = set(), []
     for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()

@@ -52,6 +52,9 @@ EVIDENCE_POSES = 300
 # 1/25.4, cm 1/10, micrometres 1000; the band leaves a factor of 2 to cm and 20 to µm, for a
 # tool the robot file does not have.
 SPREAD_RATIO_BAND = (0.2, 50.0)
+# Positions spreading this many times less than the largest unit robocal knows (metres) would
+# make them do not move at all: no unit explains them, they are the same point over and over.
+STILL_FACTOR = 20.0
 # The model must move this much (RMS, mm) over the poses for the ratio to mean anything.
 SPREAD_JUDGED_MM = 10.0
 # Rounds of base (rigid fit) and tool (least squares) registration.
@@ -165,16 +168,29 @@ def check_measurement_units(chain, joint_values, positions, path):
     if low <= ratio <= high:
         return
     others = {name: 1.0 / factor for name, factor in LENGTH_UNITS.items() if name != "mm"}
+    if ratio < min(others.values()) / STILL_FACTOR:
+        _refuse_still_positions(chain, positions, measured, model, path)
     unit = min(others, key=lambda name: abs(np.log(max(ratio, 1e-300) / others[name])))
-    if measured == 0.0:
-        looks = "every row gives the same position"
-    elif abs(np.log(ratio / others[unit])) > np.log(2.0):
+    if abs(np.log(ratio / others[unit])) > np.log(2.0):
         looks = f"they are not in mm for this robot (1 mm of the model is {ratio:.3g} in the file)"
     else:
         looks = f"they look like {unit}"
     raise InputError(
         f"the measured positions of {path or 'the data'} spread {measured:.3g} over these poses where the "
         f"model of '{chain.name}' spreads {model:.0f} mm: {looks}; give x, y, z in mm (or check the robot file)")
+
+
+def _refuse_still_positions(chain, positions, measured, model, path):
+    """InputError for measured positions that do not move while the robot's TCP does: no unit
+    makes them positions of these poses (the same x, y, z copied down, an instrument that
+    stayed on one point)."""
+    found = (f"all {len(positions)} rows give the same x, y, z" if len(np.unique(positions, axis=0)) == 1 else
+             f"they spread only {measured:.3g} over the {len(positions)} rows")
+    raise InputError(
+        f"the measured positions of {path or 'the data'} do not move with the robot: {found}, where the model of "
+        f"'{chain.name}' "
+        f"moves its TCP {model:.0f} mm over these poses; give each pose's own measured x, y, z (mm) (was the "
+        "column filled down, or did the instrument lose its target?)")
 
 
 def check_hint_units(chain, hint_values, target_positions, path):
@@ -212,10 +228,24 @@ def reach_mm(chain):
     return float(np.linalg.norm(rigid.fk_positions(joints), axis=1).max())
 
 
-def check_lengths(size, smallest_mm, what, owner):
+def apart(*values):
+    """The numbers ``values`` as texts with the fewest significant digits (three at least)
+    that print different numbers differently: a message comparing 4.996 with 5.005 must not
+    say "5, where at least 5"."""
+    values = [float(v) for v in values]
+    for digits in range(3, 18):
+        texts = [f"{v:.{digits}g}" for v in values]
+        if len(set(texts)) == len(set(values)):
+            return texts
+    return [repr(v) for v in values]
+
+
+def check_lengths(size, smallest_mm, what, owner, measure="largest"):
     """InputError when ``size`` (the largest length of ``what``, as typed, > 0) lies below
     ``smallest_mm``, the least a length of ``owner`` (a phrase: "a UR5 reaching 850 mm")
-    can be in mm; the message names metres when they make it one.  A
+    can be in mm; ``measure`` says what ``size`` is ("largest", "distance from the origin" for a
+    point judged by its distance from the origin).  The message names metres when they make
+    it one, and prints the two numbers it compares so that they differ (:func:`apart`).  A
     zero size (a tool on the flange, a box at the origin) says nothing and passes."""
     size = float(size)
     if not np.isfinite(size) or size == 0.0 or size >= smallest_mm:
@@ -223,7 +253,8 @@ def check_lengths(size, smallest_mm, what, owner):
     # Metres are what a length typed 1000 times too small is (a SI habit, a ROS export);
     # below even that, the numbers are no length of this kind in any unit.
     looks = "they look like metres" if size * LENGTH_UNITS["metres"] >= smallest_mm else "they are not mm"
-    raise InputError(f"{what}: largest {size:.3g}, where {owner} needs at least {smallest_mm:.3g} mm: {looks}; "
+    shown, least = apart(size, smallest_mm)
+    raise InputError(f"{what}: {measure} {shown}, where {owner} needs at least {least} mm: {looks}; "
                      "give them in mm")
 
 
@@ -235,7 +266,8 @@ def check_robot_lengths(chain, values, what, *, position=False):
     size = np.linalg.norm(values) if position else np.abs(values).max(initial=0.0)
     reach = reach_mm(chain)
     check_lengths(size, reach * SMALLEST_REACH_SHARE, what,
-                  f"a length about robot '{chain.name}' (reach {reach:.0f} mm)")
+                  f"a length about robot '{chain.name}' (reach {reach:.0f} mm)",
+                  "distance from the origin" if position else "largest")
 
 
 # --------------------------------------------------------------------------- typed angles

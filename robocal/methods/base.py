@@ -121,8 +121,10 @@ class Method:
         this robot's are refused first (:mod:`robocal.estimation.plausibility`), and before them
         a setting its constraint refuses (:meth:`robocal.settings.Setting.check`)."""
         check_settings(self.settings, {s.name: getattr(self, s.name) for s in self.settings})
-        from ..estimation.plausibility import check_measured, check_robot_data
+        from ..estimation.plausibility import check_measured, check_positions_follow_the_robot, check_robot_data
 
+        # Positions stuck while the robot moves, named before they are judged another robot's.
+        check_positions_follow_the_robot(chain, observations)
         if not self.checks_its_data:
             self.data_check_ = check_robot_data(chain, observations, getattr(self, "prior", "tolerances"),
                                                 getattr(self, "tolerance_scale", 1.0))

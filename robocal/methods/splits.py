@@ -128,13 +128,16 @@ def joint_features(chain, joints):
 def cluster_split(chain, joints, folds=FOLDS, seed=0):
     """Leave one cluster of joint configurations out at a time (k-means in
     :func:`joint_features`, seeded k-means++ starts, best of several)."""
-    from scipy.cluster.vq import kmeans2
+    from scipy.cluster.vq import ClusterError, kmeans2
 
     features = joint_features(chain, joints)
     rng = np.random.default_rng(seed)
     best, best_inertia = None, np.inf
     for _ in range(5):
-        centres, labels = kmeans2(features, folds, minit="++", seed=rng, missing="raise")
+        try:
+            centres, labels = kmeans2(features, folds, minit="++", seed=rng, missing="raise")
+        except ClusterError:  # a region left empty: another start (none for too few distinct poses)
+            continue
         inertia = float(np.sum((features - centres[labels]) ** 2))
         if inertia < best_inertia and len(np.unique(labels)) == folds:
             best, best_inertia = labels, inertia

@@ -34,6 +34,17 @@ _UNITS = {
     "stiffness": "N*m/rad (N/mm for prismatic joints); null = rigid",
     "masses": "kg",
 }
+# The units entry a truth file may carry (robocal.io.schema.stated_units): what robocal
+# writes, and the spellings of the same units a person editing the file might use.
+_UNIT_SPELLINGS = {
+    "lengths": ("mm", "millimetre", "millimetres", "millimeter", "millimeters"),
+    "angles": ("deg", "degree", "degrees"),
+    "stiffness": (_UNITS["stiffness"], "N*m/rad", "Nm/rad", "N.m/rad"),
+    "masses": ("kg", "kilogram", "kilograms"),
+}
+# Every entry of a truth file (to_dict): any other is refused, not ignored.
+_TRUTH_KEYS = ("format", "version", "units", "preset", "seed", "robot", "deviations", "compliance", "backlash",
+               "noise", "noise_orientation")
 
 
 def _file_to_internal(chain, name, value):
@@ -216,7 +227,11 @@ class TrueRobot:
             )
         try:
             # Every entry through the one schema helper: a value of the wrong type is one line
-            # naming it (robocal.io.schema), never Python's own message.
+            # naming it (robocal.io.schema), never Python's own message; an entry robocal does
+            # not read, or units it does not read the numbers in, is refused, not ignored.
+            schema.keys(doc, where, _TRUTH_KEYS, required=("robot",))
+            if "units" in doc:
+                schema.stated_units(doc["units"], f"{where}: units", _UNIT_SPELLINGS)
             robot = schema.text(doc["robot"], f"{where}: robot")
             try:
                 nominal = chain_from_dict(tomllib.loads(robot), f"{where} (robot)")

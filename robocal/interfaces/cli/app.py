@@ -17,13 +17,15 @@ import warnings
 
 import numpy as np
 import typer
+from rich.table import Table
+from typer import rich_utils
 from typer.core import TyperCommand, TyperGroup
 
 from ... import __version__
 from ...errors import RobocalError, RobocalWarning
 from ...io.atomic import outputs_together
 from .options import Refused
-from .rendering import err, out, say
+from .rendering import before_result, err, out, say
 
 # typer.BadParameter is click's; its bases are the errors click raises while parsing.
 UsageError = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
@@ -38,6 +40,48 @@ def _plain_flags(params):
         if getattr(param, "is_flag", False) and getattr(param, "metavar", None) is None:
             param.metavar = ""
     return params
+
+
+def _longest_word(renderable):
+    """The length of the longest word of a cell of --help (a Text, typer's Columns of them,
+    Markdown or a string)."""
+    if hasattr(renderable, "renderables"):  # typer's help cell: Columns of texts
+        return max((_longest_word(item) for item in renderable.renderables), default=0)
+    text = getattr(renderable, "plain", getattr(renderable, "markup", renderable))
+    return max((len(word) for word in str(text).split()), default=0) if isinstance(text, str) else 0
+
+
+class _HelpTable(Table):
+    """The tables of --help (typer builds them through ``rich_utils.Table``): the columns that
+    name options, arguments and commands never wrap, so that a narrow terminal (an 80-column
+    log) shrinks the type and help columns and never cuts a name short with "…";
+    and the help column gives the type column the width of its longest choice when it can
+    keep its own longest word ("full+compliance+gain s" was broken).  An options row is
+    [required marker,] long names, short names, their negations, type, help; a commands row
+    is name, help."""
+
+    def add_row(self, *renderables, **kwargs):
+        super().add_row(*renderables, **kwargs)
+        count = len(renderables)
+        names = range(count - 2) if count >= 6 else range(1) if count == 2 else ()
+        for column in names:
+            self.columns[column].no_wrap = True
+
+    def _calculate_column_widths(self, console, options):
+        widths = super()._calculate_column_widths(console, options)
+        if len(widths) >= 6 and self.columns:
+            kind, help_ = len(widths) - 2, len(widths) - 1
+            longest = [max((_longest_word(cell) for cell in self.columns[c].cells), default=0)
+                       + self._get_padding_width(c) for c in (kind, help_)]
+            need = longest[0] - widths[kind]
+            if need > 0 and widths[help_] - need >= longest[1]:
+                widths[kind] += need
+                widths[help_] -= need
+        return widths
+
+
+# Every command's help is drawn by typer's rich_utils: one change covers them all.
+rich_utils.Table = _HelpTable
 
 
 class _Command(TyperCommand):
@@ -130,20 +174,60 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
         err.print(f"warning: {category.__name__}: {message}")
 
 
+@contextlib.contextmanager
+def held_warnings():
+    """Hold the warnings raised in the body until its data are accepted: until the first
+    line of its result is printed (:func:`robocal.interfaces.cli.rendering.before_result`)
+    or the body ends without an error.  A body that ends in an error (a refusal) or an
+    interruption drops them: a warning about data that are then refused is not printed
+    before the refusal (a reader's "rows 2..41 are identical", then "1 distinct pose"), the
+    refusal is the one line.  Warnings raised after the release are shown as they come."""
+    shown = warnings.showwarning
+    held, state = [], {"released": False}
+
+    def hold(message, category, filename, lineno, file=None, line=None):
+        if state["released"]:
+            shown(message, category, filename, lineno, file, line)
+        else:
+            held.append((message, category, filename, lineno, file, line))
+
+    def release():
+        state["released"] = True
+        while held:
+            shown(*held.pop(0))
+
+    warnings.showwarning = hold
+    before_result(release)
+    try:
+        yield
+    except typer.Exit:  # a status of the command's own (fleet: a robot failed): its results stand
+        release()
+        raise
+    else:
+        release()
+    finally:
+        held.clear()
+        if warnings.showwarning is hold:
+            warnings.showwarning = shown
+        state["released"] = True
+
+
 # --------------------------------------------------------------------------- errors and interruptions
 DEBUG = typer.Option(False, "--debug", help="Show tracebacks of errors.")
 
 
-def verb(*args, **kwargs):
-    """Decorator of a command: registered on the app, its user errors one line (:func:`user_errors`)."""
+def verb(*args, hold_warnings=True, **kwargs):
+    """Decorator of a command: registered on the app, its user errors one line
+    (:func:`user_errors`), its warnings held until its data are accepted
+    (:func:`held_warnings`; ``hold_warnings=False`` for a command that runs until stopped)."""
     def decorate(func):
-        command(*args, **kwargs)(user_errors(func))
+        command(*args, **kwargs)(user_errors(func, hold_warnings))
         return func
 
     return decorate
 
 
-def user_errors(func):
+def user_errors(func, hold_warnings=False):
     """Turn RobocalError (and a system's refusal of a file) into one line on stderr and exit
     status 2; add ``--debug`` to the command (it is also accepted before the command).  The
     command's outputs are one unit (:func:`robocal.io.atomic.outputs_together`): a command
@@ -156,7 +240,8 @@ def user_errors(func):
             _state["debug"] = True
         _warned.clear()  # once per command: a command run again (in one process) warns again
         try:
-            with outputs_together(keep_on=(typer.Exit,)):
+            with held_warnings() if hold_warnings else contextlib.nullcontext(), \
+                    outputs_together(keep_on=(typer.Exit,)):
                 return func(*args, **kwargs)
         except RobocalError as exc:
             if _state["debug"]:

@@ -10,8 +10,33 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
+# Run once before the first line of a result is printed: the command line holds a command's
+# warnings until then (robocal.interfaces.cli.app.held_warnings), when its data have been
+# accepted.
+_before_result = []
+
+
+def before_result(action):
+    """Run ``action()`` before the next result line is printed (once)."""
+    _before_result.append(action)
+
+
+def result_starts():
+    """Run what waits for the first result line (:func:`before_result`)."""
+    while _before_result:
+        _before_result.pop(0)()
+
+
+class _ResultConsole(Console):
+    """The console of results: what waits for the first result line runs before it."""
+
+    def print(self, *args, **kwargs):
+        result_starts()
+        super().print(*args, **kwargs)
+
+
 # No markup: messages and tables carry users' text (file names, "[sockets]") that must print as is.
-out = Console(highlight=False, soft_wrap=True, markup=False)
+out = _ResultConsole(highlight=False, soft_wrap=True, markup=False)
 err = Console(stderr=True, highlight=False, soft_wrap=True, markup=False)
 
 
@@ -50,6 +75,7 @@ def progress(description, total=None, *, enabled=True):
 
 def print_json(result):
     """A result as one JSON object on stdout (plain print: no console wrapping)."""
+    result_starts()
     print(json.dumps(result, indent=2))
 
 

@@ -88,7 +88,7 @@ def filter_programs(
     print_filtered(result, out_dir, as_json)
 
 
-@verb()
+@verb(hold_warnings=False)  # it answers until stopped: its warnings are shown as they come
 def serve(
     model: str = MODEL,
     port: int = typer.Option(8765, "--port", min=0, max=65535, help="TCP port (0: any free port, printed)."),
