@@ -11,17 +11,22 @@ import math
 
 import pytest
 
-from hostile import invoke, prepare, refuse, text
+from hostile import EXAMPLES, invoke, prepare, refuse, text
 
 Q = [f"q{i}" for i in range(1, 7)]
 XYZ = ["x", "y", "z"]
 RPY = ["rx", "ry", "rz"]
 
 
-def scaled(name, columns, factor, unit=None):
-    """The base file ``name`` with ``columns`` multiplied by ``factor`` (and tagged [unit])."""
+def scaled(name, columns, factor, unit=None, keep=None):
+    """The base file ``name`` (or an example, ``examples/NAME``) with ``columns`` multiplied by
+    ``factor`` (and tagged [unit]); ``keep``: only these columns (and robocal_file)."""
     def make(base):
-        rows = list(csv.reader(io.StringIO((base / name).read_text())))
+        path = EXAMPLES / name[len("examples/"):] if name.startswith("examples/") else base / name
+        rows = list(csv.reader(io.StringIO(path.read_text())))
+        if keep is not None:
+            chosen = [i for i, c in enumerate(rows[0]) if c in keep or c == "robocal_file"]
+            rows = [[row[i] for i in chosen] for row in rows]
         header = rows[0]
         out = io.StringIO()
         writer = csv.writer(out, lineterminator="\n")
@@ -57,7 +62,18 @@ REFUSED = [
     ("evaluate-metres", ["evaluate", "ur5_model.json", "m.csv"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres"),
     ("report-metres", ["report", "ur5_model.json", "m.csv", "--out", "r.html"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres"),
     ("validate-metres", ["validate", "ur5", "m.csv", "--folds", "3"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres"),
-    ("targets-metres", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1e-3)}, "in mm and degrees"),
+    ("targets-metres", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1e-3)}, "they look like metres"),
+    ("targets-metres-no-hints", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1e-3, keep=XYZ + RPY)}, "they look like metres"),
+    ("targets-inches-with-hints", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1 / 25.4)}, "they look like inches"),
+    ("kr-targets-metres", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("examples/kr150-targets.csv", XYZ, 1e-3)}, "they look like metres"),
+    ("design-targets-metres", ["design", "ur5", "--n", "5", "--pool", "300", "--targets", "t.csv", "--out", "p.csv"], {"t.csv": scaled("targets.csv", XYZ, 1e-3, keep=XYZ + RPY)}, "they look like metres"),
+    ("measurements-wrist-radians", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", Q[3:], math.pi / 180)}, "the joint values q4..q6 look like radians"),
+    ("measurements-shoulder-elbow-radians", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", Q[1:3], math.pi / 180)}, "the joint values q2, q3 look like radians"),
+    ("evaluate-wrist-radians", ["evaluate", "ur5_model.json", "m.csv"], {"m.csv": scaled("ur5.csv", Q[3:], math.pi / 180)}, "the joint values q4..q6 look like radians"),
+    ("targets-hint-wrist-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", Q[3:], math.pi / 180)}, "the posture hints q4..q6 look like radians"),
+    ("targets-hint-one-joint-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", ["q5"], math.pi / 180)}, "the posture hints q5 look like radians"),
+    ("kr-targets-seed-hint-radians", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("examples/kr150-targets.csv", Q, math.pi / 180)}, "the posture hints q1..q6 look like radians"),
+    ("kr-targets-seed-hint-radians-iterate", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv", "--iterate"], {"t.csv": scaled("examples/kr150-targets.csv", Q, math.pi / 180)}, "the posture hints q1..q6 look like radians"),
     ("targets-orientation-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", RPY, math.pi / 180)}, "look like radians"),
     ("targets-hint-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", Q, math.pi / 180)}, "the posture hints q1..q6 look like radians"),
     ("simulate-box-metres", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", "--box", "-0.4,0.4,-0.4,0.4,0.1,0.5", "--out", "s.csv"], None, "they look like metres"),
@@ -89,6 +105,24 @@ REFUSED = [
 @pytest.mark.parametrize("args, files, says", [row[1:] for row in REFUSED], ids=[row[0] for row in REFUSED])
 def test_wrong_unit_is_refused(tmp_path, args, files, says):
     refuse(tmp_path, args, files, says)
+
+
+# The same shapes in mm and degrees: read and used.
+ACCEPTED = [
+    ("measurements", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", Q, 1.0)}, "o.json"),
+    ("targets-with-hints", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1.0)}, "o.csv"),
+    ("targets-no-hints", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1.0, keep=XYZ + RPY)}, "o.csv"),
+    ("kr-targets-seed-hint", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("examples/kr150-targets.csv", XYZ, 1.0)}, "o.csv"),
+    ("kr-targets-seed-hint-iterate", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv", "--iterate"], {"t.csv": scaled("examples/kr150-targets.csv", XYZ, 1.0)}, "o.csv"),
+]
+
+
+@pytest.mark.parametrize("args, files, output", [row[1:] for row in ACCEPTED], ids=[row[0] for row in ACCEPTED])
+def test_the_same_shapes_in_mm_and_degrees_are_accepted(tmp_path, args, files, output):
+    prepare(tmp_path, files)
+    outcome = invoke(tmp_path, args)
+    assert outcome.code == 0, outcome.output
+    assert (tmp_path / output).stat().st_size > 0
 
 
 def _mean(folder, model, data):
