@@ -303,7 +303,7 @@ def reach_mm(chain):
     return float(np.linalg.norm(rigid.fk_positions(joints), axis=1).max())
 
 
-def check_lengths(size, smallest_mm, what, owner):
+def check_lengths(size, smallest_mm, what, owner, fix="give them in mm"):
     """InputError when ``size`` (the largest length of ``what``, as typed, > 0) lies below
     ``smallest_mm``, the least a length of ``owner`` (a phrase: "a UR5 reaching 850 mm")
     can be in mm; the message names metres when they make it one.  A
@@ -315,7 +315,7 @@ def check_lengths(size, smallest_mm, what, owner):
     # below even that, the numbers are no length of this kind in any unit.
     looks = "they look like metres" if size * LENGTH_UNITS["metres"] >= smallest_mm else "they are not mm"
     raise InputError(f"{what}: largest {size:.3g}, where {owner} needs at least {smallest_mm:.3g} mm: {looks}; "
-                     "give them in mm")
+                     f"{fix}")
 
 
 def check_robot_lengths(chain, values, what, *, position=False):
@@ -327,6 +327,42 @@ def check_robot_lengths(chain, values, what, *, position=False):
     reach = reach_mm(chain)
     check_lengths(size, reach * SMALLEST_REACH_SHARE, what,
                   f"a length about robot '{chain.name}' (reach {reach:.0f} mm)")
+
+
+# Positions measured about a robot without the robot to judge them (an ISO 9283 campaign, a
+# tracker's point export): in any frame, the largest coordinate of a robot's poses in mm is at
+# least this (a small arm's flange stands 100 mm and more from its base; a tracker stands
+# metres away).  The same points in metres are a few units (a base frame) or the tracker's
+# distance in metres.
+SMALLEST_POINTS_MM = 20.0
+# Two sets of positions of the same poses (commanded and attained) in the same unit spread
+# alike: within this factor (an ISO campaign's robot misses its commands by a few mm).
+SAME_SPREAD = 2.0
+
+
+def check_point_lengths(points, what, fix="give them in mm"):
+    """InputError when the positions ``points`` (N, 3, as read as mm) of ``what`` are no
+    robot's poses in mm: the largest coordinate below :data:`SMALLEST_POINTS_MM` (metres)."""
+    points = np.asarray(points, dtype=float)
+    check_lengths(np.abs(points).max(initial=0.0), SMALLEST_POINTS_MM, what, "a position measured about a robot",
+                  fix)
+
+
+def check_same_unit(reference, points, what, reference_what):
+    """InputError when ``points`` (N, 3) spread unlike ``reference`` (N, 3), the same poses in
+    mm, by more than :data:`SAME_SPREAD`: another length unit, named when one fits."""
+    reference, points = np.asarray(reference, dtype=float), np.asarray(points, dtype=float)
+    if len(reference) < 2 or _spread(reference) < SPREAD_JUDGED_MM:
+        return
+    ratio = _spread(points) / _spread(reference)
+    if 1.0 / SAME_SPREAD <= ratio <= SAME_SPREAD:
+        return
+    others = {name: 1.0 / factor for name, factor in LENGTH_UNITS.items() if name != "mm"}
+    unit = min(others, key=lambda name: abs(np.log(max(ratio, 1e-300) / others[name])))
+    looks = (f"they look like {unit}" if ratio > 0 and abs(np.log(ratio / others[unit])) <= np.log(SAME_SPREAD)
+             else "they are not in the same unit")
+    raise InputError(f"{what} spread {_spread(points):.3g} where {reference_what} of the same poses spread "
+                     f"{_spread(reference):.3g} mm: {looks}; give both in mm")
 
 
 # --------------------------------------------------------------------------- typed angles
