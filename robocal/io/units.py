@@ -39,6 +39,10 @@ LENGTH_UNITS = {"mm": 1.0, "metres": 1000.0, "cm": 10.0, "inches": 25.4, "microm
 # nominal robot misses by 0.3 % of the positions' spread; radians read as degrees by 200 %
 # and more.
 EVIDENCE_RATIO = 10.0
+# A reading overrules the stated one only if it explains the data: the nominal robot misses
+# them by at most this share of their spread (right units on the shipped data: 0.1 to 0.3 %).
+# Poses that barely move (a cluster) leave every reading far from this.
+EXPLAINED_SHARE = 0.1
 # Posture hints are seeds, not the solution: on the shipped UR5 targets the right reading
 # leaves 31 mm (median) between a hint's TCP and its target, the wrist (q4..q6) in radians
 # 202 mm, every joint in radians 476 mm.  A hint reading must be this many times nearer.
@@ -163,13 +167,14 @@ def evidence(chain, joint_values, positions):
     return out
 
 
-def _verdict(misfits, stated, ratio=EVIDENCE_RATIO):
-    """The reading that overrules ``stated`` (a key of ``misfits``) by ``ratio``, or None.  Of
+def _verdict(misfits, stated, ratio=EVIDENCE_RATIO, explains=np.inf):
+    """The reading that overrules ``stated`` (a key of ``misfits``) by ``ratio`` and itself
+    explains the data (misfit at most ``explains``), or None.  Of
     readings as good as the best (within SAME_MISFIT), the one with the most radian columns:
     a joint that does not move the TCP (a wrist roll on its axis) fits either way, and its
     column is in the unit of its neighbours."""
     best = min(misfits, key=misfits.get)
-    if best == stated or misfits[best] * ratio >= misfits[stated]:
+    if best == stated or misfits[best] * ratio >= misfits[stated] or misfits[best] > explains:
         return None
     same = [key for key in misfits if misfits[key] <= misfits[best] * SAME_MISFIT]
     return max(same, key=lambda key: (len(key[0]) if isinstance(key[0], tuple) else len(key), -misfits[key]))
@@ -197,7 +202,7 @@ def check_measurement_units(chain, joint_values, positions, path):
         return
     if len(joint_values) >= 4 and len(_angle_readings(chain, joint_values)) > 1:
         misfits = evidence(chain, joint_values, positions)
-        better = _verdict(misfits, ((), "mm"))
+        better = _verdict(misfits, ((), "mm"), explains=EXPLAINED_SHARE)
         if better is not None and better[0]:
             lengths = "" if better[1] == "mm" else f" and x, y, z look like {better[1]}"
             raise InputError(

@@ -64,7 +64,7 @@ def _check_existing(path, chain):
     if {"x", "y", "z"} <= set(header):
         observations = read_observations(path, chain)
         check_robot_data(chain, observations)
-        check_measured(chain, observations)
+        check_measured(chain, observations, fitting=False)
 
 
 def _noise_from(path, chain, parameters, payload):
