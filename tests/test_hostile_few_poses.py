@@ -94,3 +94,36 @@ def test_poses_spread_like_a_campaign_calibrate(tmp_path, content):
     assert outcome.code == 0, outcome.output
     assert (tmp_path / "o.json").stat().st_size > 0
 
+
+def one_placement(base):
+    """The base ball-in-socket file's rows of its first fixture placement only."""
+    lines = (base / "sockets.csv").read_text().splitlines()
+    column = lines[0].split(",").index("fixture")
+    first_placement = lines[1].split(",")[column]
+    return "\n".join([lines[0]] + [r for r in lines[1:] if r.split(",")[column] == first_placement]) + "\n"
+
+
+def test_sockets_of_one_placement_fit_and_say_the_placement_is_one(tmp_path):
+    """One fixture placement pins part of the model (the rest is held by its prior): a fit,
+    not a traceback (the identifiability of fewer constraint rows than parameters), with a
+    warning that the error elsewhere is not measured."""
+    from hostile import invoke, prepare
+
+    prepare(tmp_path, {"f.csv": one_placement})
+    outcome = invoke(tmp_path, ["calibrate", "kr150-2", "f.csv", "--method", "constraint", "--fixture", "plate.toml",
+                                "--out", "o.json"])
+    assert outcome.code == 0, outcome.output
+    assert "Traceback" not in outcome.output
+    assert any("one fixture placement" in line and "measure at two or more placements" in line
+               for line in outcome.lines), outcome.lines
+    assert (tmp_path / "o.json").stat().st_size > 0
+
+
+def test_sockets_of_several_placements_do_not_warn_of_one(tmp_path):
+    from hostile import invoke, prepare
+
+    prepare(tmp_path)
+    outcome = invoke(tmp_path, ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture",
+                                "plate.toml", "--out", "o.json"])
+    assert outcome.code == 0, outcome.output
+    assert not any("one fixture placement" in line for line in outcome.lines), outcome.lines
