@@ -236,3 +236,19 @@ def test_iso9283_plan_refuses_typed_numbers_in_other_units(option, value, says, 
     assert result.exit_code != 0 and says in result.output
     assert "Traceback" not in result.output and len(result.output.strip().splitlines()) == 1
     assert not out.exists()
+
+
+# A --region of a ball-in-socket design typed below the robot's mounting plane (z < 0, as a
+# height measured down from the base, or the sign flipped): refused naming the plane, not
+# "place the fixture nearer"; the same region above it designs.
+def test_a_region_below_the_mounting_plane_is_refused_naming_it(tmp_path):
+    refuse(tmp_path, ["design", "kr150-2", "--fixture", "plate.toml", "--region", "1200,2000,-500,500,-900,-600",
+                      "--n", "12", "--out", "p.csv"], None, "below the robot's mounting plane")
+
+
+def test_a_region_above_the_mounting_plane_designs(tmp_path):
+    prepare(tmp_path)
+    outcome = invoke(tmp_path, ["design", "kr150-2", "--fixture", "plate.toml", "--region",
+                                "1200,2000,-500,500,600,900", "--n", "18", "--per-socket", "3", "--out", "p.csv"])
+    assert outcome.code == 0, outcome.output
+    assert (tmp_path / "p.csv").stat().st_size > 0
