@@ -63,10 +63,10 @@ REFUSED = [
     ("cluster-half-degree", CAL, cluster(0.5), "its 40 poses are clustered (no joint moves more than"),
     ("cluster-half-degree-kriging", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json"], cluster(0.5), "poses are clustered"),
     ("cluster-half-degree-hybrid", ["calibrate", "ur5", "f.csv", "--method", "hybrid", "--out", "o.json"], cluster(0.5), "poses are clustered"),
-    ("cluster-five-degrees-positions-move", CAL, cluster(5.0, positions_move=True), "measure poses spread over the workspace, the TCP at least"),
-    ("cluster-five-degrees-kriging", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json"], cluster(5.0, positions_move=True), "poses are clustered"),
-    ("cluster-five-degrees-frames", ["calibrate", "ur5_model.json", "f.csv", "--method", "frames", "--out", "o.json"], cluster(5.0, positions_move=True), "poses are clustered"),
-    ("cluster-validate", ["validate", "ur5", "f.csv", "--folds", "3"], cluster(2.0, positions_move=True), "poses are clustered"),
+    ("cluster-one-degree-positions-move", CAL, cluster(1.0, positions_move=True), "measure poses spread over the workspace, the TCP at least"),
+    ("cluster-one-degree-kriging", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json"], cluster(1.0, positions_move=True), "poses are clustered"),
+    ("cluster-one-degree-frames", ["calibrate", "ur5_model.json", "f.csv", "--method", "frames", "--out", "o.json"], cluster(1.0, positions_move=True), "poses are clustered"),
+    ("cluster-validate", ["validate", "ur5", "f.csv", "--folds", "3"], cluster(1.0, positions_move=True), "poses are clustered"),
 ]
 
 
@@ -75,22 +75,28 @@ def test_too_few_or_clustered_poses_are_refused(tmp_path, args, content, says):
     refuse(tmp_path, args, {"f.csv": content}, says)
 
 
-# Clusters are refused to fits only: a model is scored on them, and poses spread like a real
-# campaign's (+-30 deg about one posture, or the first 12 of the base file) calibrate.
+# Clusters are refused to fits only: a model is scored on them, and poses spread more (+-5 deg
+# about one posture: fitted, its predicted error says how far it holds; +-30 deg; the first 12
+# of the base file) calibrate.
 def test_a_model_is_still_scored_on_clustered_poses(tmp_path):
     from hostile import invoke, prepare
 
-    prepare(tmp_path, {"f.csv": cluster(2.0, positions_move=True)})
+    prepare(tmp_path, {"f.csv": cluster(0.5, positions_move=True)})
     outcome = invoke(tmp_path, ["evaluate", "ur5_model.json", "f.csv"])
     assert outcome.code == 0, outcome.output
 
 
-@pytest.mark.parametrize("content", [cluster(30.0, positions_move=True), first(12)], ids=["thirty-degrees", "first-12"])
-def test_poses_spread_like_a_campaign_calibrate(tmp_path, content):
+@pytest.mark.parametrize("content, extra", [
+    # the prediction of a +-5 deg cluster refuses it as an extrapolation unless accepted
+    (cluster(5.0, positions_move=True), ["--accept-extrapolation"]),
+    (cluster(30.0, positions_move=True), []),
+    (first(12), []),
+], ids=["five-degrees-accepted-extrapolation", "thirty-degrees", "first-12"])
+def test_poses_spread_like_a_campaign_calibrate(tmp_path, content, extra):
     from hostile import invoke, prepare
 
     prepare(tmp_path, {"f.csv": content})
-    outcome = invoke(tmp_path, CAL)
+    outcome = invoke(tmp_path, CAL + extra)
     assert outcome.code == 0, outcome.output
     assert (tmp_path / "o.json").stat().st_size > 0
 
