@@ -10,12 +10,17 @@ sizeable part of its reach.  So every reader that meets the robot asks the same 
 miss?  The stated units stand unless another reading explains the data
 :data:`EVIDENCE_RATIO` times better; then the file is refused, naming the units that fit.
 
-* measurement files: joints (degrees or radians) and positions (mm, metres, cm, inches,
-  micrometres), the nominal robot registered to the positions (base by a rigid fit, tool by
-  linear least squares, alternated), and the lengths' scale against the robot's:
+* measurement files: joints (degrees or radians, judged column by column: any subset of the
+  revolute columns may be in radians) and positions (mm, metres, cm, inches, micrometres),
+  the nominal robot registered to the positions (base by a rigid fit, tool by linear least
+  squares, alternated), and the lengths' scale against the robot's:
   :func:`check_measurement_units`;
-* posture hints in targets files (degrees or radians): how far the hint's TCP lies from its
-  target: :func:`check_hint_units`;
+* targets files: positions as a length about the robot and, with posture hints, spread as the
+  hints' TCP; posture hints (degrees or radians, by column) by how far the hint's TCP lies
+  from its target: :func:`check_target_units`;
+* positions without a robot (an ISO 9283 campaign, a tracker's points): the size of a robot's
+  poses in mm, and commanded and measured in one unit: :func:`check_point_lengths`,
+  :func:`check_same_unit`;
 * lengths a user types or a file carries without measurements to judge them by (design's
   ``--box``, ``--tool``, ``--tracker``, ``--region``, ``--walls``; a fixture's socket
   spacings): their size against the robot's reach (or a fixture's smallest span), and which
@@ -177,7 +182,10 @@ def _verdict(misfits, stated, ratio=EVIDENCE_RATIO, explains=np.inf):
     if best == stated or misfits[best] * ratio >= misfits[stated] or misfits[best] > explains:
         return None
     same = [key for key in misfits if misfits[key] <= misfits[best] * SAME_MISFIT]
-    return max(same, key=lambda key: (len(key[0]) if isinstance(key[0], tuple) else len(key), -misfits[key]))
+    def columns(key):  # (columns, length unit) of a measurement reading, columns of a hint reading
+        return key[0] if key and isinstance(key[0], tuple) else key
+
+    return max(same, key=lambda key: (len(columns(key)), -misfits[key]))
 
 
 def _spread(points):
