@@ -59,7 +59,7 @@ REFUSED = [
     ("validate-five-poses", ["validate", "ur5", "f.csv", "--folds", "5"], first(5), "give 12 equations for 35 parameters"),
     ("frames-two-poses", ["calibrate", "ur5_model.json", "f.csv", "--method", "frames", "--out", "o.json"], first(2), "re-registering 9 parameters needs at least 6 poses"),
     ("sockets-three-rows", ["calibrate", "kr150-2", "f.csv", "--method", "constraint", "--fixture", "plate.toml", "--out", "o.json"], first(3, "sockets.csv"), "record more configurations per socket"),
-    ("tight-cluster-one-position", CAL, tight_cluster, "poses are clustered"),
+    ("tight-cluster-one-position", CAL, tight_cluster, "(nearly) collinear"),
     ("cluster-half-degree", CAL, cluster(0.5), "its 40 poses are clustered (no joint moves more than"),
     ("cluster-half-degree-kriging", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json"], cluster(0.5), "poses are clustered"),
     ("cluster-half-degree-hybrid", ["calibrate", "ur5", "f.csv", "--method", "hybrid", "--out", "o.json"], cluster(0.5), "poses are clustered"),

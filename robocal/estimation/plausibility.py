@@ -83,14 +83,17 @@ def check_measured(chain, observations, *, fitting=True):
         check_spread(chain, observations)
 
 
-def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.0):
+def check_robot_data(chain, observations, prior="tolerances", tolerance_scale=1.0, *, fitting=True):
     """InputError, in one line, when ``observations`` (positions) cannot be ``chain``'s data in
     mm and degrees, judged against the tolerances times ``tolerance_scale``; rows that do not
     fit the rest are named as the user's file lines.  ``prior`` 'none' skips the check; data
     too few for even the offsets pass unchecked (nothing can be judged from them).  Returns
     the calibration that judged them (fitted to at most CHECK_POSES of them), or None.
     Positions the robot's own forward kinematics computed are :func:`check_measured`'s to
-    refuse, after the fit has checked what it is given."""
+    refuse, after the fit has checked what it is given.  ``fitting`` (data about to be fitted,
+    not scored): clustered poses are refused first (:func:`check_spread`), whatever ``prior``."""
+    if fitting:
+        check_spread(chain, observations)
     if observations.positions is None or prior == "none":
         return None
     count = observations.n_poses
@@ -130,5 +133,5 @@ def check_model_data(model, observations, where):
                          "(fixture, socket columns), or calibrate a model on the positions")
     options = model.options or {}
     check_robot_data(model.nominal, observations, options.get("prior", "tolerances"),
-                     options.get("tolerance_scale", 1.0))
+                     options.get("tolerance_scale", 1.0), fitting=False)
     check_measured(model.nominal, observations, fitting=False)

@@ -63,7 +63,7 @@ def _check_existing(path, chain):
     header, _ = table(path)
     if {"x", "y", "z"} <= set(header):
         observations = read_observations(path, chain)
-        check_robot_data(chain, observations)
+        check_robot_data(chain, observations, fitting=False)
         check_measured(chain, observations, fitting=False)
 
 
