@@ -22,6 +22,30 @@ def tight_cluster(base):
     return header + "\n" + "\n".join(rows) + "\n"
 
 
+def cluster(degrees, positions_move=False, n=40):
+    """``n`` configurations within +-``degrees`` of the first measured pose (seeded); the
+    positions that pose's, within 0.02 mm, or (``positions_move``) the nominal robot's TCP
+    at each configuration: clustered poses whatever their positions say."""
+    def make(base):
+        from robocal.io.library import load_robot
+
+        header, first_row = (base / "ur5.csv").read_text().splitlines()[:2]
+        names = header.split(",")
+        cells = first_row.split(",")
+        rng = np.random.default_rng(1)
+        chain = load_robot("ur5")
+        rows = []
+        for _ in range(n):
+            q = [float(v) + rng.uniform(-degrees, degrees) for v in cells[:6]]
+            xyz = chain.fk_positions(np.radians([q]))[0] + rng.normal(0, 0.05, 3) if positions_move else \
+                [float(cells[names.index(a)]) + rng.uniform(-0.02, 0.02) for a in "xyz"]
+            row = dict(zip(names, cells), **{f"q{k + 1}": f"{v:.6f}" for k, v in enumerate(q)},
+                       **{a: f"{v:.6f}" for a, v in zip("xyz", xyz)})
+            rows.append(",".join(row[c] for c in names))
+        return header + "\n" + "\n".join(rows) + "\n"
+    return make
+
+
 CAL = ["calibrate", "ur5", "f.csv", "--out", "o.json"]
 REFUSED = [
     ("one-pose", CAL, first(1), "1 distinct poses give 3 equations for 35 parameters"),
@@ -36,9 +60,76 @@ REFUSED = [
     ("frames-two-poses", ["calibrate", "ur5_model.json", "f.csv", "--method", "frames", "--out", "o.json"], first(2), "re-registering 9 parameters needs at least 6 poses"),
     ("sockets-three-rows", ["calibrate", "kr150-2", "f.csv", "--method", "constraint", "--fixture", "plate.toml", "--out", "o.json"], first(3, "sockets.csv"), "record more configurations per socket"),
     ("tight-cluster-one-position", CAL, tight_cluster, "the positions do not follow the robot"),
+    ("cluster-half-degree", CAL, cluster(0.5), "its 40 poses are clustered (no joint moves more than"),
+    ("cluster-half-degree-kriging", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json"], cluster(0.5), "poses are clustered"),
+    ("cluster-half-degree-hybrid", ["calibrate", "ur5", "f.csv", "--method", "hybrid", "--out", "o.json"], cluster(0.5), "poses are clustered"),
+    ("cluster-one-degree-positions-move", CAL, cluster(1.0, positions_move=True), "measure poses spread over the workspace, the TCP at least"),
+    ("cluster-one-degree-kriging", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json"], cluster(1.0, positions_move=True), "poses are clustered"),
+    ("cluster-one-degree-frames", ["calibrate", "ur5_model.json", "f.csv", "--method", "frames", "--out", "o.json"], cluster(1.0, positions_move=True), "poses are clustered"),
+    ("cluster-validate", ["validate", "ur5", "f.csv", "--folds", "3"], cluster(1.0, positions_move=True), "poses are clustered"),
 ]
 
 
 @pytest.mark.parametrize("args, content, says", [r[1:] for r in REFUSED], ids=[r[0] for r in REFUSED])
 def test_too_few_or_clustered_poses_are_refused(tmp_path, args, content, says):
     refuse(tmp_path, args, {"f.csv": content}, says)
+
+
+# Clusters are refused to fits only: a model is scored on them, and poses spread more (+-5 deg
+# about one posture: fitted, its predicted error says how far it holds; +-30 deg; the first 12
+# of the base file) calibrate.
+def test_a_model_is_still_scored_on_clustered_poses(tmp_path):
+    from hostile import invoke, prepare
+
+    prepare(tmp_path, {"f.csv": cluster(0.5, positions_move=True)})
+    outcome = invoke(tmp_path, ["evaluate", "ur5_model.json", "f.csv"])
+    assert outcome.code == 0, outcome.output
+
+
+@pytest.mark.parametrize("content, extra", [
+    # the prediction of a +-5 deg cluster refuses it as an extrapolation unless accepted
+    (cluster(5.0, positions_move=True), ["--accept-extrapolation"]),
+    (cluster(30.0, positions_move=True), []),
+    (first(12), []),
+], ids=["five-degrees-accepted-extrapolation", "thirty-degrees", "first-12"])
+def test_poses_spread_like_a_campaign_calibrate(tmp_path, content, extra):
+    from hostile import invoke, prepare
+
+    prepare(tmp_path, {"f.csv": content})
+    outcome = invoke(tmp_path, CAL + extra)
+    assert outcome.code == 0, outcome.output
+    assert (tmp_path / "o.json").stat().st_size > 0
+
+
+def one_placement(base):
+    """The base ball-in-socket file's rows of its first fixture placement only."""
+    lines = (base / "sockets.csv").read_text().splitlines()
+    column = lines[0].split(",").index("fixture")
+    first_placement = lines[1].split(",")[column]
+    return "\n".join([lines[0]] + [r for r in lines[1:] if r.split(",")[column] == first_placement]) + "\n"
+
+
+def test_sockets_of_one_placement_fit_and_say_the_placement_is_one(tmp_path):
+    """One fixture placement pins part of the model (the rest is held by its prior): a fit,
+    not a traceback (the identifiability of fewer constraint rows than parameters), with a
+    warning that the error elsewhere is not measured."""
+    from hostile import invoke, prepare
+
+    prepare(tmp_path, {"f.csv": one_placement})
+    outcome = invoke(tmp_path, ["calibrate", "kr150-2", "f.csv", "--method", "constraint", "--fixture", "plate.toml",
+                                "--out", "o.json"])
+    assert outcome.code == 0, outcome.output
+    assert "Traceback" not in outcome.output
+    assert any("one fixture placement" in line and "measure at two or more placements" in line
+               for line in outcome.lines), outcome.lines
+    assert (tmp_path / "o.json").stat().st_size > 0
+
+
+def test_sockets_of_several_placements_do_not_warn_of_one(tmp_path):
+    from hostile import invoke, prepare
+
+    prepare(tmp_path)
+    outcome = invoke(tmp_path, ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture",
+                                "plate.toml", "--out", "o.json"])
+    assert outcome.code == 0, outcome.output
+    assert not any("one fixture placement" in line for line in outcome.lines), outcome.lines

@@ -11,17 +11,22 @@ import math
 
 import pytest
 
-from hostile import invoke, prepare, refuse, text
+from hostile import EXAMPLES, invoke, prepare, refuse, text
 
 Q = [f"q{i}" for i in range(1, 7)]
 XYZ = ["x", "y", "z"]
 RPY = ["rx", "ry", "rz"]
 
 
-def scaled(name, columns, factor, unit=None):
-    """The base file ``name`` with ``columns`` multiplied by ``factor`` (and tagged [unit])."""
+def scaled(name, columns, factor, unit=None, keep=None):
+    """The base file ``name`` (or an example, ``examples/NAME``) with ``columns`` multiplied by
+    ``factor`` (and tagged [unit]); ``keep``: only these columns (and robocal_file)."""
     def make(base):
-        rows = list(csv.reader(io.StringIO((base / name).read_text())))
+        path = EXAMPLES / name[len("examples/"):] if name.startswith("examples/") else base / name
+        rows = list(csv.reader(io.StringIO(path.read_text())))
+        if keep is not None:
+            chosen = [i for i, c in enumerate(rows[0]) if c in keep or c == "robocal_file"]
+            rows = [[row[i] for i in chosen] for row in rows]
         header = rows[0]
         out = io.StringIO()
         writer = csv.writer(out, lineterminator="\n")
@@ -57,7 +62,18 @@ REFUSED = [
     ("evaluate-metres", ["evaluate", "ur5_model.json", "m.csv"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres"),
     ("report-metres", ["report", "ur5_model.json", "m.csv", "--out", "r.html"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres"),
     ("validate-metres", ["validate", "ur5", "m.csv", "--folds", "3"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres"),
-    ("targets-metres", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1e-3)}, "in mm and degrees"),
+    ("targets-metres", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1e-3)}, "they look like metres"),
+    ("targets-metres-no-hints", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1e-3, keep=XYZ + RPY)}, "they look like metres"),
+    ("targets-inches-with-hints", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1 / 25.4)}, "they look like inches"),
+    ("kr-targets-metres", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("examples/kr150-targets.csv", XYZ, 1e-3)}, "they look like metres"),
+    ("design-targets-metres", ["design", "ur5", "--n", "5", "--pool", "300", "--targets", "t.csv", "--out", "p.csv"], {"t.csv": scaled("targets.csv", XYZ, 1e-3, keep=XYZ + RPY)}, "they look like metres"),
+    ("measurements-wrist-radians", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", Q[3:], math.pi / 180)}, "the joint values q4..q6 look like radians"),
+    ("measurements-shoulder-elbow-radians", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", Q[1:3], math.pi / 180)}, "the joint values q2, q3 look like radians"),
+    ("evaluate-wrist-radians", ["evaluate", "ur5_model.json", "m.csv"], {"m.csv": scaled("ur5.csv", Q[3:], math.pi / 180)}, "the joint values q4..q6 look like radians"),
+    ("targets-hint-wrist-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", Q[3:], math.pi / 180)}, "the posture hints q4..q6 look like radians"),
+    ("targets-hint-one-joint-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", ["q5"], math.pi / 180)}, "the posture hints q5 look like radians"),
+    ("kr-targets-seed-hint-radians", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("examples/kr150-targets.csv", Q, math.pi / 180)}, "the posture hints q1..q6 look like radians"),
+    ("kr-targets-seed-hint-radians-iterate", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv", "--iterate"], {"t.csv": scaled("examples/kr150-targets.csv", Q, math.pi / 180)}, "the posture hints q1..q6 look like radians"),
     ("targets-orientation-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", RPY, math.pi / 180)}, "look like radians"),
     ("targets-hint-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", Q, math.pi / 180)}, "the posture hints q1..q6 look like radians"),
     ("simulate-box-metres", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", "--box", "-0.4,0.4,-0.4,0.4,0.1,0.5", "--out", "s.csv"], None, "they look like metres"),
@@ -89,6 +105,79 @@ REFUSED = [
 @pytest.mark.parametrize("args, files, says", [row[1:] for row in REFUSED], ids=[row[0] for row in REFUSED])
 def test_wrong_unit_is_refused(tmp_path, args, files, says):
     refuse(tmp_path, args, files, says)
+
+
+def campaign(factor_cmd=1.0, factor_measured=1.0):
+    """An ISO 9283 campaign from the base plan (iso.csv): each visit measured 0.1 mm beside its
+    command (seeded), the commanded and measured positions times the factors."""
+    def make(base):
+        rows = list(csv.reader(io.StringIO((base / "iso.csv").read_text())))
+        header = rows[0]
+        k = [header.index(c) for c in ("x_cmd", "y_cmd", "z_cmd")]
+        out = io.StringIO()
+        writer = csv.writer(out, lineterminator="\n")
+        writer.writerow(header + XYZ)
+        for n, row in enumerate(rows[1:]):
+            wobble = [0.1 * math.sin(n * 7 + j) for j in range(3)]
+            measured = [repr((float(row[i]) + w) * factor_measured) for i, w in zip(k, wobble)]
+            writer.writerow([repr(float(v) * factor_cmd) if i in k else v for i, v in enumerate(row)] + measured)
+        return out.getvalue()
+    return make
+
+
+def tracker_points(factor=1.0, unit_line=""):
+    """A tracker's point export (name x y z) of the base measurements' first 20 poses, times
+    ``factor``, with the joint log beside it (name, q1..q6)."""
+    def points(base):
+        rows = list(csv.DictReader(io.StringIO((base / "ur5.csv").read_text())))[:20]
+        return unit_line + "".join(f"P{n} " + " ".join(f"{float(r[a]) * factor:.6f}" for a in XYZ) + "\n"
+                                   for n, r in enumerate(rows, 1))
+
+    def joints(base):
+        rows = list(csv.DictReader(io.StringIO((base / "ur5.csv").read_text())))[:20]
+        return "name," + ",".join(Q) + "\n" + "".join(f"P{n}," + ",".join(r[q] for q in Q) + "\n"
+                                                       for n, r in enumerate(rows, 1))
+    return {"pts.txt": points, "j.csv": joints}
+
+
+IMPORT = ["import", "--points", "pts.txt", "--joints", "j.csv", "--out", "m.csv"]
+# Positions read without a robot to judge them (an ISO campaign, a tracker's points).
+REFUSED_WITHOUT_ROBOT = [
+    ("iso-campaign-metres", ["iso9283", "f.csv"], {"f.csv": campaign(1e-3, 1e-3)}, "they look like metres"),
+    ("iso-campaign-measured-metres", ["iso9283", "f.csv"], {"f.csv": campaign(1.0, 1e-3)}, "the measured x, y, z of f.csv: largest"),
+    ("iso-campaign-measured-inches", ["iso9283", "f.csv"], {"f.csv": campaign(1.0, 1 / 25.4)}, "they look like inches"),
+    ("iso-campaign-measured-cm", ["iso9283", "f.csv"], {"f.csv": campaign(1.0, 0.1)}, "they look like cm"),
+    ("import-points-metres-unstated", IMPORT, tracker_points(1e-3), "no unit stated, read as mm"),
+    ("import-points-metres-unstated-names-fix", IMPORT, tracker_points(1e-3), "they look like metres; state the unit (--units m"),
+]
+
+
+@pytest.mark.parametrize("args, files, says", [row[1:] for row in REFUSED_WITHOUT_ROBOT],
+                         ids=[row[0] for row in REFUSED_WITHOUT_ROBOT])
+def test_positions_without_a_robot_in_another_unit_are_refused(tmp_path, args, files, says):
+    refuse(tmp_path, args, files, says)
+
+
+# The same shapes in mm and degrees: read and used.
+ACCEPTED = [
+    ("measurements", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("ur5.csv", Q, 1.0)}, "o.json"),
+    ("targets-with-hints", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1.0)}, "o.csv"),
+    ("targets-no-hints", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1.0, keep=XYZ + RPY)}, "o.csv"),
+    ("kr-targets-seed-hint", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("examples/kr150-targets.csv", XYZ, 1.0)}, "o.csv"),
+    ("iso-campaign", ["iso9283", "f.csv", "--json"], {"f.csv": campaign()}, None),
+    ("import-points-mm-unstated", IMPORT, tracker_points(), "m.csv"),
+    ("import-points-metres-stated", IMPORT, tracker_points(1e-3, "// Units: m\n"), "m.csv"),
+    ("import-points-metres-option", IMPORT + ["--units", "m"], tracker_points(1e-3), "m.csv"),
+    ("kr-targets-seed-hint-iterate", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv", "--iterate"], {"t.csv": scaled("examples/kr150-targets.csv", XYZ, 1.0)}, "o.csv"),
+]
+
+
+@pytest.mark.parametrize("args, files, output", [row[1:] for row in ACCEPTED], ids=[row[0] for row in ACCEPTED])
+def test_the_same_shapes_in_mm_and_degrees_are_accepted(tmp_path, args, files, output):
+    prepare(tmp_path, files)
+    outcome = invoke(tmp_path, args)
+    assert outcome.code == 0, outcome.output
+    assert output is None or (tmp_path / output).stat().st_size > 0
 
 
 def _mean(folder, model, data):
@@ -280,3 +369,19 @@ def test_a_pose_visited_again_with_the_same_reading_is_calibrated(tmp_path):
     prepare(tmp_path, {"m.csv": again})
     outcome = invoke(tmp_path, ["calibrate", "ur5", "m.csv", "--out", "o.json"])
     assert outcome.code == 0, outcome.output
+
+
+# A --region of a ball-in-socket design typed below the robot's mounting plane (z < 0, as a
+# height measured down from the base, or the sign flipped): refused naming the plane, not
+# "place the fixture nearer"; the same region above it designs.
+def test_a_region_below_the_mounting_plane_is_refused_naming_it(tmp_path):
+    refuse(tmp_path, ["design", "kr150-2", "--fixture", "plate.toml", "--region", "1200,2000,-500,500,-900,-600",
+                      "--n", "12", "--out", "p.csv"], None, "below the robot's mounting plane")
+
+
+def test_a_region_above_the_mounting_plane_designs(tmp_path):
+    prepare(tmp_path)
+    outcome = invoke(tmp_path, ["design", "kr150-2", "--fixture", "plate.toml", "--region",
+                                "1200,2000,-500,500,600,900", "--n", "18", "--per-socket", "3", "--out", "p.csv"])
+    assert outcome.code == 0, outcome.output
+    assert (tmp_path / "p.csv").stat().st_size > 0

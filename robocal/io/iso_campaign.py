@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import FileFormatError
 from .csv_table import _read_table
 from .file_kinds import KIND_COLUMN, check
+from .units import check_point_lengths, check_same_unit
 
 COMMANDED = ("x_cmd", "y_cmd", "z_cmd")
 ATTAINED = ("x", "y", "z")
@@ -67,9 +68,14 @@ def read_iso_campaign(path) -> IsoCampaign:
     cycle = None
     if "cycle" in table.header:
         cycle = table.numbers(["cycle"])[:, 0]
+    commanded, attained = table.numbers(COMMANDED), table.numbers(ATTAINED)
+    # The one unit evidence for positions without a robot (robocal.io.units).
+    check_point_lengths(commanded, f"the commanded x_cmd, y_cmd, z_cmd of {table.path}")
+    check_point_lengths(attained, f"the measured x, y, z of {table.path}")
+    check_same_unit(commanded, attained, f"the measured x, y, z of {table.path}", "the commanded x_cmd, y_cmd, z_cmd")
     return IsoCampaign(
         path=table.path,
-        commanded=table.numbers(COMMANDED), attained=table.numbers(ATTAINED),
+        commanded=commanded, attained=attained,
         commanded_angles=table.numbers(COMMANDED_ANGLES) if angles else None,
         attained_angles=table.numbers(ATTAINED_ANGLES) if angles else None,
         pose=table.texts("pose") if "pose" in table.header else None,

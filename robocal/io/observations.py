@@ -23,7 +23,7 @@ from ..spatial import compose_pose, pose_to_xyz_rpy, rpy_to_matrix
 from .fixtures import Fixture, fixture_from_dict, fixture_to_dict, read_fixture
 from .library import load_robot
 from .tables import Measurements, read_measurements, read_targets, write_commands
-from .units import check_hint_units, check_measurement_units
+from .units import check_measurement_units, check_target_units
 
 # Joint readings may pass a limit by a little (limits in data sheets are rounded, encoders
 # overshoot); beyond this they are not the robot's (the packaged Panda data come within
@@ -276,8 +276,7 @@ class TargetPoses:
 def read_target_poses(path, chain) -> TargetPoses:
     """Read a targets CSV (x, y, z mm; rx, ry, rz deg; optional q1..qN deg) for ``chain``."""
     targets = read_targets(path, n_joints=chain.n_joints, joint_names=chain.joint_names)
-    if targets.hints is not None:
-        check_hint_units(chain, targets.hints, targets.positions, targets.path)
+    check_target_units(chain, targets.hints, targets.positions, targets.path)
     hints = None if targets.hints is None else chain.joints_from_file(targets.hints)
     return TargetPoses(targets.path, compose_pose(targets.positions, np.radians(targets.orientations)), hints,
                        np.asarray(targets.rows))

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import FileFormatError, InputError
 from .reading import read_table_text
+from .units import check_point_lengths
 
 LENGTHS = {"mm": 1.0, "millimeters": 1.0, "millimetres": 1.0, "m": 1000.0, "meters": 1000.0, "metres": 1000.0,
            "cm": 10.0, "in": 25.4, "inch": 25.4, "inches": 25.4, "um": 1e-3, "µm": 1e-3}
@@ -165,6 +166,10 @@ def read_points(path, units=None) -> TrackerPoints:
 
     factor = LENGTHS[unit]
     positions = np.stack([numbers(axis) for axis in "xyz"], axis=1) * factor
+    if not stated and units is None:
+        # None stated: mm, unless the numbers are no robot's poses in mm (robocal.io.units).
+        check_point_lengths(positions, f"the x, y, z of {path} (no unit stated, read as mm)",
+                            "state the unit (--units m, or a 'Units: m' line in the file) or export in mm")
     names = texts("name")
     if names is None:
         names = np.array([str(n) for n in lines])

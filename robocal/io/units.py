@@ -10,12 +10,17 @@ sizeable part of its reach.  So every reader that meets the robot asks the same 
 miss?  The stated units stand unless another reading explains the data
 :data:`EVIDENCE_RATIO` times better; then the file is refused, naming the units that fit.
 
-* measurement files: joints (degrees or radians) and positions (mm, metres, cm, inches,
-  micrometres), the nominal robot registered to the positions (base by a rigid fit, tool by
-  linear least squares, alternated), and the lengths' scale against the robot's:
+* measurement files: joints (degrees or radians, judged column by column: any subset of the
+  revolute columns may be in radians) and positions (mm, metres, cm, inches, micrometres),
+  the nominal robot registered to the positions (base by a rigid fit, tool by linear least
+  squares, alternated), and the lengths' scale against the robot's:
   :func:`check_measurement_units`;
-* posture hints in targets files (degrees or radians): how far the hint's TCP lies from its
-  target: :func:`check_hint_units`;
+* targets files: positions as a length about the robot and, with posture hints, spread as the
+  hints' TCP; posture hints (degrees or radians, by column) by how far the hint's TCP lies
+  from its target: :func:`check_target_units`;
+* positions without a robot (an ISO 9283 campaign, a tracker's points): the size of a robot's
+  poses in mm, and commanded and measured in one unit: :func:`check_point_lengths`,
+  :func:`check_same_unit`;
 * lengths a user types or a file carries without measurements to judge them by (design's
   ``--box``, ``--tool``, ``--tracker``, ``--region``, ``--walls``; a fixture's socket
   spacings): their size against the robot's reach (or a fixture's smallest span), and which
@@ -39,10 +44,23 @@ LENGTH_UNITS = {"mm": 1.0, "metres": 1000.0, "cm": 10.0, "inches": 25.4, "microm
 # nominal robot misses by 0.3 % of the positions' spread; radians read as degrees by 200 %
 # and more.
 EVIDENCE_RATIO = 10.0
+# A reading overrules the stated one only if it explains the data: the nominal robot misses
+# them by at most this share of their spread (right units on the shipped data: 0.1 to 0.3 %).
+# Poses that barely move (a cluster) leave every reading far from this.
+EXPLAINED_SHARE = 0.1
+# Posture hints are seeds, not the solution: on the shipped UR5 targets the right reading
+# leaves 31 mm (median) between a hint's TCP and its target, the wrist (q4..q6) in radians
+# 202 mm, every joint in radians 476 mm.  A hint reading must be this many times nearer.
+HINT_EVIDENCE_RATIO = 4.0
+# Readings whose misfits are within this factor of the best one are as good as it (a hint is
+# a seed: its TCP lies a few mm from the target in the right reading, whatever q6 is).
+SAME_MISFIT = 1.5
 # Radians are considered only when every revolute joint value lies within one turn (plus the
 # rounding of a limit) and the values move: a file of tiny degree readings is not radians.
+# Judged column by column: every subset of such columns is a reading (a 6-axis arm: at most 63).
 ONE_TURN = 2.0 * np.pi * 1.02
 RADIAN_MIN_SPREAD = 0.2
+MAX_SUBSET_COLUMNS = 7
 # Poses the measurement evidence uses (evenly spaced through the file): enough to judge,
 # few enough that a million-pose file is judged in milliseconds.
 EVIDENCE_POSES = 300
@@ -88,26 +106,59 @@ def registered_misfit(chain, joints_rad, positions_mm):
     return float(np.sqrt(np.mean(np.sum(left ** 2, axis=1))))
 
 
+def _radian_candidates(chain, joint_values):
+    """The revolute columns of ``joint_values`` (N, n, file units) that may be radians: every
+    value within one turn.  A file may mix units by column (a controller export whose wrist
+    joints are in radians), so each column is judged, not the file at once."""
+    values = np.asarray(joint_values, dtype=float)
+    return [int(j) for j in np.flatnonzero(np.asarray(chain.revolute, dtype=bool))
+            if values.size and np.abs(values[:, j]).max() <= ONE_TURN]
+
+
 def _angle_readings(chain, joint_values):
-    """The angle units the revolute joint values (N, n, file units) may be in."""
-    revolute = np.asarray(joint_values, dtype=float)[:, np.asarray(chain.revolute, dtype=bool)]
-    possible = ["degrees"]
-    if revolute.size and np.abs(revolute).max() <= ONE_TURN and np.ptp(revolute, axis=0).max() >= RADIAN_MIN_SPREAD:
-        possible.append("radians")
-    return possible
+    """The readings of the revolute joint values (N, n, file units): tuples of the columns read
+    as radians, () for all in degrees.  A reading is considered only when its columns move (by
+    RADIAN_MIN_SPREAD): a file of tiny degree readings is not radians.  Every subset of the
+    candidate columns, up to MAX_SUBSET_COLUMNS of them (then the candidates at once, and each
+    alone)."""
+    values = np.asarray(joint_values, dtype=float)
+    candidates = _radian_candidates(chain, values)
+    if len(candidates) <= MAX_SUBSET_COLUMNS:
+        subsets = [tuple(c for k, c in enumerate(candidates) if mask >> k & 1)
+                   for mask in range(1, 1 << len(candidates))]
+    else:
+        subsets = [tuple(candidates)] + [(c,) for c in candidates]
+    return [()] + [cols for cols in subsets if np.ptp(values[:, list(cols)], axis=0).max() >= RADIAN_MIN_SPREAD]
 
 
-def _in_degrees(chain, joint_values, angle):
+def _columns(chain, cols):
+    """'q4..q6', 'q2, q5' (1-based joint names of the column indices ``cols``)."""
+    cols = sorted(cols)
+    if len(cols) > 2 and cols == list(range(cols[0], cols[-1] + 1)):
+        return f"q{cols[0] + 1}..q{cols[-1] + 1}"
+    return ", ".join(f"q{c + 1}" for c in cols)
+
+
+def _all_revolute(chain, cols):
+    return len(cols) == int(np.sum(np.asarray(chain.revolute, dtype=bool)))
+
+
+def _in_degrees(chain, joint_values, cols):
+    """Joint values (N, n, file units) in radians internally, the columns ``cols`` read as
+    radians and the other revolute ones as degrees."""
     values = np.array(joint_values, dtype=float)
-    revolute = np.asarray(chain.revolute, dtype=bool)
-    values[:, revolute] *= ANGLE_UNITS[angle]
+    revolute = np.asarray(chain.revolute, dtype=bool).copy()
+    values[:, list(cols)] *= ANGLE_UNITS["radians"]
+    revolute[list(cols)] = False
+    values[:, revolute] *= ANGLE_UNITS["degrees"]
     return chain.joints_from_file(values)
 
 
 def evidence(chain, joint_values, positions):
-    """{(angle unit, length unit): the nominal robot's registered misfit over the positions'
+    """{(angle reading, length unit): the nominal robot's registered misfit over the positions'
     spread} for every reading of a measurement file's units (joint values and positions as
-    in the file); about 0.003 in the right units on the shipped data."""
+    in the file; an angle reading is the tuple of columns read as radians, () for degrees,
+    :func:`_angle_readings`); about 0.003 in the right units on the shipped data."""
     joint_values = np.asarray(joint_values, dtype=float)
     positions = np.asarray(positions, dtype=float)
     if len(joint_values) > EVIDENCE_POSES:
@@ -124,12 +175,20 @@ def evidence(chain, joint_values, positions):
     return out
 
 
-def _verdict(misfits, stated):
-    """The reading that overrules ``stated`` (a key of ``misfits``), or None."""
+def _verdict(misfits, stated, ratio=EVIDENCE_RATIO, explains=np.inf):
+    """The reading that overrules ``stated`` (a key of ``misfits``) by ``ratio`` and itself
+    explains the data (misfit at most ``explains``), or None.  Of
+    readings as good as the best (within SAME_MISFIT), the one with the most radian columns:
+    a joint that does not move the TCP (a wrist roll on its axis) fits either way, and its
+    column is in the unit of its neighbours."""
     best = min(misfits, key=misfits.get)
-    if best != stated and misfits[best] * EVIDENCE_RATIO < misfits[stated]:
-        return best
-    return None
+    if best == stated or misfits[best] * ratio >= misfits[stated] or misfits[best] > explains:
+        return None
+    same = [key for key in misfits if misfits[key] <= misfits[best] * SAME_MISFIT]
+    def columns(key):  # (columns, length unit) of a measurement reading, columns of a hint reading
+        return key[0] if key and isinstance(key[0], tuple) else key
+
+    return max(same, key=lambda key: (len(columns(key)), -misfits[key]))
 
 
 def _spread(points):
@@ -137,29 +196,45 @@ def _spread(points):
     return float(np.sqrt(np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))
 
 
+def _which_joints(chain, cols):
+    """'the joint values' (every revolute column) or 'the joint values q4..q6'."""
+    return "the joint values" if _all_revolute(chain, cols) else f"the joint values {_columns(chain, cols)}"
+
+
 def check_measurement_units(chain, joint_values, positions, path):
     """InputError when the units of a measurement file are not degrees and mm, judged by
     ``chain``'s nominal robot from the joint values (N, n) and positions (N, 3) as in the
-    file.  Joint angles: another reading (radians) must explain the data
-    :data:`EVIDENCE_RATIO` times better (:func:`evidence`).  Lengths: the positions must
-    spread over the poses as the robot's TCP does, within :data:`SPREAD_RATIO_BAND` (a
-    scale, which no base or tool changes much); the message names the unit the ratio is
-    nearest to."""
+    file.  Joint angles: another reading (some or all revolute columns in radians) must
+    explain the data :data:`EVIDENCE_RATIO` times better (:func:`evidence`).  Lengths: the
+    positions must spread over the poses as the robot's TCP does (:func:`_check_spread`)."""
     joint_values = np.asarray(joint_values, dtype=float)
     positions = np.asarray(positions, dtype=float)
     if len(joint_values) < 2:
         return
-    if len(joint_values) >= 4 and "radians" in _angle_readings(chain, joint_values):
+    if len(joint_values) >= 4 and len(_angle_readings(chain, joint_values)) > 1:
         misfits = evidence(chain, joint_values, positions)
-        better = _verdict(misfits, ("degrees", "mm"))
-        if better is not None and better[0] == "radians":
+        better = _verdict(misfits, ((), "mm"), explains=EXPLAINED_SHARE)
+        if better is not None and better[0]:
             lengths = "" if better[1] == "mm" else f" and x, y, z look like {better[1]}"
             raise InputError(
-                f"{path or 'the data'}: the joint values look like radians{lengths}: read so, the nominal "
-                f"'{chain.name}' misses them by {misfits[better]:.1%} of their spread; read as degrees and mm by "
-                f"{misfits['degrees', 'mm']:.0%}; robocal reads mm and degrees: convert the file (numpy.degrees()"
+                f"{path or 'the data'}: {_which_joints(chain, better[0])} look like radians{lengths}: read so, the "
+                f"nominal '{chain.name}' misses them by {misfits[better]:.1%} of their spread; read as degrees and mm "
+                f"by {misfits[(), 'mm']:.0%}; robocal reads mm and degrees: convert "
+                + ("the file (numpy.degrees()" if _all_revolute(chain, better[0]) else
+                   f"{_columns(chain, better[0])} (numpy.degrees()")
                 + (", x 1000 for metres" if better[1] == "metres" else "") + ")")
-    model = _spread(chain.rigid.fk_positions(chain.joints_from_file(joint_values)))
+    _check_spread(chain, chain.joints_from_file(joint_values), positions,
+                  f"the measured positions of {path or 'the data'}")
+
+
+def _check_spread(chain, joints, positions, what, measured_positions=True):
+    """InputError when the positions (N, 3) of ``what`` do not spread over the joints (N, n)
+    rad as the nominal robot's TCP does, within :data:`SPREAD_RATIO_BAND` (a scale, which no
+    base or tool changes much); the message names the unit the ratio is nearest to.  Joints
+    over which the model moves less than SPREAD_JUDGED_MM say nothing.  Measured positions
+    that barely move at all are named as such (``measured_positions``; a target may be
+    asked for in several postures, so targets are not)."""
+    model = _spread(chain.rigid.fk_positions(joints))
     if model < SPREAD_JUDGED_MM:
         return
     measured = _spread(positions)
@@ -168,47 +243,78 @@ def check_measurement_units(chain, joint_values, positions, path):
     if low <= ratio <= high:
         return
     others = {name: 1.0 / factor for name, factor in LENGTH_UNITS.items() if name != "mm"}
-    if ratio < min(others.values()) / STILL_FACTOR:
-        _refuse_still_positions(chain, positions, measured, model, path)
+    if measured_positions and ratio < min(others.values()) / STILL_FACTOR:
+        _refuse_still_positions(chain, positions, measured, model, what)
     unit = min(others, key=lambda name: abs(np.log(max(ratio, 1e-300) / others[name])))
     if abs(np.log(ratio / others[unit])) > np.log(2.0):
         looks = f"they are not in mm for this robot (1 mm of the model is {ratio:.3g} in the file)"
     else:
         looks = f"they look like {unit}"
     raise InputError(
-        f"the measured positions of {path or 'the data'} spread {measured:.3g} over these poses where the "
-        f"model of '{chain.name}' spreads {model:.0f} mm: {looks}; give x, y, z in mm (or check the robot file)")
+        f"{what} spread {measured:.3g} over these poses where the model of '{chain.name}' spreads {model:.0f} mm: "
+        f"{looks}; give x, y, z in mm (or check the robot file)")
 
 
-def _refuse_still_positions(chain, positions, measured, model, path):
+def check_target_units(chain, hint_values, target_positions, path):
+    """InputError when the numbers of a targets file are not mm and degrees, judged by
+    ``chain``: the same evidence as for measurements.
+
+    * positions (N, 3) as in the file: a length about the robot (:func:`check_robot_lengths`:
+      metres are a thousandth of one), and, with posture hints that move the TCP, spread as
+      the hints' TCP does (:func:`_check_spread`: inches, cm);
+    * posture hints (N, n, file units, or None): read with some or all revolute columns in
+      radians, their TCP must not lie :data:`EVIDENCE_RATIO` times nearer the targets than
+      read as degrees (a radian hint read as degrees picks another arm branch); hints that
+      do not move over the file (one seed posture for every target) give no TCP evidence
+      and meet the one test of typed angles (:func:`looks_like_radians`) on the columns
+      within one turn."""
+    target_positions = np.asarray(target_positions, dtype=float)
+    if len(target_positions):
+        check_robot_lengths(chain, target_positions, f"the target positions x, y, z of {path}")
+    if hint_values is None:
+        return
+    hint_values = np.asarray(hint_values, dtype=float)
+    readings = _angle_readings(chain, hint_values)
+    if len(readings) > 1:
+        misses = {cols: float(np.median(np.linalg.norm(
+            chain.fk_positions(_in_degrees(chain, hint_values, cols)) - target_positions, axis=1)))
+            for cols in readings}
+        better = _verdict(misses, (), HINT_EVIDENCE_RATIO)
+        if better is not None:
+            named = f"q1..q{chain.n_joints}" if _all_revolute(chain, better) else _columns(chain, better)
+            raise InputError(
+                f"{path}: the posture hints {named} "
+                f"look like radians: read so, the robot's TCP lies {misses[better]:.3g} mm from its targets (median), "
+                f"read as degrees {misses[()]:.3g} mm, on other arm branches; robocal reads degrees: convert them "
+                "with numpy.degrees()")
+    else:
+        candidates = _radian_candidates(chain, hint_values)
+        if candidates and looks_like_radians(hint_values[:, candidates], ONE_TURN):
+            largest = float(np.abs(hint_values[:, candidates]).max())
+            raise InputError(
+                f"{path}: the posture hints {_columns(chain, candidates)} look like radians (all within one turn, "
+                f"largest {largest:.6g}, a multiple of pi/4 or a fraction beyond 1), but robocal reads degrees: "
+                "convert them with numpy.degrees()")
+    _check_spread(chain, chain.joints_from_file(hint_values), target_positions,
+                  f"the target positions of {path}", measured_positions=False)
+
+
+def _refuse_still_positions(chain, positions, measured, model, what):
     """InputError for measured positions that do not move while the robot's TCP does: no unit
     makes them positions of these poses (the same x, y, z copied down, an instrument that
     stayed on one point)."""
     found = (f"all {len(positions)} rows give the same x, y, z" if len(np.unique(positions, axis=0)) == 1 else
              f"they spread only {measured:.3g} over the {len(positions)} rows")
     raise InputError(
-        f"the measured positions of {path or 'the data'} do not move with the robot: {found}, where the model of "
+        f"{what} do not move with the robot: {found}, where the model of "
         f"'{chain.name}' "
         f"moves its TCP {model:.0f} mm over these poses; give each pose's own measured x, y, z (mm) (was the "
         "column filled down, or did the instrument lose its target?)")
 
 
 def check_hint_units(chain, hint_values, target_positions, path):
-    """InputError when the posture hints (N, n, file units) of a targets file put the TCP
-    far nearer their targets (N, 3) mm read as radians than as degrees: a radian hint read
-    as degrees picks another arm branch for every target."""
-    hint_values = np.asarray(hint_values, dtype=float)
-    if "radians" not in _angle_readings(chain, hint_values):
-        return
-    misses = {angle: float(np.median(np.linalg.norm(
-        chain.fk_positions(_in_degrees(chain, hint_values, angle)) - target_positions, axis=1)))
-        for angle in ("degrees", "radians")}
-    if _verdict(misses, "degrees") is None:
-        return
-    raise InputError(f"{path}: the posture hints q1..q{chain.n_joints} look like radians: read so, the robot's TCP "
-                     f"lies {misses['radians']:.3g} mm from its targets (median), read as degrees "
-                     f"{misses['degrees']:.3g} mm, on other arm branches; robocal reads degrees: convert them with "
-                     "numpy.degrees()")
+    """Kept for callers of the posture hints alone: :func:`check_target_units`."""
+    check_target_units(chain, hint_values, target_positions, path)
 
 
 # --------------------------------------------------------------------------- typed lengths
@@ -240,7 +346,7 @@ def apart(*values):
     return [repr(v) for v in values]
 
 
-def check_lengths(size, smallest_mm, what, owner, measure="largest"):
+def check_lengths(size, smallest_mm, what, owner, measure="largest", fix="give them in mm"):
     """InputError when ``size`` (the largest length of ``what``, as typed, > 0) lies below
     ``smallest_mm``, the least a length of ``owner`` (a phrase: "a UR5 reaching 850 mm")
     can be in mm; ``measure`` says what ``size`` is ("largest", "distance from the origin" for a
@@ -254,8 +360,7 @@ def check_lengths(size, smallest_mm, what, owner, measure="largest"):
     # below even that, the numbers are no length of this kind in any unit.
     looks = "they look like metres" if size * LENGTH_UNITS["metres"] >= smallest_mm else "they are not mm"
     shown, least = apart(size, smallest_mm)
-    raise InputError(f"{what}: {measure} {shown}, where {owner} needs at least {least} mm: {looks}; "
-                     "give them in mm")
+    raise InputError(f"{what}: {measure} {shown}, where {owner} needs at least {least} mm: {looks}; {fix}")
 
 
 def check_robot_lengths(chain, values, what, *, position=False):
@@ -268,6 +373,42 @@ def check_robot_lengths(chain, values, what, *, position=False):
     check_lengths(size, reach * SMALLEST_REACH_SHARE, what,
                   f"a length about robot '{chain.name}' (reach {reach:.0f} mm)",
                   "distance from the origin" if position else "largest")
+
+
+# Positions measured about a robot without the robot to judge them (an ISO 9283 campaign, a
+# tracker's point export): in any frame, the largest coordinate of a robot's poses in mm is at
+# least this (a small arm's flange stands 100 mm and more from its base; a tracker stands
+# metres away).  The same points in metres are a few units (a base frame) or the tracker's
+# distance in metres.
+SMALLEST_POINTS_MM = 20.0
+# Two sets of positions of the same poses (commanded and attained) in the same unit spread
+# alike: within this factor (an ISO campaign's robot misses its commands by a few mm).
+SAME_SPREAD = 2.0
+
+
+def check_point_lengths(points, what, fix="give them in mm"):
+    """InputError when the positions ``points`` (N, 3, as read as mm) of ``what`` are no
+    robot's poses in mm: the largest coordinate below :data:`SMALLEST_POINTS_MM` (metres)."""
+    points = np.asarray(points, dtype=float)
+    check_lengths(np.abs(points).max(initial=0.0), SMALLEST_POINTS_MM, what, "a position measured about a robot",
+                  fix=fix)
+
+
+def check_same_unit(reference, points, what, reference_what):
+    """InputError when ``points`` (N, 3) spread unlike ``reference`` (N, 3), the same poses in
+    mm, by more than :data:`SAME_SPREAD`: another length unit, named when one fits."""
+    reference, points = np.asarray(reference, dtype=float), np.asarray(points, dtype=float)
+    if len(reference) < 2 or _spread(reference) < SPREAD_JUDGED_MM:
+        return
+    ratio = _spread(points) / _spread(reference)
+    if 1.0 / SAME_SPREAD <= ratio <= SAME_SPREAD:
+        return
+    others = {name: 1.0 / factor for name, factor in LENGTH_UNITS.items() if name != "mm"}
+    unit = min(others, key=lambda name: abs(np.log(max(ratio, 1e-300) / others[name])))
+    looks = (f"they look like {unit}" if ratio > 0 and abs(np.log(ratio / others[unit])) <= np.log(SAME_SPREAD)
+             else "they are not in the same unit")
+    raise InputError(f"{what} spread {_spread(points):.3g} where {reference_what} of the same poses spread "
+                     f"{_spread(reference):.3g} mm: {looks}; give both in mm")
 
 
 # --------------------------------------------------------------------------- typed angles

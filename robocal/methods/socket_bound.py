@@ -155,6 +155,8 @@ def _scores(method, chain, observations, tests):
         deviation = held_out_deviations(fitted.predict(held.joints), socket_groups(held))
         error = np.linalg.norm(deviation, axis=1)
         keep = np.isfinite(error)
+        if not keep.any():  # no socket of the held-out part seen twice: nothing to score
+            continue
         q = held.joints[keep]
         sigma = posterior_sigma(fitted.compensator_.chain, q, *posterior)
         distance = joint_distance(q, part.joints, chain.revolute)

@@ -63,8 +63,8 @@ def _check_existing(path, chain):
     header, _ = table(path)
     if {"x", "y", "z"} <= set(header):
         observations = read_observations(path, chain)
-        check_robot_data(chain, observations)
-        check_measured(chain, observations)
+        check_robot_data(chain, observations, fitting=False)
+        check_measured(chain, observations, fitting=False)
 
 
 def _noise_from(path, chain, parameters, payload):
@@ -182,6 +182,18 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
             **design.to_dict()}
 
 
+def _refuse_below_mounting_plane(rig, poses, where):
+    """When no placement was reachable: InputError naming the mounting plane if every socket of
+    every placement ``poses`` (P, 4, 4) lies below it (z < 0 of the robot base frame, the plane
+    a table- or floor-mounted robot stands on), the cause a user can fix."""
+    sockets = np.array([rig.sockets[s] for s in rig.ids], dtype=float)
+    z = np.einsum("pj,sj->ps", poses[:, 2, :3], sockets) + poses[:, 2, 3][:, None]
+    if len(z) and z.max() < 0.0:
+        raise InputError(f"{where} puts every socket below the robot's mounting plane (highest socket z = "
+                         f"{z.max():.0f} mm, robot base frame; z = 0 is the plane a table- or floor-mounted robot "
+                         "stands on), where the arm does not reach: place the fixture above it, z >= 0 mm")
+
+
 def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_socket=None, criterion="prediction",
                seed=0, tool=None, noise=None, margin=MARGIN_DEG, max_tilt=None, root=None, tip=None):
     """Design a ball-in-socket campaign of ``n`` configurations in all for ``robot`` (its
@@ -210,8 +222,12 @@ def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_sock
     else:
         poses, names = region_placements(rig, region[0::2], region[1::2], seed=seed), None
         source = f"{len(poses)} level placements drawn in the region"
-    candidates = socket_candidates(chain, rig, poses, names, seed=seed, margin_deg=margin,
-                                   max_tilt_deg=MAX_TILT_DEG if max_tilt is None else max_tilt)
+    try:
+        candidates = socket_candidates(chain, rig, poses, names, seed=seed, margin_deg=margin,
+                                       max_tilt_deg=MAX_TILT_DEG if max_tilt is None else max_tilt)
+    except InputError:
+        _refuse_below_mounting_plane(rig, poses, placements if placements is not None else "--region")
+        raise
     sockets = len(rig.ids)
     places = len(candidates.poses)
     if per_socket is None:

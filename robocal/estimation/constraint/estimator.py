@@ -264,6 +264,12 @@ class ConstraintCalibration(FittedCalibration):
                 "ConstraintCalibration(distance=False) in Python")
         before = _check_distances(start, data, bool(len(pairs.distance)))
         candidates = candidate_parameters(start, self.gains)
+        if len(data.placements) == 1 and not self.compliance:
+            # Enough for what the data pin (the rest is held by its prior), not for the workspace.
+            warnings.warn(RobocalWarning(
+                f"ball-in-socket data from one fixture placement ({data.placements[0]}): the model is fitted where "
+                "that placement puts the ball, its error elsewhere is not measured; measure at two or more "
+                "placements"), stacklevel=2)
         if self.compliance and len(data.placements) == 1:
             warnings.warn(RobocalWarning(
                 "joint compliance from one fixture placement: it fits that placement and may be worse "
@@ -345,6 +351,10 @@ def _analysis(chain, q, pairs, weights, candidates):
     jac[pairs.position_rows:, 6] = 0.0
     rows = len(jac)
     jac = np.linalg.qr(jac, mode="r")
+    if len(jac) < jac.shape[1]:
+        # Fewer constraint rows than parameters (a single placement, few configurations): R is
+        # (rows, P); its missing rows are zeros, and the parameters beyond the rank are fixed.
+        jac = np.vstack([jac, np.zeros((jac.shape[1] - len(jac), jac.shape[1]))])
     names = list(BASE) + [SCALE] + candidates
     kept, _ = analyse(chain, jac, names, explain=False)
     real = [k for k in kept if k >= 7]
