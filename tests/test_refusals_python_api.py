@@ -134,7 +134,7 @@ def _api_rows():
         ("joints_from_file None", lambda: chain.joints_from_file(None), "one number"),
         ("load_robot unknown", lambda: load_robot("nosuch"), "no built-in robot"),
         ("load_robot None", lambda: load_robot(None), "no built-in robot"),
-        ("load_robot csv", lambda: load_robot(str(EXAMPLES / "ur5-targets.csv")), "is a targets file .*not a robot file"),
+        ("load_robot csv", lambda: load_robot(str(EXAMPLES / "ur5-targets.csv")), "targets file.*not a robot file"),
         ("load_robot directory", lambda: load_robot(str(EXAMPLES)), ".toml or .urdf"),
         ("load_robot missing toml", lambda: load_robot(str(EXAMPLES / "none.toml")), "does not exist"),
     ]
