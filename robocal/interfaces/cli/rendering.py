@@ -4,6 +4,7 @@ the other jobs) and hand their results to these functions; nothing here computes
 import contextlib
 import json
 import sys
+import textwrap
 
 import numpy as np
 from rich.console import Console
@@ -28,11 +29,24 @@ def result_starts():
 
 
 class _ResultConsole(Console):
-    """The console of results: what waits for the first result line runs before it."""
+    """The console of results: what waits for the first result line runs before it.  A note
+    (one plain text) is wrapped at the console's width, its continuation lines indented under
+    its first word, so that it reads in an 80-column log; tables size themselves, and JSON
+    is printed without the console (:func:`print_json`)."""
 
     def print(self, *args, **kwargs):
         result_starts()
+        if len(args) == 1 and isinstance(args[0], str) and not kwargs and len(args[0]) > self.width:
+            args = (_wrapped(args[0], self.width),)
         super().print(*args, **kwargs)
+
+
+def _wrapped(text, width):
+    """``text`` in lines of at most ``width`` characters, broken between words only (a long
+    file name stays whole), the later lines indented two spaces more than the first."""
+    lead = text[:len(text) - len(text.lstrip(" "))]
+    return "\n".join(textwrap.wrap(text.lstrip(" "), width=width, initial_indent=lead, subsequent_indent=lead + "  ",
+                                   break_long_words=False, break_on_hyphens=False))
 
 
 # No markup: messages and tables carry users' text (file names, "[sockets]") that must print as is.
