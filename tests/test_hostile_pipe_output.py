@@ -38,8 +38,19 @@ def test_help_fits_80_columns_without_a_broken_word(verb):
 
 
 def _plain(lines):
-    """The message lines (warnings, notes), not the rows of a table."""
-    return [line for line in lines if line.strip() and not BOX.match(line.strip()[0])]
+    """The messages (warnings, notes), not the rows of a table; a note wrapped at the
+    console's width (its later lines indented deeper) is one message."""
+    messages, indents = [], []
+    for line in lines:
+        if not line.strip() or BOX.match(line.strip()[0]):
+            continue
+        indent = len(line) - len(line.lstrip(" "))
+        if messages and indent >= indents[-1] + 2:
+            messages[-1] += " " + line.strip()
+        else:
+            messages.append(line)
+            indents.append(indent)
+    return messages
 
 
 RUNS = [
@@ -63,6 +74,10 @@ def test_output_in_a_pipe_has_no_control_characters_or_repeated_lines(tmp_path, 
     assert not [c for c in outcome.output if ord(c) < 32 and c != "\n"]
     repeated = [line for line, n in collections.Counter(_plain(outcome.lines)).items() if n > 1]
     assert repeated == []
+    # An 80-column log: the result's notes wrap and its tables fit (a pipe's console is 80
+    # columns wide); stderr's one-line notes, warnings and errors stay one line each.
+    said = ("note:", "warning:", "error:")
+    assert [line for line in outcome.lines if len(line) > 80 and not line.startswith(said)] == []
 
 
 def test_refusal_in_a_pipe_is_one_line_on_stderr(tmp_path):
