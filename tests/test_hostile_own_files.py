@@ -84,6 +84,8 @@ REFUSED = [
     ("validate-commands", ["validate", "ur5", "cmds.csv", "--folds", "3"], None, "written by 'robocal compensate'"),
     ("compare-per-pose", ["compare", "ur5", "perpose.csv"], None, "written by 'robocal evaluate --per-pose'"),
     ("import-plan-as-joint-log", ["import", "--points", "ur5.csv", "--joints", "plan.csv", "--out", "i.csv"], None, "written by 'robocal design', not a joint log"),
+    # The joint log's kind is named before the points are judged (their units here).
+    ("import-commands-as-joint-log-tiny-points", ["import", "--points", "tiny.txt", "--joints", "cmds.csv", "--out", "i.csv"], {"tiny.txt": "P1 1 2 3\n"}, "written by 'robocal compensate', not a joint log"),
     ("import-model-as-points", ["import", "--points", "ur5_model.json", "--joints", "ur5.csv", "--out", "i.csv"], None, "written by 'robocal calibrate', not a tracker point file"),
     ("serve-report", ["serve", "report.html", "--port", "0"], None, "written by 'robocal report', not a model file"),
     ("serve-commands", ["serve", "cmds.csv", "--port", "0"], None, "written by 'robocal compensate', not a model file"),

@@ -92,6 +92,14 @@ def _averaged(points):
     return names, positions, uncertainty, first, tuple(duplicates)
 
 
+def _joint_log(joints_path):
+    """The joint log's table, refused first when it is one of robocal's own files of another
+    kind (:func:`robocal.io.file_kinds.check`)."""
+    table = _read_table(joints_path)
+    check(table.path, "joint-log", header=table.header, column=table.column)
+    return table
+
+
 def join(points, joints_path, *, by=None, max_dt=MAX_DT):
     """(:class:`~robocal.io.tables.Measurements`, :class:`JoinReport`): the points
     (:class:`~robocal.io.tracker_points.TrackerPoints`) joined to the joint log at
@@ -102,8 +110,7 @@ def join(points, joints_path, *, by=None, max_dt=MAX_DT):
             name logged twice with different joints.
         InputError: no row could be joined.
     """
-    table = _read_table(joints_path)
-    check(table.path, "joint-log", header=table.header, column=table.column)
+    table = joints_path if hasattr(joints_path, "header") else _joint_log(joints_path)
     indices = sorted(int(m.group(1)) for name in table.header if (m := JOINT_COLUMN.fullmatch(name)))
     if not indices or indices != list(range(1, len(indices) + 1)):
         raise FileFormatError(f"{table.path}: a joint log needs the columns q1..qN (deg, or tagged such as q1[rad])")
@@ -196,7 +203,10 @@ def import_points(points_path, joints_path, out, *, units=None, by=None, max_dt=
     from .tracker_points import read_points
 
     check_outputs([out], [points_path, joints_path])
+    # Both files' kinds before either's content: robocal's commands given as the joint log is
+    # named as such, whatever the points hold.
+    log = _joint_log(joints_path)
     points = read_points(points_path, units=units)
-    data, report = join(points, joints_path, by=by, max_dt=max_dt)
+    data, report = join(points, log, by=by, max_dt=max_dt)
     write_measurements(out, data)
     return {"out": str(out), "points_unit": points.unit, **report.to_dict()}
