@@ -59,7 +59,7 @@ def test_only_the_targets_numbers_change(models, tmp_path):
         assert_only_targets_changed(KRL / name, tmp_path / name, ";")
     # the summary: one row per target and per run-time motion
     rows = (tmp_path / "filter-summary.csv").read_text().splitlines()
-    assert rows[0] == "file,line,name,status,moved_mm,turned_deg,in_domain,bound_mm"
+    assert rows[0] == "file,line,name,status,moved_mm,turned_deg,in_domain,bound_mm,robocal_file"
     assert len(rows) == 1 + 14 + 3
     assert "pallet_cell.dat,14,XP1,filtered," in rows[4]
 

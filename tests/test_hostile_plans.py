@@ -26,7 +26,7 @@ REFUSED = [
     ("design-walls-around-the-base", [*D, "--walls", "-10,10,-10,10", "--out", "p.csv"], None, "within x -10..10, y -10..10 mm (--walls)"),
     ("design-walls-inverted", [*D, "--walls", "500,-500,-500,500", "--out", "p.csv"], None, "with each min below its max"),
     ("design-kr150-box-below-the-floor", ["design", "kr150-2", "--n", "12", "--pool", "200", "--box", "1000,1800,-400,400,-1500,-1000", "--out", "p.csv"], None, "z >= 0 mm"),
-    ("design-fixture-below-the-floor", ["design", "kr150-2", "--n", "72", "--fixture", "plate.toml", "--region", "1000,1500,-300,300,-2000,-1800", "--out", "p.csv"], None, "at none of the placements"),
+    ("design-fixture-below-the-floor", ["design", "kr150-2", "--n", "72", "--fixture", "plate.toml", "--region", "1000,1500,-300,300,-2000,-1800", "--out", "p.csv"], None, "below the robot's mounting plane"),
     ("design-fixture-out-of-reach", ["design", "kr150-2", "--n", "72", "--fixture", "plate.toml", "--region", "9000,9500,-300,300,0,200", "--out", "p.csv"], None, "at none of the placements"),
     ("design-targets-out-of-reach", [*D, "--targets", "tf.csv", "--out", "p.csv"], {"tf.csv": "x,y,z,rx,ry,rz\n5000,0,0,180,0,0\n5100,0,0,180,0,0\n"}, "none of the targets of tf.csv can be reached"),
     ("design-candidates-beyond-limits", ["design", "ur5", "--n", "12", "--candidates", "c.csv", "--out", "p.csv"], {"c.csv": "q1,q2,q3,q4,q5,q6\n" + "".join(f"{400 + i},0,0,0,0,0\n" for i in range(30))}, "lies beyond joint 1's limits"),

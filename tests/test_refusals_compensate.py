@@ -20,7 +20,7 @@ REFUSED = [
     ("compensate model.json t_header.csv --out c.csv", "no data rows"),
     ("compensate model.json t_norot.csv --out c.csv", "rx, ry, rz"),
     ("compensate model.json t_dup.csv --out c.csv", "appears twice"),
-    ("compensate model.json t_metres.csv --out c.csv", "none of the 8 targets"),
+    ("compensate model.json t_metres.csv --out c.csv", "they look like metres"),
     ("compensate model.json t_fewq.csv --out c.csv", "6 joints"),
     ("compensate model.json t_binary.csv --out c.csv", "not a text CSV"),
     ("compensate model.json meas.csv --out c.csv", "rx, ry, rz"),

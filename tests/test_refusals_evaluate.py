@@ -26,7 +26,7 @@ REFUSED = [
     ("evaluate m_method.json meas.csv", "checksum"),
     ("evaluate m_created.json meas.csv", "checksum"),
     ("evaluate meas.csv model.json", "not a robocal model file"),
-    ("evaluate tsinghua.toml meas.csv", "not a robocal model file"),
+    ("evaluate tsinghua.toml meas.csv", "is a robot file, written by 'robocal export', not a model file"),
     ("evaluate model.json meas.csv --fixture missing.toml", "does not exist"),
     ("evaluate model.json meas.csv --out x.json", "--out"),
     ("evaluate model.json missing.csv --json", "does not exist"),

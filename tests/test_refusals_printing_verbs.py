@@ -18,7 +18,7 @@ REFUSED = [
     ("show r_binary.toml", "not a text file"),
     ("show u_notxml.urdf", "not well-formed XML"),
     ("show meas.csv", ".toml or .urdf"),
-    ("show model.json", ".toml or .urdf"),
+    ("show model.json", "is a robocal model file, written by 'robocal calibrate', not a robot file"),
     ("show", "robot"),
     ("robots extra", "extra"),
     ("robots --json", "--json"),
