@@ -208,22 +208,6 @@ def executor(*, jobs=None, scheduler=None):
 
 
 @contextlib.contextmanager
-def _ctrl_c_ignored():
-    """SIGINT ignored in the block (in the main thread only: elsewhere signals cannot be set)."""
-    import signal
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-@contextlib.contextmanager
 def _local_client(jobs):
     """A Client of a new local cluster: ``jobs`` processes of one thread, every socket (the
     scheduler, the workers, their HTTP endpoints) on 127.0.0.1, no dashboard."""
@@ -234,11 +218,7 @@ def _local_client(jobs):
     # Setting it at all fixes glibc's mmap threshold, so every large temporary array becomes a
     # fresh mapping with its page faults, and robocal's fits make many such arrays: compare on
     # the 1,000 UR5 poses took 96 s on one worker with it, 70 s without (63 s here).
-    # The workers start with Ctrl-C ignored (an ignored signal stays ignored in a child): the
-    # terminal sends it to the whole process group, and each worker would print its own
-    # KeyboardInterrupt traceback; the command line handles it once and closes the cluster.
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}), \
-            _ctrl_c_ignored():
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
         cluster = distributed.LocalCluster(
             n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
             scheduler_kwargs={"dashboard_address": "127.0.0.1:0"}, silence_logs=logging.CRITICAL)

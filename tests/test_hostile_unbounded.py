@@ -104,35 +104,3 @@ def test_ctrl_c_while_the_command_line_starts_ends_in_one_line(delay, tmp_path):
     assert process.returncode == 130 and "Traceback" not in err
     assert err.strip().splitlines()[-1].endswith("interrupted")
     assert not (tmp_path / "big.csv").exists()
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("delay", [3.0, 7.0])
-def test_ctrl_c_to_a_fleet_and_its_workers_ends_in_one_line(delay, tmp_path):
-    # A terminal's Ctrl-C reaches the whole process group, the local cluster's workers too:
-    # they start with it ignored, so only the command line answers, once, and the fleet's
-    # output folder is not left behind.
-    import signal
-    import subprocess
-    import sys
-    import time
-
-    from hostile import REPO
-
-    pytest.importorskip("distributed")
-    prepare(tmp_path)
-    (tmp_path / "fleet.toml").write_text("".join(
-        f'[[robot]]\nname = "{name}"\nrobot = "ur5"\ntrain = "ur5.csv"\nmethod = "kriging"\n'
-        '[robot.options]\naccept-extrapolation = true\n\n' for name in "ab"))
-    environment = dict(os.environ, PYTHONPATH=str(REPO))
-    process = subprocess.Popen([sys.executable, "-m", "robocal", "fleet", "fleet.toml", "--out", "res", "--jobs", "1"],
-                               cwd=tmp_path, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               text=True, start_new_session=True,
-                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    time.sleep(delay)
-    os.killpg(process.pid, signal.SIGINT)
-    _, err = process.communicate(timeout=120)
-    assert "Traceback" not in err and "Error" not in err, err
-    assert process.returncode in (0, 130), err  # 0: the fleet was done before the signal
-    if process.returncode == 130:
-        assert not (tmp_path / "res").exists()
