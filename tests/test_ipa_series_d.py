@@ -42,13 +42,20 @@ def test_the_campaign_is_the_tracker_data_moved_rigidly_into_the_base_frame(expo
     assert 0.3 < report["registration_rms_mm"] < 1.5
 
 
-def test_iso9283_figures_of_series_d_equal_the_formulas(exported, monkeypatch):
+def _iso_figures(exported, monkeypatch):
+    """(robocal's ``iso9283 --json`` figures of the exported campaign, its commanded and its
+    attained positions (N, 3) mm as the campaign file holds them)."""
     monkeypatch.delenv("ROBOCAL_SHARED_DATA", raising=False)
     root, _ = exported
     figures = json.loads(run_ok("iso9283", root / "d_iso.csv", "--json").stdout)
     campaign = series_d_campaign()["columns"]
     commanded = np.column_stack([campaign[c] for c in ("x_cmd", "y_cmd", "z_cmd")])
     attained = np.column_stack([campaign[c] for c in "xyz"])
+    return figures, commanded, attained
+
+
+def test_iso9283_figures_of_series_d_equal_the_formulas(exported, monkeypatch):
+    figures, commanded, attained = _iso_figures(exported, monkeypatch)
     first = figures["poses"][0]
     # P1 is the first row's command: its visits are the rows commanded within 2 mm of it.
     visits = np.linalg.norm(commanded - commanded[0], axis=1) <= 2.0
@@ -65,12 +72,7 @@ def test_iso9283_figures_of_series_d_equal_the_formulas(exported, monkeypatch):
 def test_every_repeated_pose_of_series_d_equals_the_formulas(exported, monkeypatch):
     # Every pose, not only P1: visits grouped here independently (a row joins the first group
     # whose first command lies within 2 mm of its own), poses visited once left out.
-    monkeypatch.delenv("ROBOCAL_SHARED_DATA", raising=False)
-    root, _ = exported
-    figures = json.loads(run_ok("iso9283", root / "d_iso.csv", "--json").stdout)
-    campaign = series_d_campaign()["columns"]
-    commanded = np.column_stack([campaign[c] for c in ("x_cmd", "y_cmd", "z_cmd")])
-    attained = np.column_stack([campaign[c] for c in "xyz"])
+    figures, commanded, attained = _iso_figures(exported, monkeypatch)
     firsts, groups = [], []
     for row, command in enumerate(commanded):
         near = [k for k, first in enumerate(firsts) if np.linalg.norm(command - first) <= 2.0]
