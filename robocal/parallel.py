@@ -218,7 +218,12 @@ def _local_client(jobs):
     # Setting it at all fixes glibc's mmap threshold, so every large temporary array becomes a
     # fresh mapping with its page faults, and robocal's fits make many such arrays: compare on
     # the 1,000 UR5 poses took 96 s on one worker with it, 70 s without (63 s here).
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+    # Each worker runs this module's dask_setup as it starts (a Dask preload), which ignores
+    # Ctrl-C there: a terminal sends it to the whole process group, and every worker would print
+    # its own traceback; the command line answers it once and closes the cluster.  Ignoring it
+    # here instead, for the children to inherit, would lose a Ctrl-C given while the cluster starts.
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                          "distributed.worker.preload": [__name__]}):
         cluster = distributed.LocalCluster(
             n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
             scheduler_kwargs={"dashboard_address": "127.0.0.1:0"}, silence_logs=logging.CRITICAL)
@@ -227,6 +232,14 @@ def _local_client(jobs):
             yield client
     finally:
         cluster.close()
+
+
+def dask_setup(worker):
+    """Run by each worker of a local cluster as it starts (see :func:`_local_client`): Ctrl-C is
+    ignored in the worker process, whose main thread runs this."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 @contextlib.contextmanager

@@ -302,6 +302,26 @@ def test_ctrl_c_closes_the_local_cluster(tmp_path, data):
     assert not alive, f"worker processes left running: {alive}"
 
 
+
+@needs_dask
+@pytest.mark.slow
+@pytest.mark.parametrize("delay", [3.0, 7.0])
+def test_ctrl_c_to_the_whole_process_group_ends_in_one_line(delay, tmp_path, data):
+    # A terminal's Ctrl-C reaches every process of its group, the local cluster's workers too:
+    # they ignore it, so only the command line answers, once, and leaves no output folder.
+    fleet = write_fleet(tmp_path / "fleet.toml", [
+        {"name": f"r{k}", "robot": "irb120", "train": str(data / "irb_train.csv"), "method": "auto"} for k in range(4)])
+    process = subprocess.Popen(ROBOCAL + ["fleet", str(fleet), "--out", str(tmp_path / "out"), "--jobs", "1"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    time.sleep(delay)
+    os.killpg(process.pid, signal.SIGINT)
+    _, stderr = process.communicate(timeout=120)
+    assert "Traceback" not in stderr and "Error" not in stderr, stderr
+    assert process.returncode in (0, 128 + signal.SIGINT), stderr  # 0: the fleet was done before the signal
+    if process.returncode:
+        assert not (tmp_path / "out").exists()
+
+
 # --------------------------------------------------------------------------- without Dask
 BLOCK_DASK = """
 import sys
