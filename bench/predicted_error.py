@@ -4,10 +4,11 @@ what each model then misses there.
 A simulated KUKA KR 150-2 (``--errors typical``, seed 2) measured at poses spread over the
 joint space, at poses within ±5 deg of one posture, and after the tracker moved (re-registered
 on 25 spread or clustered poses); a UR5 modelled by Kriging from 80 spread poses; and the
-MUKCa Panda 3 ball-in-socket data with one placement left out at a time.  Held out: the mean
-error over the same 1,000 joint-uniform configurations the prediction is made for, against
-the simulated truth (for the Panda, the socket consistency on the placement left out).  The
-setups are those of ``tests/test_predicted_error.py``, which asserts the factor 2.
+MUKCa Panda 1, 2 and 3 ball-in-socket data, each placement left out in turn and the
+calibration (``full+gains``) trained on the others.  Held out: the mean error over the same
+1,000 joint-uniform configurations the prediction is made for, against the simulated truth
+(for the Pandas, the socket consistency on the placement left out).  The setups are those of
+``tests/test_predicted_error.py``, which asserts the factor 2.
 
 Real tracker data at the campaign sizes users measure (12, 25 and 50 poses, 5 draws each):
 the kinematic calibration's prediction made for the held-out poses themselves (the user's
@@ -15,9 +16,11 @@ targets), beside their mean error, and the share of them within the predicted 95
 percentile; held out at random, and as a region (trained in the lower half of joint 1's
 range, tested in the upper half).
 
-    python bench/predicted_error.py      # about half a minute
+    python bench/predicted_error.py            # about half a minute
+    python bench/predicted_error.py --sockets  # the Panda placements only, a few seconds
 """
 import os
+import sys
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -86,9 +89,35 @@ def real_campaigns():
                       f"{min(shares):.3f}-{max(shares):.3f}", flush=True)
 
 
+def _header():
+    print(f"{'mean error, mm':<52}{'predicted':>10}{'held out':>10}{'ratio':>8}{'nominal':>10}{'(held)':>10}")
+
+
+def socket_placements(units=("panda_1", "panda_2", "panda_3")):
+    """Each MUKCa unit's placements left out in turn: the predicted socket consistency of
+    the calibration trained on the others beside the consistency on the one left out."""
+    for unit in units:
+        dataset = mukca(unit)
+        panda, sockets, fixture = dataset.chain, dataset.observations, dataset.fixture
+        q = sockets.joints
+        for left_out in np.unique(sockets.placement):
+            train = sockets.placement != left_out
+            cal = ConstraintCalibration(gains=True).fit(panda, q[train], sockets.placement[train],
+                                                        sockets.socket[train], fixture)
+            data = socket_data(cal.start_chain_, q[train], sockets.placement[train], sockets.socket[train], fixture)
+            scored = socket_errors(cal.chain_, q[~train], sockets.placement[~train], sockets.socket[~train], fixture)
+            nominal = socket_errors(panda, q[~train], sockets.placement[~train], sockets.socket[~train], fixture)
+            name = unit.replace("panda_", "Panda ")
+            _row(f"MUKCa {name}, {left_out} left out", socket_prediction(cal, data), scored["mean_mm"],
+                 nominal["mean_mm"])
+
+
 def main():
     warnings.simplefilter("ignore")
-    print(f"{'mean error, mm':<52}{'predicted':>10}{'held out':>10}{'ratio':>8}{'nominal':>10}{'(held)':>10}")
+    _header()
+    if "--sockets" in sys.argv[1:]:
+        socket_placements()
+        return
     chain = builtin("kr150-2")
     truth = make_true_robot(chain, "typical", seed=2)
     work = working_range(chain).joints
@@ -125,18 +154,7 @@ def main():
     ur5_work = working_range(ur5).joints
     _row("UR5, Kriging from 80 spread poses", expected_error(fitted, ur5, obs),
          float(np.linalg.norm(ur5_truth.positions(ur5_work) - fitted.predict(ur5_work), axis=1).mean()))
-    dataset = mukca("panda_3")
-    panda, sockets, fixture = dataset.chain, dataset.observations, dataset.fixture
-    q = sockets.joints
-    for left_out in np.unique(sockets.placement):
-        train = sockets.placement != left_out
-        cal = ConstraintCalibration(gains=True).fit(panda, q[train], sockets.placement[train],
-                                                    sockets.socket[train], fixture)
-        data = socket_data(cal.start_chain_, q[train], sockets.placement[train], sockets.socket[train], fixture)
-        scored = socket_errors(cal.chain_, q[~train], sockets.placement[~train], sockets.socket[~train], fixture)
-        nominal = socket_errors(panda, q[~train], sockets.placement[~train], sockets.socket[~train], fixture)
-        _row(f"MUKCa Panda 3, placement {left_out} left out", socket_prediction(cal, data), scored["mean_mm"],
-             nominal["mean_mm"])
+    socket_placements()
     real_campaigns()
 
 

@@ -3,6 +3,8 @@ then misses there: the mean over joint-uniform configurations of a simulated rob
 against its truth, for well-spread and clustered poses, re-registration on a cluster, the
 hybrid, an error model, and the socket consistency of the constraint calibration on
 placements left out.  A prediction must lie within a factor 2 of the held-out mean."""
+from itertools import combinations
+
 import numpy as np
 import pytest
 
@@ -10,7 +12,9 @@ from robocal.errors import InputError
 from robocal.estimation import ConstraintCalibration
 from robocal.estimation.constraint import socket_errors
 from robocal.estimation.constraint.data import socket_data
-from robocal.estimation.prediction import socket_prediction, working_range
+from robocal.estimation import prediction
+from robocal.estimation.prediction import socket_prediction, working_range, working_sockets
+from robocal.io.fixtures import Fixture
 from robocal.io.datasets import mukca
 from robocal.io.library import builtin
 from robocal.io.observations import Observations
@@ -18,9 +22,11 @@ from robocal.methods import make_method
 from robocal.methods.expectation import expected_error, refuse_if_worse_than_nominal
 from robocal.methods.reregistration import reregister
 from robocal.simulation import make_true_robot, uniform_joints
+from robocal.simulation.sampling import socket_plan
 from robocal.spatial import compose_pose
 
 FACTOR = 2.0
+PLATE_SOCKETS = Fixture("plate", {"A": [0.0, 0.0, 0.0], "B": [150.0, 0.0, 0.0], "C": [0.0, 120.0, 0.0]})
 
 
 @pytest.fixture(scope="module")
@@ -104,19 +110,71 @@ def test_an_error_model_that_would_do_worse_than_the_registered_nominal_robot_sa
     assert held / FACTOR <= predicted.mean_mm <= FACTOR * held, (predicted.mean_mm, held)
 
 
-def test_predicted_socket_consistency_matches_placements_left_out():
-    dataset = mukca("panda_3")
+def _left_out(chain, joints, placement, socket, fixture, train, **settings):
+    """(the calibration trained on ``train`` (N,) bool, its training SocketData, the socket
+    consistency (mean mm) of the configurations left out)."""
+    cal = ConstraintCalibration(**settings).fit(chain, joints[train], placement[train], socket[train], fixture)
+    data = socket_data(cal.start_chain_, joints[train], placement[train], socket[train], fixture)
+    held = socket_errors(cal.chain_, joints[~train], placement[~train], socket[~train], fixture)["mean_mm"]
+    return cal, data, held
+
+
+@pytest.mark.parametrize("unit, placements", [("panda_1", slice(None)), ("panda_3", slice(0, 3))])
+def test_predicted_socket_consistency_matches_placements_left_out(unit, placements):
+    # Panda 1 is trained on two placements: with back-high left out the prediction made at the
+    # training configurations was 0.31 mm against 0.64 held out.
+    dataset = mukca(unit)
     panda, sockets, fixture = dataset.chain, dataset.observations, dataset.fixture
-    q = sockets.joints
-    for left_out in np.unique(sockets.placement)[:3]:
-        train = sockets.placement != left_out
-        cal = ConstraintCalibration(gains=True).fit(panda, q[train], sockets.placement[train], sockets.socket[train],
-                                                    fixture)
-        data = socket_data(cal.start_chain_, q[train], sockets.placement[train], sockets.socket[train], fixture)
+    for left_out in np.unique(sockets.placement)[placements]:
+        cal, data, held = _left_out(panda, sockets.joints, sockets.placement, sockets.socket, fixture,
+                                    sockets.placement != left_out, gains=True)
         predicted = socket_prediction(cal, data)
-        held = socket_errors(cal.chain_, q[~train], sockets.placement[~train], sockets.socket[~train],
-                             fixture)["mean_mm"]
         assert held / FACTOR <= predicted.mean_mm <= FACTOR * held, (left_out, predicted.mean_mm, held)
+
+
+@pytest.mark.parametrize("seed", [2, 4])
+def test_the_socket_prediction_sees_beyond_placements_confined_to_one_region(seed):
+    # A simulated KR 150-2 (typical errors, compliance and backlash) at 8 random placements of
+    # the plate, trained on the two closest together and scored on the other six.  Made where
+    # the training sockets are, the prediction misses most of what the model then misses
+    # elsewhere (seed 2: 0.18 mm against 0.83; seeds 0 to 4: 0.22 to 0.78 of it); made at
+    # sockets over the working range it is within a factor 2 (0.99 to 1.44 of it).
+    chain = builtin("kr150-2").replace(tool=compose_pose([20.0, -10.0, 150.0], np.zeros(3)))
+    plan = socket_plan(make_true_robot(chain, "typical", seed), PLATE_SOCKETS, 8, 8, rng=seed,
+                       joint_noise_deg=0.002)
+    centre = {p: plan.ball[plan.fixture_ids == p].mean(axis=0) for p in np.unique(plan.fixture_ids)}
+    closest = min(combinations(centre, 2), key=lambda pair: np.linalg.norm(centre[pair[0]] - centre[pair[1]]))
+    cal, data, held = _left_out(chain, plan.joints, plan.fixture_ids, plan.socket_ids, PLATE_SOCKETS,
+                                np.isin(plan.fixture_ids, closest))
+    predicted = socket_prediction(cal, data)
+    assert held / FACTOR <= predicted.mean_mm <= FACTOR * held, (predicted.mean_mm, held)
+    assert "uniform within the joint limits" in predicted.where
+    # At sockets where the training configurations put the ball (the user's targets) it is
+    # far smaller: the growth comes from where the sockets are.
+    like_training = socket_prediction(cal, data, work_joints=data.joints)
+    assert "given configurations" in like_training.where
+    assert like_training.mean_mm < 0.6 * predicted.mean_mm
+    assert predicted.p95_mm > predicted.mean_mm and predicted.nominal_mean_mm > 3 * predicted.mean_mm
+
+
+def test_working_sockets_are_reached_by_several_configurations_within_the_limits(monkeypatch):
+    chain = builtin("kr150-2").replace(tool=compose_pose([20.0, -10.0, 150.0], np.zeros(3)))
+    plan = socket_plan(chain, PLATE_SOCKETS, 2, 6, rng=5)
+    data = socket_data(chain, plan.joints, plan.fixture_ids, plan.socket_ids, PLATE_SOCKETS)
+    sockets, where = working_sockets(chain, data, sockets=40, reaches=5)
+    sizes = np.bincount(sockets.group)
+    assert np.all(sizes >= 2) and np.all(sizes <= 5) and len(sizes) >= 30
+    assert chain.within_limits(sockets.joints).all() and np.array_equal(where.joints, sockets.joints)
+    balls = chain.fk_positions(sockets.joints)
+    means = np.stack([np.bincount(sockets.group, weights=balls[:, c]) for c in range(3)], axis=1) / sizes[:, None]
+    assert np.abs(balls - means[sockets.group]).max() < 1e-6
+    # Reached in other postures, not the same configuration again.
+    spread = np.array([np.ptp(sockets.joints[sockets.group == g], axis=0).max() for g in range(len(sizes))])
+    assert np.median(np.degrees(spread)) > 5.0
+    # Where the IK reaches no socket, the training configurations stand for the working range.
+    monkeypatch.setattr(prediction, "IK_ITERATIONS", 0)
+    fallback, where = working_sockets(chain, data, sockets=10, reaches=3)
+    assert fallback is data and "training configurations" in where.text and len(where.joints) == len(data.joints)
 
 
 def test_the_domain_of_a_model_re_registered_on_a_corner_does_not_call_the_rest_inside(kr150):

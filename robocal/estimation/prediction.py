@@ -9,6 +9,12 @@ was identified, and s² the residual variance per coordinate.  The registered no
 gets the same prediction with only its base and tool fitted, so a calibration that would do
 worse than no calibration where the robot works can be told.
 
+Ball-in-socket data hold no position to miss: what they score is socket consistency, each
+ball centre's deviation from its socket's mean.  Its prediction (:func:`socket_prediction`)
+puts sockets where the robot will work, reaches each in several configurations as the
+training sockets were reached (:func:`working_sockets`), and propagates the posterior through
+how those deviations move with the parameters, plus the ball's scatter the training shows.
+
 How far a robot lies from its drawing is its own: the tolerances are the prior's shape, and
 their common scale is the one the calibration estimated from the data (the evidence fixed
 point of :func:`~robocal.estimation.least_squares.tolerance_scale_estimate`), so that
@@ -29,6 +35,14 @@ DRAWS = 16
 # mean of WORKING_POSES x DRAWS drawn norms.
 TIE_MM = 1e-3
 TIE_FRACTION = 0.02
+# Ball-in-socket data: the working range stands as this many sockets, each reached by this
+# many configurations (WORKING_POSES in all; the MUKCa units reach a socket about 30 times,
+# whose deviations from their mean are sqrt(29/30) / sqrt(9/10), 3 %, larger), within so many
+# IK iterations (from a training offset, 90 % of the MUKCa Panda 3's converge within 20, 98 %
+# within 30).
+SOCKETS = 100
+REACHES = 10
+IK_ITERATIONS = 30
 
 
 @dataclass(frozen=True)
@@ -102,14 +116,20 @@ def _posterior(information, prior_std, noise):
     return np.linalg.pinv(precision, hermitian=True)
 
 
-def error_norms(jacobian, cov, noise, count, seed):
-    """(count * DRAWS,) norms of errors drawn from N(0, J Σ Jᵀ + noise I) per configuration."""
+def error_draws(jacobian, cov, noise, count, seed):
+    """(count, 3, DRAWS) mm: errors drawn from N(0, J Σ Jᵀ + noise I) per configuration, for
+    ``jacobian`` (3 count, P) rows, ``cov`` (P, P) and ``noise`` mm² per coordinate."""
     j = jacobian.reshape(count, 3, -1)
     e_cov = j @ cov @ np.swapaxes(j, 1, 2) + noise * np.eye(3)
     w, v = np.linalg.eigh(e_cov)
     root = v * np.sqrt(np.clip(w, 0.0, None))[:, None, :]
     z = np.random.default_rng(seed).standard_normal((count, 3, DRAWS))
-    return np.linalg.norm(root @ z, axis=1).reshape(-1)
+    return root @ z
+
+
+def error_norms(jacobian, cov, noise, count, seed):
+    """(count * DRAWS,) norms of errors drawn from N(0, J Σ Jᵀ + noise I) per configuration."""
+    return np.linalg.norm(error_draws(jacobian, cov, noise, count, seed), axis=1).reshape(-1)
 
 
 def predicted_draws(chain, train_joints, residual, names, prior_std, *, identified, scale=1.0, frame_names=(),
@@ -179,19 +199,25 @@ def calibration_prediction(calibration, joints, positions, work_joints=None, see
     return PredictedError.of_draws(calibrated, nominal, where, calibration.result_.tolerance_scale)
 
 
-def socket_prediction(calibration, data, seed=0):
+def socket_prediction(calibration, data, work_joints=None, seed=0):
     """The :class:`PredictedError` of a fitted
     :class:`~robocal.estimation.constraint.ConstraintCalibration` as ball-in-socket data
-    score it: each ball centre's deviation from its socket's mean, on placements like the
-    training ones (their configurations stand for the placements left out).
+    score it where the robot will work: each ball centre's deviation from its socket's mean,
+    at sockets spread over the working range (:func:`working_sockets`), each reached as the
+    training configurations reach theirs.
 
-    data: the training :class:`~robocal.estimation.constraint.data.SocketData`.  The
-    posterior comes from the constraint rows (spanning pairs) with the tolerances at the
-    scale the fit estimated; the ball's own scatter is the training consistency's.
+    data: the training :class:`~robocal.estimation.constraint.data.SocketData`; work_joints:
+    (M, n) rad, configurations that put the ball where sockets will be (default: uniform
+    within the joint limits, :func:`working_range`).  The posterior comes from the constraint
+    rows (spanning pairs) with the tolerances at the scale the fit estimated, propagated
+    through the deviation Jacobian of those sockets' configurations; the ball's own scatter
+    is drawn from the training deviations' lengths, in directions uniform on the sphere.
+    Where no working socket can be reached (IK fails everywhere), the training
+    configurations stand for them.
     """
     from .constraint.data import constraint_pairs, pair_weights
     from .constraint.estimator import constraint_rows
-    from .constraint.metrics import deviation_jacobian
+    from .constraint.metrics import deviation_jacobian, grouped_socket_errors
 
     result = calibration.result_
     chain = calibration.chain_
@@ -201,14 +227,74 @@ def socket_prediction(calibration, data, seed=0):
     noise = float(residual @ residual) / max(len(residual) - len(result.names), 1)
     cov = _posterior(jac.T @ jac, prior_std * result.tolerance_scale, noise)
     nominal_cov = _posterior(np.zeros_like(cov), prior_std * result.tolerance_scale, noise)
-    # Each configuration's ball centre minus its socket's mean, as a linear map of the deviations.
-    deviation_rows = deviation_jacobian(chain, data, names)
-    count = len(deviation_rows)
-    deviation = deviation_rows.reshape(-1, len(names))
     shared = np.bincount(data.group)[data.group] > 1
-    scatter = result.residual_after.get("rms_mm", 0.0) ** 2 / 3.0
-    calibrated = error_norms(deviation, cov, scatter, count, seed)
-    nominal = error_norms(deviation, nominal_cov, scatter, count, seed)
-    where = WorkingRange(data.joints[shared],
-                         f"the {count} training configurations' sockets, as on placements left out")
+    deviations = grouped_socket_errors(chain, data, per_placement=True)[3][shared]
+    lengths = np.linalg.norm(deviations, axis=1)
+    sockets, where = working_sockets(chain.rigid, data, work_joints, seed)
+    # Each configuration's ball centre minus its socket's mean, as a linear map of the deviations.
+    deviation = deviation_jacobian(chain, sockets, names)
+    count = len(deviation)
+    deviation = deviation.reshape(-1, len(names))
+    scatter = _scatter_draws(lengths, count, seed)
+    calibrated = np.linalg.norm(error_draws(deviation, cov, 0.0, count, seed) + scatter, axis=1).reshape(-1)
+    nominal = np.linalg.norm(error_draws(deviation, nominal_cov, 0.0, count, seed) + scatter, axis=1).reshape(-1)
     return PredictedError.of_draws(calibrated, nominal, where, result.tolerance_scale)
+
+
+def working_sockets(chain, data, work_joints=None, seed=0, sockets=SOCKETS, reaches=REACHES):
+    """Sockets where the robot will work, each reached by several configurations: ((a
+    :class:`~robocal.estimation.constraint.data.SocketData` of them, one placement), the
+    :class:`WorkingRange` of their configurations).
+
+    chain: a rigid chain; data: the training SocketData, whose configurations' offsets from
+    their socket's mean joint vector (rad) say how a socket is reached; work_joints: (M, n)
+    rad, configurations putting the ball where sockets will be (at most ``sockets`` of them,
+    evenly picked), else ``sockets`` uniform within the joint limits.  Each socket's
+    configuration is joined by ``reaches`` - 1 others: a training offset drawn at random,
+    added to it, and brought back onto the same ball centre by the numerical IK (position
+    only, within the limits); those it does not reach are dropped, and sockets left with one
+    configuration too.  No socket left: the training data and their configurations.
+    """
+    from ..kinematics.ik import solve_numeric
+    from .constraint.data import SocketData
+
+    if work_joints is not None:
+        work_joints = np.asarray(work_joints, dtype=float)
+        work_joints = work_joints[np.linspace(0, len(work_joints) - 1, min(len(work_joints), sockets)).astype(int)]
+    centres = working_range(chain, work_joints, count=sockets, seed=seed)
+    q0 = centres.joints
+    sizes = np.bincount(data.group)
+    means = np.stack([np.bincount(data.group, weights=data.joints[:, c]) for c in range(chain.n_joints)],
+                     axis=1) / sizes[:, None]
+    offsets = (data.joints - means[data.group])[sizes[data.group] > 1]
+    rng = np.random.default_rng(seed)
+    others = reaches - 1
+    seeds = (q0[:, None, :] + offsets[rng.integers(0, len(offsets), size=(len(q0), others))]).reshape(-1, q0.shape[1])
+    reached = solve_numeric(chain, np.repeat(chain.fk(q0), others, axis=0), seeds, position_only=True,
+                            max_iterations=IK_ITERATIONS)
+    joints = np.concatenate([q0, reached.q])
+    group = np.concatenate([np.arange(len(q0)), np.repeat(np.arange(len(q0)), others)])
+    kept = np.concatenate([np.ones(len(q0), dtype=bool), reached.success])
+    joints, group = joints[kept], group[kept]
+    kept = np.bincount(group, minlength=len(q0))[group] > 1
+    if not kept.any():
+        shared = sizes[data.group] > 1
+        return data, WorkingRange(data.joints[shared], f"the {int(shared.sum())} training configurations' sockets "
+                                                       "(no socket of the working range could be reached)")
+    _, group = np.unique(group[kept], return_inverse=True)
+    zeros = np.zeros(int(kept.sum()), dtype=int)
+    found = SocketData(joints[kept], ("working range",), zeros, zeros, group.reshape(-1), data.fixture)
+    return found, WorkingRange(found.joints, f"{len(found.joints)} configurations reaching {found.group.max() + 1} "
+                                             f"sockets (up to {reaches} each, as the training sockets are reached) "
+                                             f"where {centres.text} put the ball")
+
+
+def _scatter_draws(lengths, count, seed):
+    """(count, 3, DRAWS) mm: the ball's scatter, the training deviations' ``lengths`` (K,) mm
+    drawn at random, each in a direction uniform on the sphere."""
+    rng = np.random.default_rng([seed, 1])
+    direction = rng.standard_normal((count, 3, DRAWS))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    if not len(lengths):
+        return 0.0 * direction
+    return direction * rng.choice(lengths, size=(count, 1, DRAWS))

@@ -27,10 +27,11 @@ def expected_error(method, chain, observations, work_joints=None, seed=0):
     """The :class:`~robocal.estimation.prediction.PredictedError` of a fitted ``method`` on
     its training ``observations`` over ``work_joints`` (M, n) rad (default: uniform in the
     joint limits).  For ball-in-socket data, the socket consistency the calibration predicts
-    on placements like its training ones (:func:`~robocal.estimation.prediction.socket_prediction`);
-    None when there is nothing to predict from."""
+    at sockets where ``work_joints`` put the ball, each reached as the training sockets are
+    (:func:`~robocal.estimation.prediction.socket_prediction`); None when there is nothing to
+    predict from."""
     if observations.positions is None:
-        return _socket_error(method, observations, seed)
+        return _socket_error(method, observations, work_joints, seed)
     if getattr(method, "frames_posterior_", None) is not None:
         return reregistered_error(method, work_joints, seed)
     anchor = getattr(method, "calibration_", None)
@@ -57,8 +58,9 @@ def expected_error(method, chain, observations, work_joints=None, seed=0):
     return PredictedError.of_draws(calibrated, nominal, where, getattr(anchor.result_, "tolerance_scale", 1.0))
 
 
-def _socket_error(method, observations, seed):
-    """The constraint calibration's predicted socket consistency, or None."""
+def _socket_error(method, observations, work_joints, seed):
+    """The constraint calibration's predicted socket consistency over ``work_joints`` (M, n)
+    rad (default: uniform in the joint limits), or None."""
     calibration = getattr(method, "calibration_", None)
     if calibration is None or observations.placement is None or observations.fixture is None:
         return None
@@ -67,7 +69,7 @@ def _socket_error(method, observations, seed):
 
     data = socket_data(calibration.start_chain_, observations.joints, observations.placement, observations.socket,
                        observations.fixture)
-    return socket_prediction(calibration, data, seed)
+    return socket_prediction(calibration, data, work_joints, seed)
 
 
 def reregistered_error(method, work_joints=None, seed=0):
