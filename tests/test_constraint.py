@@ -274,9 +274,21 @@ def test_refuses_a_socket_missing_from_the_fixture(small_plan):
 def test_refuses_socket_distances_the_data_contradict(small_plan):
     chain, plan = small_plan
     wrong = Fixture("wrong", {"A": [0.0, 0.0, 0.0], "B": [250.0, 0.0, 0.0], "C": [0.0, 120.0, 0.0]})
-    message = r"sockets A and B are 1[45]\d\.\d mm apart by the starting model but 250.0 mm"
+    # Under the tolerances the fit judges it: no robot within them leaves such distance errors.
+    message = r"misses the fixture's socket distances by \d+\.\d mm RMS .* not this robot's with this fixture"
     with pytest.raises(InputError, match=message):
         _fit(chain, plan.joints, plan.fixture_ids, plan.socket_ids, wrong)
+    # Without them the data must agree with the fixture before the fit.
+    message = r"sockets A and B are 1[45]\d\.\d mm apart by the starting model but 250.0 mm"
+    with pytest.raises(InputError, match=message):
+        ConstraintCalibration(prior="none").fit(chain, plan.joints, plan.fixture_ids, plan.socket_ids, wrong)
+
+
+def test_a_fixture_in_another_length_unit_is_named(small_plan):
+    chain, plan = small_plan
+    inches = Fixture("inches", {k: v / 25.4 for k, v in PLATE.sockets.items()})
+    with pytest.raises(InputError, match="they look like inches"):
+        _fit(chain, plan.joints, plan.fixture_ids, plan.socket_ids, inches)
 
 
 def test_refuses_nan_mismatched_and_too_few(small_plan):
@@ -291,7 +303,8 @@ def test_refuses_nan_mismatched_and_too_few(small_plan):
         _fit(chain, plan.joints[:, :6], plan.fixture_ids, plan.socket_ids)
     few = np.flatnonzero(plan.fixture_ids == "P1")[:4]
     with pytest.raises(InputError, match="independent constraint equations"):
-        _fit(chain, plan.joints[few], plan.fixture_ids[few], plan.socket_ids[few])
+        ConstraintCalibration(prior="none").fit(chain, plan.joints[few], plan.fixture_ids[few], plan.socket_ids[few],
+                                                PLATE)
     # Settings are stored as given and checked by fit, which names the bad one.
     for settings, message in (({"pairs": "some"}, "pairs must be one of"), ({"payload": -1.0}, "payload must be")):
         unchecked = ConstraintCalibration(**settings)

@@ -96,7 +96,7 @@ REFUSED = [
     ("fixture-metres-simulate", ["simulate", "kr150-2", "--sampling", "sockets", "--fixture", "fm.toml", "--placements", "3", "--per-socket", "5", "--out", "s.csv"], {"fm.toml": FIX_M}, "they look like metres"),
     ("fixture-metres-evaluate", ["evaluate", "sock_model.json", "sockets.csv", "--fixture", "fm.toml"], {"fm.toml": FIX_M}, "they look like metres"),
     ("fixture-metres-with-unit-key", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "fm.toml", "--out", "o.json"], {"fm.toml": FIX_M.replace("[sockets]", 'unit = "m"\n[sockets]')}, "they look like metres"),
-    ("fixture-inches", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "fi.toml", "--out", "o.json"], {"fi.toml": lambda b: (b / "plate.toml").read_text().replace("150.0", "5.9").replace("120.0", "4.72")}, "but 5.9 mm in fixture"),
+    ("fixture-inches", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "fi.toml", "--out", "o.json"], {"fi.toml": lambda b: (b / "plate.toml").read_text().replace("150.0", "5.9").replace("120.0", "4.72")}, "they look like inches"),
     ("robot-file-metres", ["calibrate", "r.toml", "ur5.csv", "--out", "o.json"], {"r.toml": robot_in_metres}, "its robot file looks like metres"),
     ("robot-file-limits-radians", ["calibrate", "r.toml", "ur5.csv", "--out", "o.json"], {"r.toml": robot_limits_in_radians}, "lies beyond joint 1's limits -6.283 to 6.283"),
 ]

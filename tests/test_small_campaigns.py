@@ -63,6 +63,45 @@ def test_auto_gives_a_model_where_it_was_refused(ur10, poses):
     assert any("left out" in note for note in comparison["notes"])
 
 
+@pytest.fixture(scope="module")
+def panda(tmp_path_factory):
+    """MUKCa Panda 3 (real ball-in-socket data), as ``robocal dataset`` writes it: the robot and
+    fixture files, and two small campaigns: both sockets of the first 2 placements, 3 seatings
+    each (12), and of the first 4, 2 or 3 seatings each (20), as a user measures them."""
+    folder = tmp_path_factory.mktemp("panda")
+    assert runner.invoke(app, ["dataset", "mukca-panda-3", "--out", str(folder / "p3")]).exit_code == 0
+    header, *rows = (folder / "p3.csv").read_text().splitlines()
+    columns = header.split(",")
+    key = [columns.index("fixture"), columns.index("socket")]
+    groups = {}
+    for row in rows:
+        cells = row.split(",")
+        groups.setdefault(tuple(cells[k] for k in key), []).append(row)
+    placements = sorted({placement for placement, _ in groups})
+    files = {}
+    for size, count in ((12, 2), (20, 4)):
+        sockets = [g for g in sorted(groups) if g[0] in placements[:count]]
+        per = [size // len(sockets) + (k < size % len(sockets)) for k in range(len(sockets))]
+        files[size] = folder / f"seatings{size}.csv"
+        files[size].write_text("\n".join([header] + [r for g, m in zip(sockets, per) for r in groups[g][:m]]) + "\n")
+    return folder, files
+
+
+@pytest.mark.parametrize("seatings", [12, 20])
+def test_auto_gives_a_model_from_a_small_ball_in_socket_campaign(panda, seatings):
+    # Refused before: "the data give 20 independent constraint equations for about 25
+    # parameters" (the tolerances hold what a dozen seatings do not pin), then a fold whose
+    # training part kept one seating of a socket ("has a single configuration").
+    folder, files = panda
+    out = folder / f"auto{seatings}.json"
+    result = runner.invoke(app, ["calibrate", str(folder / "p3.toml"), str(files[seatings]), "--method", "auto",
+                                 "--fixture", str(folder / "p3_fixture.toml"), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    model = load_model(out)
+    assert model.training["comparison"]["poses"] == seatings
+    assert model.training["comparison"]["recommended"]["method"] == "constraint"
+
+
 def test_auto_on_37_poses_no_longer_crashes(ur10):
     # Crashed before: IndexError, every 5-fold split dropped below 30 training poses.
     _, _, folder, files = ur10

@@ -106,7 +106,8 @@ def tolerance_prior(start, names, joints, prior, scale, deviation):
     return Prior({n: float(s) for n, s in zip(names, sigmas) if np.isfinite(s)}, deviation)
 
 
-def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, tolerance_rms, space, *, override):
+def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, tolerance_rms, space, *, override,
+                    distances=None):
     """The one-line reason a maximum a posteriori fit is not this robot's data, or None.
 
     Two kinds of evidence, both in the data's own statistics rather than fixed millimetres:
@@ -132,6 +133,10 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
     RMS of the nominal robot's error that the tolerances predict at these poses (or a callable
     that computes it, called only when needed); space: the chain's
     parameter space (for units); override: the option that widens the tolerances.
+    distances: for ball-in-socket data, (before_rms, after_rms, tolerance_rms) mm of the
+    socket distances' errors, judged as what calibration leaves is (the position residual
+    says nothing of a fixture whose distances are wrong: the fit bends the robot toward them
+    and keeps its sockets consistent).
     """
     from scipy.stats import chi2
 
@@ -156,6 +161,14 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
     margin = float(np.sqrt(limit / max(int(held.sum()), 1)))
     if after_rms > NOISE_FLOOR * noise_rms and callable(tolerance_rms):
         tolerance_rms = tolerance_rms()  # a Jacobian over poses: only when it can decide
+    if distances is not None:
+        d_before, d_after, d_tolerance = distances
+        if d_after > margin * d_tolerance:
+            return (f"the registered nominal robot misses the fixture's socket distances by {d_before:.3g} mm RMS and "
+                    f"its calibration within the tolerances still by {d_after:.3g} mm, where a robot within its "
+                    f"tolerances misses them by {d_tolerance:.2g} mm RMS: these ball-in-socket data are not this "
+                    f"robot's with this fixture, or not in mm: check the robot, the fixture file and the data; if "
+                    f"they are right, widen the tolerances ({override})")
     if after_rms > max(NOISE_FLOOR * noise_rms, margin * (0.0 if callable(tolerance_rms) else tolerance_rms)):
         return (f"the registered nominal robot misses these data by {before_rms:.3g} mm RMS and its calibration "
                 f"within the tolerances still by {after_rms:.3g} mm (it explains {max(explained, 0.0):.0%} of the "

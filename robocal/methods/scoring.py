@@ -100,6 +100,18 @@ def held_out_errors(fitted, observations, train, test):
     return held.positions - fitted.predict(held.joints)
 
 
+def constraining(observations, train):
+    """The poses of ``train`` a fit can use: all of them, but on ball-in-socket data only those
+    whose socket keeps two or more in the training part (a lone seating constrains nothing;
+    it still says where its socket is when a held-out seating of that socket is scored)."""
+    if observations.positions is not None:
+        return train
+    keys = np.char.add(np.char.add(observations.placement[train].astype(str), "/"),
+                       observations.socket[train].astype(str))
+    _, group, counts = np.unique(keys, return_inverse=True, return_counts=True)
+    return train[counts[group.reshape(-1)] > 1]
+
+
 def deleted_errors(fitted, observations, tests):
     """[(len(test), 3) mm]: the held-out position errors of a kinematic calibration fitted on
     every pose of ``observations``, each test block deleted through the hat matrix of the
@@ -249,7 +261,8 @@ def score(candidate, observations, split, refits, *, on_fit=None):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RobocalWarning)
                 start = time.perf_counter()
-                fitted = refits.fit(candidate, observations.subset(train), (split.name, fold))
+                fitted = refits.fit(candidate, observations.subset(constraining(observations, train)),
+                                    (split.name, fold))
                 seconds += time.perf_counter() - start
                 error = held_out_errors(fitted, observations, train, test)
         if on_fit is not None:
