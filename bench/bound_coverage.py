@@ -91,6 +91,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--methods", default="kinematic,kriging,hybrid")
     parser.add_argument("--only", default=None, help="cases whose label contains this text")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the bound's folds and regions (fit_bound)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     print(f"{'method':<10}{'case':<32}{'train':>6}{'test':>6}{'all: cov':>10}{'ratio':>7}{'in: cov':>9}{'ratio':>7}"
@@ -101,7 +102,7 @@ def main():
                 continue
             start = time.process_time()
             fitted = make_method(method, **SETTINGS[method]).fit(chain, train)
-            bound_model = fit_bound(fitted, chain, train)
+            bound_model = fit_bound(fitted, chain, train, seed=args.seed)
             inside = bound_model.inside_mask(test.joints)
             bound = bound_model.predict(test.joints, inside=inside)
             error = np.linalg.norm(test.positions - fitted.predict(test.joints), axis=1)

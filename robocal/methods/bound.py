@@ -21,21 +21,22 @@ q · s(x), q the split-conformal quantile of the scores of the random folds' hel
 (those inside their fold's domain): with m scores, the ⌈(m + 1)·0.95⌉-th smallest, which
 covers a new pose like them with probability at least 0.95.
 
-**Outside it**, the error grows with the distance d(x) (rad) from x to the nearest training
-configuration in joint space, by two mechanisms the bound takes the larger of:
-
-* what no parameter models grows as the arm goes elsewhere: q · s(x) · (1 + γ · d(x));
-* the model's own uncertainty is a linearisation about the training configurations (for a
-  Kriging model, a process variance fitted there) and grows faster than it says:
-  q · sqrt(s(x)² + (κ · σ(x) · d(x))²).
-
-γ and κ (1/rad) are each the conformal quantile, over the held-out poses that lay outside
-their fold's domain when whole regions were left out (joint-space clusters,
-:func:`~robocal.methods.selection.cluster_split`, and an arm branch's other side when the
-data hold both), of the growth each pose needed to be covered.  Either form alone was not
-enough on the ipa UR10 data (bench/bound_coverage.py): the distance form covered 0.16 of the
-other shoulder side of series A, the σ form 0.74 of a simulated KR 150-2's unseen half of q2;
-their larger covered both.
+**Outside it** no held-out pose of the training data can check the model; the bound rests on
+what the model did not model (:mod:`robocal.methods.omitted`): the spread σ_o(x) (mm) of the
+error that the parameters it left out (joint compliances and gains; for a model over the
+nominal robot, the links too), drawn from their tolerances, cause at x once the fitted
+parameters absorbed what they did on the training poses.  The bound there is
+max(q · s(x), q_o · sqrt(a² s(x)² + κ² σ_o(x)²)), a and κ fitted by maximum likelihood to
+the held-out poses that lay outside their fold's domain when whole regions were left out
+(joint-space clusters, :func:`~robocal.methods.splits.cluster_split`, and an arm branch's
+other side when the data hold both), κ kept only where those poses support it, and q_o the
+conformal quantile of their normalised errors.  It no longer grows with the joint-space
+distance from the training configurations: calibrated on regions left out of one side, that
+growth extrapolated to another arm branch made the bound 5.2 times the median error on UR10
+series B's other elbow side, where the error merely doubled (bench/bound_coverage.py).  A
+ball-in-socket bound (:mod:`robocal.methods.socket_bound`) and a model file written before
+keep the distance growth (``growth_per_rad``, ``sigma_growth_per_rad``:
+:func:`outside_bound`).
 
 A model that answers with another outside its domain (``calibrate --method auto``,
 :mod:`robocal.methods.fallback`) has the bound of the chosen model inside and the bound of its
@@ -63,28 +64,14 @@ import numpy as np
 
 from ..errors import FileFormatError, InputError, RobocalWarning
 from ..io.observations import Observations
-from .domain import Domain
+from .bound_folds import (FOLDS, LEAVE_ONE_OUT_BELOW, MIN_REGION_TRAINING, NETWORK_FOLD_GENERATIONS,  # noqa: F401
+                          NETWORK_FOLDS, held_out, random_tests, region_tests)
 from .model_sigma import (base_calibration, calibration_posterior, chain_of, joint_distance,  # noqa: F401
                           model_sigma, posterior_sigma)
+from .omitted import OutsideScale, fit_outside, omitted_of
 
 # The share of poses the bound is to cover.
 COVERAGE = 0.95
-# Random folds of the inside calibration.  Below LEAVE_ONE_OUT_BELOW poses each pose is
-# left out alone (for the methods that refit cheaply), so that a campaign of a dozen poses
-# still gives a dozen held-out scores.
-FOLDS = 5
-LEAVE_ONE_OUT_BELOW = 40
-# The network trains from scratch on every fold: five random folds, as for the other methods
-# (with two, each fold network saw half the poses and missed far more than the final one:
-# UR10 B random half, trained 20 generations, 0.997 covered at 4.95 times the median error;
-# with five 0.989 at 2.95; bench/bound_coverage.py --methods ann), and its genetic algorithm
-# stops after at most this many generations on a fold (its default is 300): a network trained
-# less misses more, so the bound errs on the safe side, and calibrate costs a few full fits.
-NETWORK_FOLDS = 5
-NETWORK_FOLD_GENERATIONS = 60
-# A region left out must keep this many training poses to be fitted (the parametric
-# calibration under its priors fits from fewer, but its posterior then says little).
-MIN_REGION_TRAINING = 8
 # What evaluate, compensate and serve say of a model file without a bound.
 NO_BOUND = ("this model file holds no 95 % bound (written before robocal computed one, or from too few poses to "
             "calibrate one): regenerate it with 'robocal calibrate' to get bound95_mm")
@@ -155,6 +142,10 @@ class PositionBound:
     # A re-registered model's bound (reregistered_bound): the factor the new set-up's
     # held-out poses calibrate the original's by (1 for a model fitted where it answers).
     set_up_factor: float = 1.0
+    # The bound outside the domain (robocal.methods.omitted), or None: then the growth with
+    # the joint-space distance (growth_per_rad, sigma_growth_per_rad) of a ball-in-socket
+    # bound or of a model file written before, or NaN when neither was calibrated.
+    outside: OutsideScale | None = None
 
     # ------------------------------------------------------------------ predicting
     def scale(self, joints):
@@ -207,9 +198,20 @@ class PositionBound:
 
         return PointBound(self)
 
+    def omitted_sigma(self, joints):
+        """(N,) mm: σ_o at ``joints`` (N, n) rad, what the model did not model
+        (:class:`~robocal.methods.omitted.Omitted`); zeros when it omits nothing."""
+        omitted = None if self.outside is None else self.outside.omitted
+        if omitted is None:
+            return np.zeros(len(np.atleast_2d(joints)))
+        return omitted.sigma(chain_of(self.method), joints)
+
     def _own(self, joints, inside):
         """This bound's formula at ``joints`` (all inside, or all outside)."""
         sigma = self.sigma(joints)
+        if not inside and self.outside is not None:
+            return self.outside.bound(np.sqrt(sigma ** 2 + self.residual_mm ** 2), self.omitted_sigma(joints),
+                                      self.inside_factor)
         return outside_bound(self.inside_factor, self.residual_mm, sigma, None if inside else joint_distance(
             joints, self.training_joints, chain_of(self.method).revolute), self.growth_per_rad,
             self.sigma_growth_per_rad)
@@ -225,7 +227,8 @@ class PositionBound:
                 "training_joints_rad": np.asarray(self.training_joints).tolist(),
                 "fallback": None if self.fallback is None else self.fallback.to_dict(),
                 "alternative": None if self.alternative is None else self.alternative.to_dict(),
-                "calibration": self.calibration, "set_up_factor": self.set_up_factor}
+                "calibration": self.calibration, "set_up_factor": self.set_up_factor,
+                "outside": None if self.outside is None else self.outside.to_dict()}
 
     @classmethod
     def from_dict(cls, document, method, path="<bound>", fallback_method=None, alternative_method=None):
@@ -253,11 +256,13 @@ class PositionBound:
             if not np.isfinite(set_up_factor) or set_up_factor <= 0.0:
                 raise ValueError("set_up_factor must be a finite number > 0")
             fallback = document.get("fallback")
+            outside = document.get("outside")
             bound = cls(method=method, coverage=numbers[0], residual_mm=numbers[1], inside_factor=numbers[2],
                         growth_per_rad=None if growth is None else float(growth),
                         sigma_growth_per_rad=None if sigma_growth is None else float(sigma_growth), posterior=posterior,
                         training_joints=training, calibration=dict(document.get("calibration") or {}),
-                        set_up_factor=set_up_factor)
+                        set_up_factor=set_up_factor,
+                        outside=None if outside is None else OutsideScale.from_dict(outside))
             if fallback is not None:
                 bound = replace(bound, fallback=cls.from_dict(fallback, fallback_method or method, path))
             alternative = document.get("alternative")
@@ -301,119 +306,16 @@ def _growths(factor, residual, error, sigma, distance):
 
 
 # ------------------------------------------------------------------ calibrating it
-def _fold_fit(method, chain, part):
-    """``method``'s configuration fitted to ``part``: by ``refit`` (hyperparameters kept)
-    where the method has one, else from scratch; with its parametric calibration, or None
-    when the fit is refused (a fold too small for the method)."""
-    with warnings.catch_warnings():
-        # The fit's own warnings were shown once; its folds' would repeat them.
-        warnings.simplefilter("ignore", RobocalWarning)
-        try:
-            refit = getattr(method, "refit", None)
-            if refit is not None:
-                base = None
-                if method.name == "hybrid":
-                    base = method.kinematic()
-                    base._fit(chain, part, None)
-                fitted = refit(chain, part, base=base)
-                calibration = None if base is None else base.calibration_
-            else:
-                fitted = method.clone()
-                if method.name == "ann":
-                    fitted.generations = min(fitted.generations, NETWORK_FOLD_GENERATIONS)
-                fitted._fit(chain, part, None)
-                calibration = base_calibration(fitted, chain, part)
-        except (InputError, np.linalg.LinAlgError):
-            return None, None
-    posterior = None if calibration is None else calibration_posterior(calibration, part.joints, part.positions)
-    return fitted, posterior
-
-
-def _deleted_errors(method, observations, tests):
-    """[(1, 3) mm] leave-one-out errors of a kinematic calibration from the hat matrix of its
-    one fit (:func:`robocal.methods.scoring.deleted_errors`), when ``tests`` leave one pose
-    out each; else None (the folds are refitted)."""
-    if method.name != "kinematic" or any(len(test) != 1 for test in tests):
-        return None
-    from .scoring import deleted_errors
-
-    return deleted_errors(method, observations, tests)
-
-
-def _held_out(method, chain, observations, tests, full_posterior=None):
-    """The held-out poses of the folds ``tests`` (held-out index arrays), concatenated:
-    (indices, error norms (mm), the fold model's own σ there (mm), distance to the fold's
-    training configurations (rad), inside the fold's domain (bool), folds fitted); folds
-    whose fit is refused are left out; None when none could be fitted.  A kinematic
-    calibration left one pose out at a time is not refitted (:func:`_deleted_errors`; its
-    σ from ``full_posterior``, the posterior of the fit on every pose): a campaign of a
-    dozen poses gets a bound too."""
-    n = observations.n_poses
-    deleted = _deleted_errors(method, observations, tests)
-    parts = []
-    for k, test in enumerate(tests):
-        train = np.setdiff1d(np.arange(n), test)
-        part, held = observations.subset(train), observations.subset(test)
-        if deleted is not None:
-            # Leave-one-out of a linearised fit: the full fit with the pose deleted through
-            # its hat matrix, and the full fit's posterior (one pose fewer barely moves it).
-            fitted, posterior = method, full_posterior
-            error = np.linalg.norm(deleted[k], axis=1)
-        else:
-            fitted, posterior = _fold_fit(method, chain, part)
-            if fitted is None:
-                continue
-            with warnings.catch_warnings():
-                # A fold model predicting its held-out poses warns of what the user never
-                # gave (its own training box): the fit's own warnings were shown once.
-                warnings.simplefilter("ignore", RobocalWarning)
-                error = np.linalg.norm(held.positions - fitted.predict(held.joints), axis=1)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RobocalWarning)
-            sigma = model_sigma(fitted, held.joints, posterior)
-        distance = joint_distance(held.joints, part.joints, chain.revolute)
-        inside = Domain.of(chain, part).check(held.joints, held.positions).inside
-        parts.append((test, error, sigma, distance, inside))
-    if not parts:
-        return None
-    return tuple(np.concatenate([p[k] for p in parts]) for k in range(5)) + (len(parts),)
-
-
-def _random_tests(n, method, seed):
-    """Held-out index arrays of the random folds."""
-    cheap = hasattr(method, "refit") or method.name == "kinematic"
-    folds = NETWORK_FOLDS if method.name == "ann" else n if (cheap and n < LEAVE_ONE_OUT_BELOW) else FOLDS
-    order = np.random.default_rng(seed).permutation(n)
-    return [np.sort(part) for part in np.array_split(order, folds)]
-
-
-def _region_tests(chain, observations, seed):
-    """Held-out index arrays of whole regions: joint-space clusters, and each side of an arm
-    branch when the data hold both; regions that leave fewer than MIN_REGION_TRAINING poses
-    to train on are left out."""
-    from .splits import branch_split, cluster_split
-
-    n = observations.n_poses
-    tests = []
-    folds = max(2, min(FOLDS, n // MIN_REGION_TRAINING))
-    try:
-        tests += list(cluster_split(chain, observations.joints, folds, seed).tests)
-    except InputError:
-        pass
-    branch = branch_split(chain, observations.joints)
-    if branch is not None:
-        tests += list(branch.tests)
-    return [t for t in tests if n - len(t) >= MIN_REGION_TRAINING and len(t)]
-
-
-def _calibrate(method, chain, observations, posterior, seed, regions=True):
+def _calibrate(method, chain, observations, posterior, seed, regions=True, calibration=None):
     """A :class:`PositionBound` of ``method`` (fitted to ``observations``, its parametric
-    ``posterior`` given); the region folds only with ``regions``."""
+    ``calibration`` and that calibration's ``posterior`` given); the region folds, and so a
+    bound outside the domain, only with ``regions``."""
     n = observations.n_poses
-    random_part = _held_out(method, chain, observations, _random_tests(n, method, seed), posterior)
+    omitted = omitted_of(method, chain_of(method), observations, calibration, posterior) if regions else None
+    random_part = held_out(method, chain, observations, random_tests(n, method, seed), posterior, omitted)
     if random_part is None:
         return None
-    _, error, sigma, distance, inside, folds = random_part
+    _, error, sigma, inside, spread, folds = random_part
     residual = float(np.sqrt(np.mean(error ** 2)))
     scale = np.sqrt(sigma ** 2 + residual ** 2)
     # Poses held out at random that still fell outside their fold's domain (few) are judged
@@ -422,24 +324,21 @@ def _calibrate(method, chain, observations, posterior, seed, regions=True):
     factor = conformal_quantile(scores)
     record = {"inside": {"poses": len(scores), "folds": int(folds),
                          "covered": float(np.mean(scores <= factor)) if len(scores) else None}}
-    growth = sigma_growth = None
+    outside = None
     if regions:
-        outside_error, outside_sigma, outside_distance = [error[~inside]], [sigma[~inside]], [distance[~inside]]
-        region_part = _held_out(method, chain, observations, _region_tests(chain, observations, seed))
+        parts = [(error[~inside], scale[~inside], spread[~inside])]
+        region_part = held_out(method, chain, observations, region_tests(chain, observations, seed))
         if region_part is not None:
-            _, r_error, r_sigma, r_distance, r_inside, _ = region_part
-            outside_error.append(r_error[~r_inside])
-            outside_sigma.append(r_sigma[~r_inside])
-            outside_distance.append(r_distance[~r_inside])
-        e, s, d = (np.concatenate(x) for x in (outside_error, outside_sigma, outside_distance))
-        if len(e):
-            growth, sigma_growth = _growths(factor, residual, e, s, np.maximum(d, 1e-9))
-            covered = e <= outside_bound(factor, residual, s, d, growth, sigma_growth)
+            _, r_error, r_sigma, r_inside, r_spread, _ = region_part
+            parts.append((r_error[~r_inside], np.sqrt(r_sigma ** 2 + residual ** 2)[~r_inside], r_spread[~r_inside]))
+        e, s, o = (np.concatenate(x) for x in zip(*parts))
+        outside = fit_outside(e, s, o, omitted, conformal_quantile)
+        if outside is not None:
             record["outside"] = {"poses": len(e), "folds": int(region_part[-1]) if region_part else 0,
-                                 "covered": float(np.mean(covered))}
+                                 "covered": float(np.mean(e <= outside.bound(s, o, factor)))}
     return PositionBound(method=method, coverage=COVERAGE, residual_mm=residual, inside_factor=factor,
-                         growth_per_rad=growth, sigma_growth_per_rad=sigma_growth, posterior=posterior,
-                         training_joints=_kept(observations.joints, seed), calibration=record)
+                         growth_per_rad=None, sigma_growth_per_rad=None, posterior=posterior,
+                         training_joints=_kept(observations.joints, seed), calibration=record, outside=outside)
 
 
 def _kept(joints, seed):
@@ -512,7 +411,7 @@ def fit_bound(method, chain, observations, *, seed=0):
         inner.compensator_ = method.compensator_.inside
         for name in ("reference_", "record_", "domain_"):
             setattr(inner, name, getattr(method, name))
-    bound = _calibrate(inner, chain, observations, posterior, seed, regions=fallback is None)
+    bound = _calibrate(inner, chain, observations, posterior, seed, regions=fallback is None, calibration=calibration)
     if bound is None:
         warnings.warn(RobocalWarning(
             f"no 95 % bound: the {method.name} method could not be fitted on any fold of these {observations.n_poses} "
@@ -523,7 +422,7 @@ def fit_bound(method, chain, observations, *, seed=0):
     if fallback is not None:
         outside = _calibrate(fallback, chain, observations,
                              calibration_posterior(fallback.calibration_, observations.joints, observations.positions),
-                             seed)
+                             seed, calibration=fallback.calibration_)
         # No fallback bound (its folds could not be fitted): outside, the bound is unknown (NaN).
         bound = replace(bound, fallback=None if outside is None else _labelled(outside, method, None),
                         growth_per_rad=None, sigma_growth_per_rad=None)
@@ -531,7 +430,8 @@ def fit_bound(method, chain, observations, *, seed=0):
         if other is not None:
             refitted = _fallback_method(method, chain, observations, other[0])
             alternative = _calibrate(refitted, chain, observations, calibration_posterior(
-                refitted.calibration_, observations.joints, observations.positions), seed)
+                refitted.calibration_, observations.joints, observations.positions), seed,
+                calibration=refitted.calibration_)
             if alternative is not None:
                 bound = replace(bound, alternative=_labelled(alternative, method, other))
     return bound

@@ -44,6 +44,12 @@ class PointBound:
                 own = float(np.asarray(own, dtype=float)[0])
                 variance = variance + own * own
         sigma = math.sqrt(variance)
+        if not inside and model.outside is not None:
+            # What the model did not model (robocal.methods.omitted): the batch's row, the
+            # Jacobian of compliances being the compliant chain's (PointPosterior has none).
+            spread = 0.0 if model.outside.omitted is None else float(model.omitted_sigma(joints[None])[0])
+            scale = math.sqrt(sigma * sigma + model.residual_mm * model.residual_mm)
+            return model.outside.bound_one(scale, spread, model.inside_factor)
         distance = None if inside else float(self.nearest.distance(joints[None])[0])
         return outside_bound_one(model.inside_factor, model.residual_mm, sigma, distance, model.growth_per_rad,
                                  model.sigma_growth_per_rad)
