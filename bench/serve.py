@@ -29,7 +29,9 @@ import time
 import numpy as np
 
 WAIT = 30.0
-SERVE = [sys.executable, "-c", "from robocal.interfaces.cli import app; app()", "serve"]
+# The server as the robocal script starts it (robocal.entry.main: one BLAS thread, numpy's
+# floating-point warnings off); the typer app alone would leave OpenBLAS its default threads.
+SERVE = [sys.executable, "-m", "robocal", "serve"]
 MALFORMED = [b"", b"garbage", b'{"x": 1}', b'{"x":1e999,"y":0,"z":0,"rx":0,"ry":0,"rz":0}',
              b'{"x":1e12,"y":0,"z":0,"rx":0,"ry":0,"rz":0}', b'{"x":0,"y":0,"z":0,"rx":0,"ry":0,"rz":0,"q":[1]}',
              b"\xff\xfe", b"[" * 20000, b"z" * 70000, b'{"x":"a","y":0,"z":0,"rx":0,"ry":0,"rz":0}']
@@ -158,7 +160,7 @@ def main():
         _, answers = sequential(port, lines, len(lines))
         good = [line for line in lines if b"error" not in answers[line]]
         print(f"{args.model}: {len(good)} of {len(lines)} targets reachable; {os.cpu_count()} cores, load average "
-              f"{os.getloadavg()[0]:.2f}")
+              f"{os.getloadavg()[0]:.2f}; server pid {process.pid}", flush=True)
         latencies, _ = sequential(port, good, 2000 // scale)
         print(f"sequential, {len(latencies)} requests: {percentiles(latencies)}")
         latencies, wall = parallel(port, good, 4, 500 // scale)
