@@ -8,7 +8,7 @@ slowly), every well-formed answer checked against the first answer to the same r
 TARGETS.csv is a targets file (x, y, z, rx, ry, rz[, q1..qN]); with --poses, the targets are
 the model's own FK of the first 200 joint readings of a measurement file (held-out poses,
 say), each with its reading as posture hint.  Its reachable targets are asked in turn.  The
-server runs as its own process (robocal serve --port 0) on 127.0.0.1.  For example:
+server runs as its own process (python -m robocal serve --port 0) on 127.0.0.1.  For example:
 
     robocal dataset ur5-tsinghua --out ur5 --split 0.5
     robocal calibrate ur5.toml ur5_train.csv --method kinematic --out ur5_kin.json
@@ -149,7 +149,7 @@ def load_and_faults(port, good, expected, total, rng):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("model")
     parser.add_argument("targets", nargs="?")
     parser.add_argument("--poses", help="a measurement CSV whose joint readings give the targets")
