@@ -59,8 +59,8 @@ class PointPredictor:
         self.alpha = np.stack([state.alpha.T for state in states])  # (G, k, n)
         # L's lower triangle column by column (BLAS packed storage), for dtpsv: one stream of
         # n²/2 floats, read faster than the triangle of the full (n, n) factor by dtrsv (3
-        # groups of n = 500: 45 against 49 µs on a quiet machine, 85–95 against 100–117 at a
-        # load of 5 to 7 on its 2 cores), for n²/2 more floats kept.
+        # groups of n = 500: 45 against 49 µs on a quiet machine; 83–95 against 99–117 µs,
+        # best of 500 calls, at a load of 5 to 7 on its 2 cores), for n²/2 more floats kept.
         self.packed = [np.ascontiguousarray(state.L.T[np.triu_indices(len(state.L))]) for state in states]
         self.Ft = np.stack([state.Ft.T for state in states])  # (G, p, n): L⁻¹F
         # G⁻ᵀ (G, p, p), G the upper triangular factor of FᵀC⁻¹F = GᵀG: the trend's part of
