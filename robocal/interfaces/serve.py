@@ -140,7 +140,10 @@ class Answerer:
     def compute(self, xyz, rxyz, hint):
         """The answer's fields for one target, as ``compensate`` writes them."""
         pose = target_pose(xyz, rxyz)
-        if hint is not None and looks_like_radians([v for v, r in zip(hint, self._revolute) if r], ONE_TURN):
+        revolute_hint = None if hint is None else [v for v, r in zip(hint, self._revolute) if r]
+        # A joint beyond one turn cannot be in radians: the usual hint is decided on floats
+        # (the array test costs some 3 us a request).
+        if revolute_hint and max(map(abs, revolute_hint)) <= ONE_TURN and looks_like_radians(revolute_hint, ONE_TURN):
             # The one test of typed angles (robocal.io.units), as for a target file's hints: a
             # posture in radians would pick another arm branch without a word.
             raise BadRequest("q looks like radians (every joint within one turn, not whole degrees), but robocal "

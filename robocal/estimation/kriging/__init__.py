@@ -40,6 +40,7 @@ The package, each module depending only on those listed before it:
   stand-ins for the exact likelihood, the likelihood itself);
 - :mod:`.training`: a fit's standardised data and the problem (exact or Vecchia) built on them;
 - :mod:`.search`: the hyperparameter search (L-BFGS-B from screened starts, in parallel per output);
+- :mod:`.point`: the exact predictor at one point (the fit's factors prepared once);
 - :mod:`.model`: the :class:`Kriging` estimator (settings, fit, predict, its JSON document).
 """
 from .correlation import (JITTER_START, MAX_CONDITION, correlation_from_squared, latin_hypercube, matern52_slope,

@@ -8,6 +8,7 @@ from ...errors import InputError, RobocalWarning
 from ..arrays import (as_matrix, check_choice, check_flag, check_header, check_random_state,
                       check_whole, damaged, is_real, not_fitted)
 from .correlation import _triangular_solve, correlation_from_squared, trend_basis, trend_size
+from .point import point_predictor
 from .search import NUGGET_BOUNDS, HyperparameterSearch, theta0_of, theta0_values
 from .training import _Training
 
@@ -375,15 +376,21 @@ class Kriging:
             raise InputError(f"X has {X.shape[1]} columns but the model was fitted on "
                              f"{self.n_features_in_}: give points with the same columns, in "
                              f"the same order")
-        Xs = (X - self._x_mean) / self._x_scale
-        mean = np.empty((len(X), len(self._y_mean)))
-        mse = np.empty_like(mean) if return_mse else None
-        # The Vecchia predictor bounds its own memory (blocks of targets): all at once.
-        step = max(1, len(X) if self.approximation_ == "vecchia" else int(batch_size))
-        for start in range(0, len(X), step):
-            block = slice(start, start + step)
-            self._predict_block(Xs[block], mean[block], None if mse is None else mse[block])
-        self._warn_extrapolation(X, Xs)
+        point = point_predictor(self) if len(X) == 1 else None
+        if point is not None:  # one point, as robocal serve asks: the batch's formulas without its set-up
+            mean, mse, beyond = point.predict_row(X, return_mse)
+            if beyond:
+                self._warn_extrapolation(X, (X - self._x_mean) / self._x_scale)
+        else:
+            Xs = (X - self._x_mean) / self._x_scale
+            mean = np.empty((len(X), len(self._y_mean)))
+            mse = np.empty_like(mean) if return_mse else None
+            # The Vecchia predictor bounds its own memory (blocks of targets): all at once.
+            step = max(1, len(X) if self.approximation_ == "vecchia" else int(batch_size))
+            for start in range(0, len(X), step):
+                block = slice(start, start + step)
+                self._predict_block(Xs[block], mean[block], None if mse is None else mse[block])
+            self._warn_extrapolation(X, Xs)
         if self._y_is_vector:
             return (mean[:, 0], mse[:, 0]) if return_mse else mean[:, 0]
         return (mean, mse) if return_mse else mean
@@ -426,7 +433,9 @@ class Kriging:
         S = np.maximum(np.negative(minus_S, out=minus_S), 0.0, out=minus_S)
         return correlation_from_squared(S, self.correlation, out=S)
 
-    def _warn_extrapolation(self, X, Xs):
+    def _training_box(self):
+        """(X_train, lo − margin, hi, margin, extent), each but the first (d,): a point
+        beyond [lo − margin, hi + margin] in a column is extrapolated (by excess / extent)."""
         box = self.__dict__.get("_box")
         if box is None or box[0] is not self._X_train:
             # Kept with the training points it is of: a point at a time (robocal serve) paid
@@ -434,7 +443,10 @@ class Kriging:
             lo, hi = self._X_train.min(axis=0), self._X_train.max(axis=0)
             margin = EXTRAPOLATION_MARGIN * (hi - lo)
             box = self._box = (self._X_train, lo - margin, hi, margin, np.where(hi > lo, hi - lo, 1.0))
-        _, low, hi, margin, extent = box
+        return box
+
+    def _warn_extrapolation(self, X, Xs):
+        _, low, hi, margin, extent = self._training_box()
         excess = np.maximum(low - X, X - hi - margin)
         relative = np.max(excess / extent, axis=1)
         outside = np.flatnonzero(relative > 0)
