@@ -1,5 +1,5 @@
 # ruff: noqa: E501  (one input per table row)
-"""Hostile reading: what a user sees in a pipe or an 80-column log. Help text that fits 80
+"""What a user sees in a pipe or an 80-column log. Help text that fits 80
 columns without a word broken or an option name cut, command output without control
 characters (carriage returns, escape sequences) or repeated lines, and a refusal that is one
 line on stderr with nothing on stdout."""
@@ -11,7 +11,7 @@ import re
 import pytest
 from typer.testing import CliRunner
 
-from hostile import invoke, prepare, refuse, run_process
+from user_files import invoke, prepare, refuse, run_process
 from robocal.interfaces.cli import app
 
 VERBS = ["simulate", "evaluate", "compensate", "filter", "serve", "report", "export", "compare", "validate",
@@ -120,7 +120,7 @@ def test_a_reader_that_stops_early_does_not_cost_the_model(tmp_path):
     import subprocess
     import sys
 
-    from hostile import REPO
+    from user_files import REPO
 
     prepare(tmp_path)
     environment = dict(os.environ, PYTHONPATH=str(REPO), COLUMNS="80")
