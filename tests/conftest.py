@@ -2,8 +2,17 @@
 run; their folders are read-only for the tests: a test that writes copies the files first
 (``refusals.copy_inputs`` or ``shutil.copy`` into its own ``tmp_path``)."""
 import pytest
+from threadpoolctl import threadpool_limits
 
 from refusals import PLATE, copy_files, run_ok, write_refusal_inputs
+
+
+# One BLAS thread in the test process, as robocal's command line runs (cli._one_blas_thread) and
+# as a Dask worker does: the tests' fits are many small solves, which OpenBLAS's threads do not
+# speed up, and on a busy 2-core machine (or with pytest-xdist's two workers) its idle threads
+# spin: one Kriging test took 240 s with two threads and 7 s with one.  Set at import, before any
+# test computes; subprocesses and Dask workers set their own.
+_ONE_BLAS_THREAD = threadpool_limits(limits=1, user_api="blas")
 
 
 @pytest.fixture(scope="session")

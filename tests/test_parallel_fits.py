@@ -135,7 +135,9 @@ def test_jobs_and_scheduler_together_or_no_scheduler_are_refused(files, tmp_path
     for command in ("compare", "validate"):
         assert_refused([command, "ur5", "meas.csv", "--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"], "not both",
                        tmp_path, before)
-    # (Dask tries for CONNECT_SECONDS before it gives up: one command is enough.)
+    # Dask tries for CONNECT_SECONDS (20 s) before it gives up: one command is enough, and 2 s
+    # to give up on a port where nothing listens are enough too.
+    monkeypatch.setattr(parallel, "CONNECT_SECONDS", 2)
     assert_refused(["validate", "ur5", "meas.csv", "--scheduler", "tcp://127.0.0.1:1"],
                    "cannot reach the Dask scheduler", tmp_path, before)
 

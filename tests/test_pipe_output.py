@@ -1,5 +1,5 @@
 # ruff: noqa: E501  (one input per table row)
-"""Hostile reading: what a user sees in a pipe or an 80-column log. Help text that fits 80
+"""What a user sees in a pipe or an 80-column log. Help text that fits 80
 columns without a word broken or an option name cut, command output without control
 characters (carriage returns, escape sequences) or repeated lines, and a refusal that is one
 line on stderr with nothing on stdout."""
@@ -11,7 +11,7 @@ import re
 import pytest
 from typer.testing import CliRunner
 
-from hostile import invoke, prepare, refuse, run_process
+from user_files import invoke, prepare, refuse, run_process
 from robocal.interfaces.cli import app
 
 VERBS = ["simulate", "evaluate", "compensate", "filter", "serve", "report", "export", "compare", "validate",
@@ -90,7 +90,8 @@ def test_refusal_in_a_pipe_is_one_line_on_stderr(tmp_path):
 def test_a_kriging_calibration_does_not_repeat_its_folds_warnings(tmp_path):
     # The held-out folds (the error to expect, the 95 % bound) predict poses outside each
     # fold's own training box: those are not the user's targets, and were printed 9 times.
-    assert run_process(tmp_path, ["simulate", "ur5", "--n", "60", "--seed", "1", "--out", "u.csv"]).returncode == 0
+    # The data made in this process (the same file); the calibration is the process watched.
+    assert invoke(tmp_path, ["simulate", "ur5", "--n", "60", "--seed", "1", "--out", "u.csv"]).code == 0
     done = run_process(tmp_path, ["calibrate", "ur5", "u.csv", "--method", "kriging", "--accept-extrapolation",
                                   "--out", "k.json"], timeout=120)
     assert done.returncode == 0, done.stderr
@@ -100,7 +101,7 @@ def test_a_kriging_calibration_does_not_repeat_its_folds_warnings(tmp_path):
 def test_radian_joints_of_position_data_are_refused_in_one_line_not_warned_first(tmp_path):
     # The robot judges the units of position data (robocal.io.units): the reader's own guess
     # from the joint values alone said the same thing a line before the refusal.
-    assert run_process(tmp_path, ["simulate", "ur5", "--n", "40", "--seed", "1", "--out", "u.csv"]).returncode == 0
+    assert invoke(tmp_path, ["simulate", "ur5", "--n", "40", "--seed", "1", "--out", "u.csv"]).code == 0
     with open(tmp_path / "u.csv", newline="") as stream:
         rows = list(csv.reader(stream))
     header = rows[0]
@@ -120,7 +121,7 @@ def test_a_reader_that_stops_early_does_not_cost_the_model(tmp_path):
     import subprocess
     import sys
 
-    from hostile import REPO
+    from user_files import REPO
 
     prepare(tmp_path)
     environment = dict(os.environ, PYTHONPATH=str(REPO), COLUMNS="80")

@@ -1,5 +1,5 @@
 # ruff: noqa: E501  (one input per table row)
-"""Hostile inputs: broken files. Wrong encodings, truncated or corrupted CSV / JSON / TOML /
+"""Broken files. Wrong encodings, truncated or corrupted CSV / JSON / TOML /
 URDF, wrong types inside valid files, NaN and inf, empty files, duplicate columns, BOMs, CRLF,
 semicolons and decimal commas. Each is refused in one line naming the file (and row, column or
 key) and what to do, never a traceback; the harmless variants (a BOM, CRLF, UTF-16, quoted
@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from hostile import invoke, prepare, refuse, text
+from user_files import invoke, prepare, refuse, text
 
 
 def ur5(change):

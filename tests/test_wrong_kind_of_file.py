@@ -1,5 +1,5 @@
 # ruff: noqa: E501  (one input per table row)
-"""Hostile inputs: robocal's own files given back to it as the wrong kind (a model as
+"""robocal's own files given back to it as the wrong kind (a model as
 measurements, compensate's commands as targets, a design plan as a fleet file, a report as a
 model...), data of one robot given as another's, and ball-in-socket data given to the position
 methods and back. Each row is refused in one line that names what the file is, and nothing
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from hostile import EXAMPLES as EXAMPLES_DIR
-from hostile import assert_clean_refusal, invoke, nominal_fk, prepare, refuse
+from user_files import EXAMPLES as EXAMPLES_DIR
+from user_files import assert_clean_refusal, invoke, nominal_fk, prepare, refuse
 from robocal.io.file_kinds import KIND_COLUMN, KINDS, READERS, identify
 
 REFUSED = [
@@ -194,7 +194,7 @@ def _filter_summary(base):
                                                         "0.3"]]))
 
 
-# kind -> (how to make it in a folder holding hostile.base_files' files, the file it is)
+# kind -> (how to make it in a folder holding user_files.base_files' files, the file it is)
 EXAMPLES = {
     "commands": (None, "cmds.csv"),
     "poses": (None, "plan.csv"),

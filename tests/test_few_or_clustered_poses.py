@@ -1,11 +1,11 @@
 # ruff: noqa: E501  (one input per table row)
-"""Hostile inputs: too few poses and clustered poses, for every method. Each is refused in one
+"""Too few poses and clustered poses, for every method. Each is refused in one
 line saying how many poses (or configurations per socket) the method needs, and nothing is
 written."""
 import numpy as np
 import pytest
 
-from hostile import refuse
+from user_files import refuse
 
 
 def first(n, name="ur5.csv"):
@@ -79,7 +79,7 @@ def test_too_few_or_clustered_poses_are_refused(tmp_path, args, content, says):
 # about one posture: fitted, its predicted error says how far it holds; +-30 deg; the first 12
 # of the base file) calibrate.
 def test_a_model_is_still_scored_on_clustered_poses(tmp_path):
-    from hostile import invoke, prepare
+    from user_files import invoke, prepare
 
     prepare(tmp_path, {"f.csv": cluster(0.5, positions_move=True)})
     outcome = invoke(tmp_path, ["evaluate", "ur5_model.json", "f.csv"])
@@ -93,7 +93,7 @@ def test_a_model_is_still_scored_on_clustered_poses(tmp_path):
     (first(12), []),
 ], ids=["five-degrees-accepted-extrapolation", "thirty-degrees", "first-12"])
 def test_poses_spread_like_a_campaign_calibrate(tmp_path, content, extra):
-    from hostile import invoke, prepare
+    from user_files import invoke, prepare
 
     prepare(tmp_path, {"f.csv": content})
     outcome = invoke(tmp_path, CAL + extra)
@@ -113,7 +113,7 @@ def test_sockets_of_one_placement_fit_and_say_the_placement_is_one(tmp_path):
     """One fixture placement pins part of the model (the rest is held by its prior): a fit,
     not a traceback (the identifiability of fewer constraint rows than parameters), with a
     warning that the error elsewhere is not measured."""
-    from hostile import invoke, prepare
+    from user_files import invoke, prepare
 
     prepare(tmp_path, {"f.csv": one_placement})
     outcome = invoke(tmp_path, ["calibrate", "kr150-2", "f.csv", "--method", "constraint", "--fixture", "plate.toml",
@@ -126,7 +126,7 @@ def test_sockets_of_one_placement_fit_and_say_the_placement_is_one(tmp_path):
 
 
 def test_sockets_of_several_placements_do_not_warn_of_one(tmp_path):
-    from hostile import invoke, prepare
+    from user_files import invoke, prepare
 
     prepare(tmp_path)
     outcome = invoke(tmp_path, ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture",

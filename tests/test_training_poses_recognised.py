@@ -1,5 +1,5 @@
 # ruff: noqa: E501  (one input per table row)
-"""Hostile inputs: labels that claim what was not checked. evaluate and report given the
+"""Labels that claim what was not checked. evaluate and report given the
 training file itself, or the training poses reordered, subset, duplicated, with columns
 moved or rounded, count them as training poses (never as held-out ones), and the report says
 so."""
@@ -10,7 +10,7 @@ import random
 
 import pytest
 
-from hostile import invoke, prepare
+from user_files import invoke, prepare
 
 
 def variant(change):

@@ -1,5 +1,5 @@
 # ruff: noqa: E501  (one input per table row)
-"""Hostile inputs: plans the robot cannot execute. design, simulate and iso9283 plan options
+"""Plans the robot cannot execute. design, simulate and iso9283 plan options
 that put every pose below the floor, beyond the reach or outside the walls are refused in one
 line saying what to change, and nothing is written."""
 import csv
@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from hostile import invoke, nominal_fk, prepare, refuse
+from user_files import invoke, nominal_fk, prepare, refuse
 
 D = ["design", "ur5", "--n", "12", "--pool", "200"]
 # A UR5 with its upper arm pointing straight down: through the table it stands on.

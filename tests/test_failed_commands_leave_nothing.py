@@ -1,5 +1,5 @@
 # ruff: noqa: E501  (one input per table row)
-"""Hostile inputs: outputs that cannot be written, or commands that fail after choosing them.
+"""Outputs that cannot be written, or commands that fail after choosing them.
 Each is refused in one line before any work, and leaves no file or folder behind (nor a
 partial program in a filter's output folder)."""
 import os
@@ -7,7 +7,7 @@ import stat
 
 import pytest
 
-from hostile import invoke, prepare, refuse
+from user_files import invoke, prepare, refuse
 
 URSCRIPT = "def prog():\n  movel(p[0.4,0.1,0.3,3.14,0,0])\nend\n"
 REFUSED = [

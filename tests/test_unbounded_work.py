@@ -1,12 +1,12 @@
 # ruff: noqa: E501  (one input per table row)
-"""Hostile inputs: unbounded work. Endless inputs (/dev/zero, a FIFO nobody writes, stdin),
+"""Unbounded work. Endless inputs (/dev/zero, a FIFO nobody writes, stdin),
 lines of megabytes, and option values that would take hours or terabytes are refused in one
 line at once, before any work, and nothing is written."""
 import os
 
 import pytest
 
-from hostile import prepare, refuse, run_process
+from user_files import prepare, refuse, run_process
 
 HUGE = [
     ("simulate-n", ["simulate", "ur5", "--n", "1000000000", "--out", "s.csv"], "--n must be a whole number >= 1 and <= 1,000,000"),
@@ -91,7 +91,7 @@ def test_ctrl_c_while_the_command_line_starts_ends_in_one_line(delay, tmp_path):
     import sys
     import time
 
-    from hostile import REPO
+    from user_files import REPO
 
     environment = dict(os.environ, PYTHONPATH=str(REPO))
     process = subprocess.Popen([sys.executable, "-m", "robocal", "simulate", "kr150-2", "--n", "50000", "--out",

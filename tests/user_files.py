@@ -1,8 +1,9 @@
-"""Shared by the tests/test_hostile_*.py tables: realistic robocal files made once per run
-(simulated, calibrated, compensated, evaluated, designed, reported, exported, as a new user
-would make them with the CLI), and one way to run a hostile input against them and judge the
-outcome: a clean refusal (non-zero exit, one line, no traceback, nothing written) or a
-correct answer.
+"""The files a user has after the README's first steps, made once per run (simulated,
+calibrated, compensated, evaluated, designed, reported, exported, as a new user would make
+them with the CLI), and one way to run a command on a copy of them and judge the outcome: a
+clean refusal (non-zero exit, one line, no traceback, nothing written) or a correct answer.
+Shared by the tables of inputs a user could give: broken files, wrong units, the wrong kind of
+file, too few poses, unreachable plans, unwritable outputs, unbounded work, pipes.
 
 The inputs of these tables were written from the README and each verb's --help, without
 reading robocal's source; each row is an input a user could plausibly give."""
@@ -37,7 +38,7 @@ def _ok(*args):
 def base_files():
     """A folder of the files a user has after the README's first steps (read-only for the
     tables: each row runs in a copy)."""
-    root = Path(tempfile.mkdtemp(prefix="robocal-hostile-"))
+    root = Path(tempfile.mkdtemp(prefix="robocal-user-files-"))
     atexit.register(shutil.rmtree, root, True)
     old = os.getcwd()
     os.chdir(root)

@@ -1,5 +1,5 @@
 # ruff: noqa: E501  (one input per table row)
-"""Hostile inputs: wrong units on the numbers a user types or a file carries: metres, cm,
+"""Wrong units on the numbers a user types or a file carries: metres, cm,
 inches or micrometres for mm, radians for degrees, in CSV columns, options (--box, --tool,
 --rpy, --hint, --tracker, --walls, --region), fixture spacings and robot files. Untagged, each
 is refused in one line naming the unit it looks like; tagged in the header (x[m], q1[rad]),
@@ -11,7 +11,7 @@ import math
 
 import pytest
 
-from hostile import EXAMPLES, invoke, prepare, refuse, text
+from user_files import EXAMPLES, invoke, prepare, refuse, text
 
 Q = [f"q{i}" for i in range(1, 7)]
 XYZ = ["x", "y", "z"]
