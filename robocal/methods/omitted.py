@@ -92,14 +92,22 @@ class Omitted:
     response: np.ndarray = field(repr=False)
     compliant: bool = False
     payload: float | None = None
+    _compliant: dict = field(default_factory=dict, repr=False, compare=False)
 
     def _chain(self, chain):
         if not self.compliant or hasattr(chain, "mass_model"):
             return chain
+        # Built once per chain: building compiles its programs (some 3 ms), which a served
+        # target outside the domain would otherwise pay at every request.
+        cached = self._compliant.get("chain")
+        if cached is not None and cached[0] is chain:
+            return cached[1]
         from ..kinematics.compliant import CompliantChain
         from ..kinematics.gravity import default_mass_model
 
-        return CompliantChain(chain, default_mass_model(chain, self.payload), np.zeros(chain.n_joints))
+        compliant = CompliantChain(chain, default_mass_model(chain, self.payload), np.zeros(chain.n_joints))
+        self._compliant["chain"] = (chain, compliant)
+        return compliant
 
     def sigma(self, chain, joints):
         """(N,) mm: σ_o at ``joints`` (N, n) rad of the model's ``chain``; NaN for a NaN row."""
