@@ -235,7 +235,7 @@ FIXTURE_REFUSED = [
     ("coincident-sockets", fixture(lambda t: t.replace("[150.0, 0.0, 0.0]", "[0.0, 0.0, 0.0]")), "are both at"),
     ("sockets-an-array", lambda b: "sockets = [1,2,3]\n", "has no [sockets] table"),
     ("socket-ids-not-in-data", fixture(lambda t: t.replace("A = ", "X = ")), "socket id(s) A are not in fixture"),
-    ("kilometre-spacing", fixture(lambda t: t.replace("150.0", "150000.0")), "150000.0 mm in fixture"),
+    ("kilometre-spacing", fixture(lambda t: t.replace("150.0", "150000.0")), "misses the fixture's socket distances"),
 ]
 
 
