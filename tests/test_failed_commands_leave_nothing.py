@@ -118,3 +118,22 @@ def test_an_output_that_is_a_device_stays_a_device(tmp_path, verb):
     for name in ("null", "full"):
         assert stat.S_ISCHR((tmp_path / name).stat().st_mode), f"{name} was replaced by a regular file"
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+def test_a_write_the_system_stops_names_the_output_and_leaves_nothing(tmp_path):
+    # A file-size limit (ulimit -f) stops the write with EFBIG, as a full disk does with
+    # ENOSPC: the system's error names no file, the refusal names the output.
+    import subprocess
+    import sys
+
+    from user_files import REPO
+
+    script = ("import resource, sys; resource.setrlimit(resource.RLIMIT_FSIZE, (20000, 20000)); "
+              "sys.argv = ['robocal'] + sys.argv[1:]; from robocal.entry import main; main()")
+    process = subprocess.run([sys.executable, "-c", script, "simulate", "ur5", "--n", "2000", "--out", "big.csv"],
+                             cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                             env=dict(os.environ, PYTHONPATH=str(REPO)))
+    assert process.returncode == 2, process.stderr
+    lines = process.stderr.strip().splitlines()
+    assert len(lines) == 1 and "big.csv" in lines[0] and "left as it was" in lines[0], process.stderr
+    assert list(tmp_path.iterdir()) == []

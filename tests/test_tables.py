@@ -195,7 +195,7 @@ def test_failed_atomic_write_leaves_the_target_and_no_temporary(tmp_path, monkey
         raise OSError("disk full")
 
     monkeypatch.setattr(os, "replace", fail)
-    with pytest.raises(OSError, match="disk full"):
+    with pytest.raises(InputError, match="cannot write .*model.json: disk full; it is left as it was"):
         write_bytes_atomic(target, b"new")
     assert target.read_text() == "old"
     assert os.listdir(tmp_path) == ["model.json"]

@@ -84,6 +84,11 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes | Iterable[bytes]) -
         temporary.unlink(missing_ok=True)
         if not isinstance(error, Exception) and not replaced and not hasattr(error, "unwritten_file"):
             error.unwritten_file = target  # interrupted: say which file was left as it was
+        if isinstance(error, OSError):
+            # A write the system stopped (disk full, a file-size limit): its error names no
+            # file, so say which output, and that nothing of it was written.
+            raise InputError(f"cannot write {target}: {error.strerror or error}; it is left as it was: free space, "
+                             "or choose another --out") from None
         raise
     _sync_directory(directory)
     return target
