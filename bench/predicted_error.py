@@ -5,7 +5,8 @@ A simulated KUKA KR 150-2 (``--errors typical``, seed 2) measured at poses sprea
 joint space, at poses within ±5 deg of one posture, and after the tracker moved (re-registered
 on 25 spread or clustered poses); a UR5 modelled by Kriging from 80 spread poses; and the
 MUKCa Panda 1, 2 and 3 ball-in-socket data, each placement left out in turn and the
-calibration (``full+gains``) trained on the others.  Held out: the mean error over the same
+calibration (``full+gains``) trained on the others, and small campaigns drawn from them (2, 3
+or 5 seatings a socket of a few placements, scored on the others).  Held out: the mean error over the same
 1,000 joint-uniform configurations the prediction is made for, against the simulated truth
 (for the Pandas, the socket consistency on the placement left out).  The setups are those of
 ``tests/test_predicted_error.py``, which asserts the factor 2.
@@ -17,7 +18,7 @@ percentile; held out at random, and as a region (trained in the lower half of jo
 range, tested in the upper half).
 
     python bench/predicted_error.py            # about half a minute
-    python bench/predicted_error.py --sockets  # the Panda placements only, a few seconds
+    python bench/predicted_error.py --sockets  # the Panda placements and small campaigns, 10 s
 """
 import os
 import sys
@@ -112,11 +113,40 @@ def socket_placements(units=("panda_1", "panda_2", "panda_3")):
                  nominal["mean_mm"])
 
 
+def small_socket_campaigns(units=("panda_1", "panda_2", "panda_3"), per_socket=(2, 3, 5), draws=3):
+    """Small ball-in-socket campaigns: ``per_socket`` seatings drawn at random from each
+    socket of a few placements (three; two of Panda 1's three), scored on the placements
+    left out."""
+    for unit in units:
+        dataset = mukca(unit)
+        panda, sockets, fixture = dataset.chain, dataset.observations, dataset.fixture
+        q, placements = sockets.joints, np.unique(sockets.placement)
+        for k in per_socket:
+            for draw in range(draws):
+                rng = np.random.default_rng(draw)
+                chosen = rng.choice(placements, min(3, len(placements) - 1), replace=False)
+                train = np.zeros(len(q), dtype=bool)
+                for placement in chosen:
+                    for socket in np.unique(sockets.socket[sockets.placement == placement]):
+                        rows = np.flatnonzero((sockets.placement == placement) & (sockets.socket == socket))
+                        train[rng.choice(rows, min(k, len(rows)), replace=False)] = True
+                test = ~np.isin(sockets.placement, chosen)
+                cal = ConstraintCalibration(gains=True).fit(panda, q[train], sockets.placement[train],
+                                                            sockets.socket[train], fixture)
+                data = socket_data(cal.start_chain_, q[train], sockets.placement[train], sockets.socket[train],
+                                   fixture)
+                scored = socket_errors(cal.chain_, q[test], sockets.placement[test], sockets.socket[test], fixture)
+                name = unit.replace("panda_", "Panda ")
+                _row(f"MUKCa {name}, {k} a socket, {len(chosen)} placements, draw {draw}",
+                     socket_prediction(cal, data), scored["mean_mm"])
+
+
 def main():
     warnings.simplefilter("ignore")
     _header()
     if "--sockets" in sys.argv[1:]:
         socket_placements()
+        small_socket_campaigns()
         return
     chain = builtin("kr150-2")
     truth = make_true_robot(chain, "typical", seed=2)
@@ -155,6 +185,7 @@ def main():
     _row("UR5, Kriging from 80 spread poses", expected_error(fitted, ur5, obs),
          float(np.linalg.norm(ur5_truth.positions(ur5_work) - fitted.predict(ur5_work), axis=1).mean()))
     socket_placements()
+    small_socket_campaigns()
     real_campaigns()
 
 

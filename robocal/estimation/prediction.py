@@ -11,9 +11,14 @@ worse than no calibration where the robot works can be told.
 
 Ball-in-socket data hold no position to miss: what they score is socket consistency, each
 ball centre's deviation from its socket's mean.  Its prediction (:func:`socket_prediction`)
-puts sockets where the robot will work, reaches each in several configurations as the
-training sockets were reached (:func:`working_sockets`), and propagates the posterior through
-how those deviations move with the parameters, plus the ball's scatter the training shows.
+puts sockets where the robot will work, reaches each in several postures (:func:`working_sockets`),
+and propagates the posterior through how those deviations move with the parameters, plus the
+ball's scatter the training shows.  A working socket is reached with the arm varied as the
+training varied it and the ball stick tilted and turned at least as robocal's socket plans
+do.  A campaign that reached each socket in two similar postures (MUKCa Panda 3, 12 seatings,
+the stick turned about itself by at most 36 deg between them) was predicted 0.29 mm when
+reached like its own, and missed 1.04 mm on the placements left out, which the protocol
+reached with the stick turned by up to 180 deg; tilted and turned at random, 0.85 mm.
 
 How far a robot lies from its drawing is its own: the tolerances are the prior's shape, and
 their common scale is the one the calibration estimated from the data (the evidence fixed
@@ -23,6 +28,8 @@ directions the poses never saw are expected to deviate as the seen ones did.
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..spatial import so3_exp
 
 # At most this many training poses form the posterior (evenly spread; their information is
 # scaled up to all poses), and this many uniform configurations stand for the working range.
@@ -38,9 +45,15 @@ TIE_FRACTION = 0.02
 # Ball-in-socket data: the working range stands as this many sockets, each reached by this
 # many configurations (WORKING_POSES in all; the MUKCa units reach a socket about 30 times,
 # whose deviations from their mean are sqrt(29/30) / sqrt(9/10), 3 %, larger), within so many
-# IK iterations (from a training offset, 90 % of the MUKCa Panda 3's converge within 20, 98 %
-# within 30).
+# IK iterations (MUKCa Panda 3: of the reaches that converge within 100, 91 % do within 30;
+# about half of all converge, the others ask for a turn beyond the wrist's limits).
 SOCKETS = 100
+# A working socket is reached with the ball stick tilted from one approach by as much as the
+# training tilted it (the 90th percentile; MUKCa Pandas: 42, 46 and 49 deg), and at least as
+# much as robocal's socket plans tilt it (planning.sockets.MAX_TILT_DEG), turned about itself
+# at random.  Below 90: the ball comes from the socket's side.
+REACH_TILT_DEG = 30.0
+MAX_REACH_TILT_DEG = 80.0
 REACHES = 10
 IK_ITERATIONS = 30
 
@@ -203,8 +216,8 @@ def socket_prediction(calibration, data, work_joints=None, seed=0):
     """The :class:`PredictedError` of a fitted
     :class:`~robocal.estimation.constraint.ConstraintCalibration` as ball-in-socket data
     score it where the robot will work: each ball centre's deviation from its socket's mean,
-    at sockets spread over the working range (:func:`working_sockets`), each reached as the
-    training configurations reach theirs.
+    at sockets spread over the working range, each reached in several postures
+    (:func:`working_sockets`).
 
     data: the training :class:`~robocal.estimation.constraint.data.SocketData`; work_joints:
     (M, n) rad, configurations that put the ball where sockets will be (default: uniform
@@ -246,13 +259,15 @@ def working_sockets(chain, data, work_joints=None, seed=0, sockets=SOCKETS, reac
     :class:`~robocal.estimation.constraint.data.SocketData` of them, one placement), the
     :class:`WorkingRange` of their configurations).
 
-    chain: a rigid chain; data: the training SocketData, whose configurations' offsets from
-    their socket's mean joint vector (rad) say how a socket is reached; work_joints: (M, n)
-    rad, configurations putting the ball where sockets will be (at most ``sockets`` of them,
-    evenly picked), else ``sockets`` uniform within the joint limits.  Each socket's
-    configuration is joined by ``reaches`` - 1 others: a training offset drawn at random,
-    added to it, and brought back onto the same ball centre by the numerical IK (position
-    only, within the limits); those it does not reach are dropped, and sockets left with one
+    chain: a rigid chain; data: the training SocketData (what stands for the working range
+    when no socket can be reached); work_joints: (M, n) rad, configurations putting the ball
+    where sockets will be (at most ``sockets`` of them, evenly picked), else ``sockets``
+    uniform within the joint limits.  Each socket's configuration is joined by ``reaches`` - 1
+    others: the ball at the same centre with the stick tilted from the first by up to the
+    training's tilt (:func:`training_tilt`, at least REACH_TILT_DEG) and turned about itself
+    at random, solved by the numerical IK (within the limits) from the first configuration
+    plus a training offset from its socket's mean joint vector, so the arm varies as the
+    training varied it; those it does not reach are dropped, and sockets left with one
     configuration too.  No socket left: the training data and their configurations.
     """
     from ..kinematics.ik import solve_numeric
@@ -263,30 +278,62 @@ def working_sockets(chain, data, work_joints=None, seed=0, sockets=SOCKETS, reac
         work_joints = work_joints[np.linspace(0, len(work_joints) - 1, min(len(work_joints), sockets)).astype(int)]
     centres = working_range(chain, work_joints, count=sockets, seed=seed)
     q0 = centres.joints
+    others = reaches - 1
+    targets = np.repeat(chain.fk(q0), others, axis=0)
+    tilt = min(MAX_REACH_TILT_DEG, max(REACH_TILT_DEG, training_tilt(chain, data)))
+    targets[:, :3, :3] = _reach_orientations(targets[:, :3, :3], np.random.default_rng([seed, 2]), tilt)
     sizes = np.bincount(data.group)
     means = np.stack([np.bincount(data.group, weights=data.joints[:, c]) for c in range(chain.n_joints)],
                      axis=1) / sizes[:, None]
     offsets = (data.joints - means[data.group])[sizes[data.group] > 1]
+    if not len(offsets):
+        offsets = np.zeros((1, chain.n_joints))
     rng = np.random.default_rng(seed)
-    others = reaches - 1
     seeds = (q0[:, None, :] + offsets[rng.integers(0, len(offsets), size=(len(q0), others))]).reshape(-1, q0.shape[1])
-    reached = solve_numeric(chain, np.repeat(chain.fk(q0), others, axis=0), seeds, position_only=True,
-                            max_iterations=IK_ITERATIONS)
+    reached = solve_numeric(chain, targets, seeds, max_iterations=IK_ITERATIONS)
     joints = np.concatenate([q0, reached.q])
     group = np.concatenate([np.arange(len(q0)), np.repeat(np.arange(len(q0)), others)])
     kept = np.concatenate([np.ones(len(q0), dtype=bool), reached.success])
     joints, group = joints[kept], group[kept]
     kept = np.bincount(group, minlength=len(q0))[group] > 1
     if not kept.any():
-        shared = sizes[data.group] > 1
+        shared = np.bincount(data.group)[data.group] > 1
         return data, WorkingRange(data.joints[shared], f"the {int(shared.sum())} training configurations' sockets "
                                                        "(no socket of the working range could be reached)")
     _, group = np.unique(group[kept], return_inverse=True)
     zeros = np.zeros(int(kept.sum()), dtype=int)
     found = SocketData(joints[kept], ("working range",), zeros, zeros, group.reshape(-1), data.fixture)
     return found, WorkingRange(found.joints, f"{len(found.joints)} configurations reaching {found.group.max() + 1} "
-                                             f"sockets (up to {reaches} each, as the training sockets are reached) "
-                                             f"where {centres.text} put the ball")
+                                             f"sockets (up to {reaches} each, the stick tilted up to {tilt:.0f} deg "
+                                             f"and turned) where {centres.text} put the ball")
+
+
+def training_tilt(chain, data, percentile=90):
+    """How far (deg) the training tilted the ball stick: the ``percentile`` of each
+    configuration's tool z axis from its socket's mean axis, over sockets reached more than
+    once (0 if none)."""
+    axes = chain.fk(data.joints)[:, :3, 2]
+    sizes = np.bincount(data.group)
+    mean = np.stack([np.bincount(data.group, weights=axes[:, c]) for c in range(3)], axis=1)
+    mean /= np.maximum(np.linalg.norm(mean, axis=1, keepdims=True), 1e-12)
+    shared = sizes[data.group] > 1
+    if not shared.any():
+        return 0.0
+    cosine = np.einsum("ij,ij->i", axes[shared], mean[data.group[shared]])
+    return float(np.percentile(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))), percentile))
+
+
+def _reach_orientations(rotations, rng, max_tilt_deg=REACH_TILT_DEG):
+    """(K, 3, 3) ball-stick orientations reaching the same socket as ``rotations`` (K, 3, 3)
+    do: the tool z axis tilted about a random axis across it by up to ``max_tilt_deg``
+    (uniform over the cap of directions) and turned about itself at random."""
+    count = len(rotations)
+    angle = rng.uniform(-np.pi, np.pi, count)
+    across = np.column_stack([np.cos(angle), np.sin(angle), np.zeros(count)])
+    axis = np.einsum("kij,kj->ki", rotations, across)
+    tilt = np.arccos(1.0 - rng.uniform(0.0, 1.0, count) * (1.0 - np.cos(np.radians(max_tilt_deg))))
+    spin = np.column_stack([np.zeros((count, 2)), rng.uniform(-np.pi, np.pi, count)])
+    return so3_exp(axis * tilt[:, None]) @ rotations @ so3_exp(spin)
 
 
 def _scatter_draws(lengths, count, seed):
