@@ -57,7 +57,7 @@ PROGRAMS = [
     ("unreachable-target", {"p.script": "def prog():\n  movel(p[5.4,0.1,0.3,3.14,0,0])\n  movel(p[0.4,0.1,0.3,3.14,0,0])\nend\n"}, ["p.script"], "cannot be reached by the calibrated robot"),
     ("computed-at-run-time", {"p.script": "def prog():\n  a = p[0.4,0.1,0.3,3.14,0,0]\n  movel(pose_trans(a, p[0,0,0.1,0,0,0]))\nend\n"}, ["p.script"], "computed at run time"),
     ("urscript-in-mm", {"p.script": "def prog():\n  movel(p[400,100,300,180,0,0])\nend\n"}, ["p.script"], "more than a full turn: URScript poses take radians"),
-    ("krl-without-dat", {"p.src": "DEF p()\nPTP XP1\nEND\n"}, ["p.src"], "no literal value in the program"),
+    ("krl-without-dat", {"p.src": "DEF p()\nPTP XP1\nEND\n"}, ["p.src"], "its data list is missing: no p.dat"),
     ("second-program-unreachable", {"a.script": URSCRIPT.replace("prog", "a"), "b.script": "def b():\n  movel(p[9.4,0.1,0.3,3.14,0,0])\nend\n"}, ["a.script", "b.script"], "b.script line 2"),
 ]
 
