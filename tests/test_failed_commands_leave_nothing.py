@@ -9,7 +9,8 @@ import pytest
 
 from user_files import invoke, prepare, refuse
 
-URSCRIPT = "def prog():\n  movel(p[0.4,0.1,0.3,3.14,0,0])\nend\n"
+# A program filter takes: a joint position first fixes the arm branch of the motion after it.
+URSCRIPT = "def prog():\n  movej([0,-1.57,1.57,-1.57,-1.57,0])\n  movel(p[0.4,0.1,0.3,3.14,0,0])\nend\n"
 REFUSED = [
     ("calibrate-into-missing-folder", ["calibrate", "ur5", "ur5.csv", "--out", "nodir/o.json"], None, "directory nodir does not exist"),
     ("calibrate-out-is-a-folder", ["calibrate", "ur5", "ur5.csv", "--out", "o.json"], {"o.json/keep": "x"}, "o.json is a directory"),

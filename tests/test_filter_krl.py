@@ -168,6 +168,10 @@ def _text(path):
     return path.read_bytes().decode("latin-1")
 
 
+FIRST_POINT = "{X 1580.745,Y -173.97,Z 1562.688,A 13.217,B -28.817,C 161.742}"
+HOME = "{A1 0,A2 -90,A3 90,A4 0,A5 45,A6 0}"
+
+
 def _cell(dat=None):
     """pallet_cell.src with its .dat (``dat(text)`` changes it; without ``dat``, none)."""
     files = {"pallet_cell.src": _text(SRC)}
@@ -180,6 +184,10 @@ def _cell(dat=None):
 REFUSED = [
     ("src-without-its-dat", lambda: _cell(), ["pallet_cell.src"],
      "its data list is missing: no pallet_cell.dat (in any case) in "),
+    ("first-ptp-without-s-and-t", lambda: {**_cell(str), "p.src": f"DEF p( )\nPTP {FIRST_POINT}\nLIN XP1\nEND\n"},
+     ["p.src", "pallet_cell.dat"], "p.src line 2 (inline): no joint position comes before this motion"),
+    ("first-lin-without-s-and-t", lambda: {"p.src": f"DEF p( )\nLIN {FIRST_POINT}\nPTP {HOME}\nEND\n"}, ["p.src"],
+     "start the program with a PTP to joint values (an E6AXIS"),
 ]
 
 

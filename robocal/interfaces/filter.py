@@ -21,12 +21,15 @@ so robocal does not guess a transform between the two).
 Postures.  Among the nominal robot's inverse kinematics branches of a target (and the 2 pi
 turns of its joints), the one whose posture matches what the program names (KRL S and T for
 PTP, RAPID confdata) is the hint; a target the robot arrives at with the posture it has (KRL
-LIN/CIRC/SPL, URScript) takes the branch nearest the previous motion's joints.
+LIN/CIRC/SPL, URScript) takes the branch nearest the previous motion's joints.  A program
+whose first motion names no posture (URScript's movel or movej to a pose, a KRL point
+without S and T) is reached in the branch of wherever the robot stands when it starts, which
+no file says: refused, naming the line and what to add.
 """
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -58,13 +61,16 @@ SUMMARY_COLUMNS = ("file", "line", "name", "status", "moved_mm", "turned_deg", "
 class Prepared:
     """A program read and its targets made ready for the compensator: ``programs``
     ([ProgramFile]), ``targets`` ([Target]), ``poses`` (N, 4, 4) the compensator's targets
-    (measurement frame), ``hints`` (N, n) rad, ``frames`` [(B, Tc)] per target."""
+    (measurement frame), ``hints`` (N, n) rad, ``frames`` [(B, Tc)] per target; ``unknown``
+    the indices of the targets whose arm branch nothing fixes (a program's first motion
+    naming no posture)."""
 
     programs: list
     targets: list
     poses: np.ndarray
     hints: np.ndarray
     frames: list
+    unknown: list = field(default_factory=list)
 
 
 def read_programs(paths, language=None):
@@ -146,8 +152,8 @@ def prepare(programs, model, *, config=None) -> Prepared:
         return Prepared(programs, [], np.zeros((0, 4, 4)), np.zeros((0, nominal.n_joints)), [])
     bases, tools = (np.array(f) for f in zip(*frames))
     controller_poses = bases @ np.array([t.pose for t in targets]) @ np.linalg.inv(tools) @ nominal.tool
-    hints = _hints(programs, targets, controller_poses, nominal)
-    return Prepared(programs, targets, controller_poses, hints, frames)
+    hints, unknown = _hints(programs, targets, controller_poses, nominal)
+    return Prepared(programs, targets, controller_poses, hints, frames, unknown)
 
 
 def _turned(nominal, q, wanted):
@@ -217,9 +223,10 @@ def _scores(targets, language, code, candidates):
 
 
 def _hints(programs, targets, poses, nominal):
-    """(N, n) rad: the nominal robot's joints for each target in the posture it is reached
-    with, taken in program order so that a motion that keeps the posture follows the one
-    before."""
+    """((N, n) rad, [index]): the nominal robot's joints for each target in the posture it is
+    reached with, taken in program order so that a motion that keeps the posture follows the
+    one before; and the targets whose posture nothing fixes: a motion that names none with no
+    motion before it in its program (their hint is the branch nearest zero joints, a guess)."""
     q, valid = ik_all(nominal, poses)
     base = np.where(valid[..., None], q, np.nan)
     named = base.copy()
@@ -242,18 +249,24 @@ def _hints(programs, targets, poses, nominal):
     events = [(t.order, 1, i, t.file) for i, t in enumerate(targets)]
     for program in programs:
         events += [(j.order, 0, j, j.file) for j in program.joint_targets]
-    previous, zero = {}, np.zeros(nominal.n_joints)
+    previous, zero, started, unknown = {}, np.zeros(nominal.n_joints), set(), []
     for order, kind, item, file in sorted(events, key=lambda e: (_program_key(e[3]), e[0], e[1])):
         group = _program_key(file)
         if kind == 0:
             joints = np.asarray(item.joints, dtype=float)
             if joints.shape == (nominal.n_joints,) and np.isfinite(joints).all():
                 previous[group] = nominal.joints_from_file(joints[None])[0]
+                started.add(group)
             continue
         i, target = item, targets[item]
+        opens = np.isfinite(order) and group not in started  # the program's first motion
+        if np.isfinite(order):
+            started.add(group)
         if not valid[i].any():
-            hints[i] = np.nan
+            hints[i] = np.nan  # refused as unreachable, whatever its posture
             continue
+        if opens and target.posture is None:
+            unknown.append(i)
         if unique[i] and not (target.follows and group in previous):
             hints[i] = named[i, first[i]]  # the one branch that matches the named posture
             if np.isfinite(order):
@@ -273,7 +286,7 @@ def _hints(programs, targets, poses, nominal):
         hints[i] = candidates[int(np.argmin(np.where(allowed, distance, np.inf)))]
         if np.isfinite(order):
             previous[group] = hints[i]
-    return hints
+    return hints, unknown
 
 
 @functools.cache
@@ -320,6 +333,12 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
     frames = None if config is None else krl.read_config(config)
     prepared = prepare(programs, model, config=frames)
     targets = prepared.targets
+    if prepared.unknown:
+        target = targets[prepared.unknown[0]]
+        raise InputError(f"{target.file} line {target.line} ({target.name}): no joint position comes before this "
+                         "motion, so the controller reaches it in the arm branch of wherever the robot stands when "
+                         f"the program starts, which robocal cannot know; {_module_of(prepared, target).POSTURE_ADVICE}"
+                         "; nothing was written")
     corrected, inside = np.zeros((0, 4, 4)), np.zeros(0, dtype=bool)
     domain_summary = NO_DOMAIN if fitted.domain_ is None else "no targets"
     if targets:
@@ -372,6 +391,10 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
             "unfiltered": [f"{r.file} line {r.line}: {r.what}" for r in run_time],
             "outside_domain": int((~inside).sum()), "domain_summary": domain_summary,
             "max_moved_mm": float(moved.max()) if len(moved) else 0.0}
+
+
+def _module_of(prepared, target):
+    return next(p.module for p in prepared.programs if p.path == target.file)
 
 
 def _write_all(files):

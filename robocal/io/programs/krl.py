@@ -37,6 +37,9 @@ from .core import (
 NAME = "KUKA KRL"
 COMMENT = ";"
 EXTENSIONS = (".src", ".dat")
+# What to add when nothing fixes the arm branch of a program's first motion (filter refuses it).
+POSTURE_ADVICE = ("start the program with a PTP to joint values (an E6AXIS, as a BCO run needs) or give the point "
+                  "S and T")
 CARTESIAN_TYPES = ("E6POS", "POS", "FRAME")
 POSE_KEYS = ("X", "Y", "Z", "A", "B", "C")
 # Motions whose posture is the point's own (S, T); the others keep the posture the robot has.
