@@ -2,6 +2,7 @@
 compensate gives, every other byte stays, a nominal model changes nothing, run-time motions
 and filtered programs are refused."""
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -168,6 +169,12 @@ def _text(path):
     return path.read_bytes().decode("latin-1")
 
 
+def _in_metres(text):
+    """The data list with every X, Y, Z of its Cartesian targets divided by 1000."""
+    return re.sub(r"\{X (-?[\d.]+),Y (-?[\d.]+),Z (-?[\d.]+)",
+                  lambda m: "{" + ",".join(f"{k} {float(v) / 1000:.6f}" for k, v in zip("XYZ", m.groups())), text)
+
+
 FIRST_POINT = "{X 1580.745,Y -173.97,Z 1562.688,A 13.217,B -28.817,C 161.742}"
 HOME = "{A1 0,A2 -90,A3 90,A4 0,A5 45,A6 0}"
 
@@ -184,6 +191,8 @@ def _cell(dat=None):
 REFUSED = [
     ("src-without-its-dat", lambda: _cell(), ["pallet_cell.src"],
      "its data list is missing: no pallet_cell.dat (in any case) in "),
+    ("dat-in-metres", lambda: _cell(_in_metres), ["pallet_cell.src", "--allow-unfiltered"],
+     "pallet_cell.dat (in the robot's base): largest 1.95, where a length about robot 'KUKA KR 150-2' (reach"),
     ("first-ptp-without-s-and-t", lambda: {**_cell(str), "p.src": f"DEF p( )\nPTP {FIRST_POINT}\nLIN XP1\nEND\n"},
      ["p.src", "pallet_cell.dat"], "p.src line 2 (inline): no joint position comes before this motion"),
     ("first-lin-without-s-and-t", lambda: {"p.src": f"DEF p( )\nLIN {FIRST_POINT}\nPTP {HOME}\nEND\n"}, ["p.src"],

@@ -94,13 +94,17 @@ def _script(*lines):
 
 
 # The controller reaches a pose from where the robot stands: with no joint position before it,
-# the first motion's arm branch is unknown.
+# the first motion's arm branch is unknown.  Positions in mm lie a thousand times too far.
 REFUSED = [
     ("movel-first", _script(f"movel({ABOVE}, a=0.5, v=0.1)", f"movel({AT})"),
      "p.script line 2 (inline): no joint position comes before this motion, so the controller reaches it in the arm "
      "branch of wherever the robot stands when the program starts, which robocal cannot know; put a movej([...])"),
     ("named-pose-by-movej-first", _script(f"above = {ABOVE}", "movej(above)", HOME, f"movel({AT})"),
      "p.script line 2 (above): no joint position comes before this motion"),
+    ("positions-in-mm", _script(HOME, "movel(p[-298.02, -298.10, 357.29, 2.0194, 2.4066, 0.0])",
+                                "movel(p[-314.53, -307.63, 296.08, 2.0194, 2.4066, 0])"),
+     "530310 to 552572 mm from its base: URScript positions are in metres, these look like mm (divide them by 1000); "
+     "nothing was written"),
 ]
 
 

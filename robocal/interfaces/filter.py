@@ -25,6 +25,11 @@ LIN/CIRC/SPL, URScript) takes the branch nearest the previous motion's joints.  
 whose first motion names no posture (URScript's movel or movej to a pose, a KRL point
 without S and T) is reached in the branch of wherever the robot stands when it starts, which
 no file says: refused, naming the line and what to add.
+
+Units.  The targets of a file in mm (KRL, RAPID) meet the length test of typed positions
+(:func:`robocal.io.units.check_robot_lengths`: metres are a thousandth of a length about
+the robot); unreachable targets that all lie beyond the robot's reach are named so, with the
+unit that would bring them within it (URScript in mm).
 """
 from __future__ import annotations
 
@@ -38,6 +43,7 @@ from ..errors import FileFormatError, InputError
 from ..io.csv_writing import csv_text
 from ..io.atomic import check_outputs, write_text_atomic
 from ..io.reading import check_regular_file
+from ..io.units import LENGTH_UNITS, SMALLEST_REACH_SHARE, check_robot_lengths, reach_mm
 from ..io.programs import LANGUAGES, krl, language_of, postures
 from ..io.programs.core import (
     ENCODING,
@@ -333,6 +339,8 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
     frames = None if config is None else krl.read_config(config)
     prepared = prepare(programs, model, config=frames)
     targets = prepared.targets
+    placed = np.array([base @ t.pose for t, (base, _) in zip(targets, prepared.frames)]).reshape(-1, 4, 4)
+    _check_lengths(prepared, placed[:, :3, 3], model.nominal)
     if prepared.unknown:
         target = targets[prepared.unknown[0]]
         raise InputError(f"{target.file} line {target.line} ({target.name}): no joint position comes before this "
@@ -347,8 +355,9 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
         reached = result.success & reachable
         if not reached.all():
             bad = [f"{t.file} line {t.line} ({t.name})" for t, ok in zip(targets, reached) if not ok]
+            why = _beyond_reach(prepared, placed[:, :3, 3], reached, model.nominal)
             raise InputError(f"{len(bad)} target(s) cannot be reached by the calibrated robot: {', '.join(bad[:10])}"
-                             f"{' ...' if len(bad) > 10 else ''}; nothing was written")
+                             f"{' ...' if len(bad) > 10 else ''}{why}; nothing was written")
         inside = np.ones(len(targets), dtype=bool)
         if fitted.domain_ is not None:
             check = fitted.domain_.check(result.q, prepared.poses[:, :3, 3])
@@ -395,6 +404,57 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
 
 def _module_of(prepared, target):
     return next(p.module for p in prepared.programs if p.path == target.file)
+
+
+def _by_file(prepared):
+    """{file: (its language module, indices of its targets)}, in the order the targets come."""
+    files = {}
+    for k, target in enumerate(prepared.targets):
+        files.setdefault(target.file, (_module_of(prepared, target), []))[1].append(k)
+    return files
+
+
+def _check_lengths(prepared, positions, nominal):
+    """InputError when the targets of a file in mm (KRL, RAPID) are no lengths about the robot
+    in mm: ``positions`` (N, 3) where each target's frame is in the robot's base (B·P), its
+    largest coordinate a thousandth of what it should be (metres), by robocal.io.units, as the
+    positions of a targets file."""
+    for file, (module, rows) in _by_file(prepared).items():
+        if module.LENGTH_UNIT == "mm":
+            check_robot_lengths(nominal, positions[rows], f"the target positions of {file} (in the robot's base)")
+
+
+def _beyond_reach(prepared, positions, reached, nominal):
+    """What to add to the refusal of unreachable targets for each file whose every target
+    lies beyond the robot's reach (''): how far, and the length unit that would bring them
+    all within it (robocal.io.units.LENGTH_UNITS), or the file's units as a question."""
+    reach, origin = reach_mm(nominal), np.asarray(nominal.base, dtype=float)[:3, 3]
+    notes = []
+    for file, (module, rows) in _by_file(prepared).items():
+        if reached[rows].any():
+            continue
+        # The TCP reaches as far as the flange plus the tool.
+        limit = reach + np.array([np.linalg.norm(prepared.frames[k][1][:3, 3]) for k in rows])
+        distance = np.linalg.norm(positions[rows] - origin, axis=1)
+        if not (distance > limit).all():
+            notes.append(f"none of the targets of {file} can be reached: are they in {module.UNITS}, in the "
+                         "robot's base?")
+            continue
+        stated = LENGTH_UNITS[module.LENGTH_UNIT]
+        fits = [unit for unit, factor in LENGTH_UNITS.items()
+                if unit != module.LENGTH_UNIT and (distance * factor / stated <= limit).all()
+                and (distance * factor / stated).max() >= reach * SMALLEST_REACH_SHARE]
+        where = (f"every target of {file} lies beyond the robot's reach ({reach:.0f} mm), {distance.min():.0f} to "
+                 f"{distance.max():.0f} mm from its base")
+        if fits:
+            unit = max(fits, key=LENGTH_UNITS.get)  # the nearest to the stated unit that brings them within
+            ratio = LENGTH_UNITS[unit] / stated
+            fix = f"divide them by {1 / ratio:.4g}" if ratio < 1 else f"multiply them by {ratio:.4g}"
+            notes.append(f"{where}: {module.NAME} positions are in {module.LENGTH_UNIT}, these look like {unit} "
+                         f"({fix})")
+        else:
+            notes.append(f"{where}: are they in {module.UNITS}?")
+    return "".join(f"; {note}" for note in notes)
 
 
 def _write_all(files):

@@ -37,6 +37,9 @@ from .core import (
 NAME = "KUKA KRL"
 COMMENT = ";"
 EXTENSIONS = (".src", ".dat")
+# The unit of the file's positions (a key of robocal.io.units.LENGTH_UNITS), and of its poses.
+LENGTH_UNIT = "mm"
+UNITS = "mm and degrees"
 # What to add when nothing fixes the arm branch of a program's first motion (filter refuses it).
 POSTURE_ADVICE = ("start the program with a PTP to joint values (an E6AXIS, as a BCO run needs) or give the point "
                   "S and T")

@@ -32,6 +32,9 @@ from .core import (
 NAME = "ABB RAPID"
 COMMENT = "!"
 EXTENSIONS = (".mod", ".modx", ".prg")
+# The unit of the file's positions (a key of robocal.io.units.LENGTH_UNITS), and of its poses.
+LENGTH_UNIT = "mm"
+UNITS = "mm and unit quaternions"
 # What to add when nothing fixes the arm branch of a program's first motion (filter refuses it).
 POSTURE_ADVICE = "give the robtarget its confdata"
 # Decimals written at least when a number changes: 0.0001 mm, and 1e-7 of a quaternion (1e-5 deg).
