@@ -312,8 +312,11 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
     """Write the filtered programs and filter-summary.csv into ``out_dir``.
 
     Refuses (InputError, nothing written) a program robocal filtered already, run-time
-    motions without ``allow_unfiltered``, targets the model cannot reach, and targets outside
-    its domain of validity without ``accept_extrapolation``.  Returns a JSON-ready dict.
+    motions without ``allow_unfiltered``, positions in another unit than the language's, a
+    first motion whose posture nothing fixes, targets the model cannot reach, and targets
+    outside its domain of validity without ``accept_extrapolation`` (and, as it reads them,
+    a KRL .src without its .dat and a RAPID quaternion that is not unit).  Returns a
+    JSON-ready dict.
     """
     out_dir = Path(out_dir)
     if not out_dir.is_dir():
