@@ -156,3 +156,18 @@ def assert_only_targets_changed(original, written, sign):
     assert count == 1
     assert without_comment(masked(written), sign)[0] == masked(original)
     assert data.count(b"\r\n") == Path(original).read_bytes().count(b"\r\n")
+
+
+def assert_filter_refused(model, files, programs, says, folder, monkeypatch):
+    """Write ``files`` ({name: text}, Latin-1) into ``folder`` and run ``robocal filter MODEL
+    PROGRAMS --out fo`` there: refused with a non-zero exit in one error line holding ``says``,
+    no traceback, nothing written into fo and no input rewritten."""
+    from refusals import assert_refused
+
+    for name, text in files.items():
+        (folder / name).write_bytes(text.encode(ENCODING))
+    (folder / "fo").mkdir()
+    monkeypatch.chdir(folder)
+    before = {p.name: p.stat().st_mtime_ns for p in folder.iterdir()}
+    assert_refused(["filter", str(model), *programs, "--out", "fo"], says, folder, before)
+    assert not list((folder / "fo").iterdir())

@@ -2,6 +2,7 @@
 compensate gives, every other byte stays, a nominal model changes nothing, run-time motions
 and filtered programs are refused."""
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 from filter_support import (
     PROGRAMS,
+    assert_filter_refused,
     assert_only_targets_changed,
     assert_same_poses,
     filter_and_compensate,
@@ -125,6 +127,7 @@ def test_a_filtered_program_is_refused(models, tmp_path):
 def test_unreachable_targets_are_refused(models, tmp_path):
     program = tmp_path / "far.src"
     shutil.copy(SRC, program)
+    shutil.copy(SRC.with_suffix(".dat"), tmp_path / "far.dat")  # its data list, beside it
     text = program.read_bytes().replace(b"PTP {X 1580.745", b"PTP {X 4580.745")
     program.write_bytes(text)
     (tmp_path / "out").mkdir()
@@ -160,3 +163,53 @@ def test_unreadable_inputs_are_one_line(models, tmp_path):
         result = runner.invoke(app, ["filter", str(models["true"]), *map(str, args), "--out", str(tmp_path)])
         lines = [line for line in result.output.splitlines() if line.strip()]
         assert result.exit_code == 2 and len(lines) == 1 and says in lines[0], result.output
+
+
+def _text(path):
+    return path.read_bytes().decode("latin-1")
+
+
+def _in_metres(text):
+    """The data list with every X, Y, Z of its Cartesian targets divided by 1000."""
+    return re.sub(r"\{X (-?[\d.]+),Y (-?[\d.]+),Z (-?[\d.]+)",
+                  lambda m: "{" + ",".join(f"{k} {float(v) / 1000:.6f}" for k, v in zip("XYZ", m.groups())), text)
+
+
+FIRST_POINT = "{X 1580.745,Y -173.97,Z 1562.688,A 13.217,B -28.817,C 161.742}"
+HOME = "{A1 0,A2 -90,A3 90,A4 0,A5 45,A6 0}"
+
+
+def _cell(dat=None):
+    """pallet_cell.src with its .dat (``dat(text)`` changes it; without ``dat``, none)."""
+    files = {"pallet_cell.src": _text(SRC)}
+    if dat is not None:
+        files["pallet_cell.dat"] = dat(_text(KRL / "pallet_cell.dat"))
+    return files
+
+
+# Programs robocal cannot filter truthfully, refused in one line naming why.
+REFUSED = [
+    ("src-without-its-dat", lambda: _cell(), ["pallet_cell.src"],
+     "its data list is missing: no pallet_cell.dat (in any case) in "),
+    ("dat-in-metres", lambda: _cell(_in_metres), ["pallet_cell.src", "--allow-unfiltered"],
+     "pallet_cell.dat (in the robot's base): largest 1.95, where a length about robot 'KUKA KR 150-2' (reach"),
+    ("first-ptp-without-s-and-t", lambda: {**_cell(str), "p.src": f"DEF p( )\nPTP {FIRST_POINT}\nLIN XP1\nEND\n"},
+     ["p.src", "pallet_cell.dat"], "p.src line 2 (inline): no joint position comes before this motion"),
+    ("first-lin-without-s-and-t", lambda: {"p.src": f"DEF p( )\nLIN {FIRST_POINT}\nPTP {HOME}\nEND\n"}, ["p.src"],
+     "start the program with a PTP to joint values (an E6AXIS"),
+]
+
+
+@pytest.mark.parametrize("files, programs, says", [c[1:] for c in REFUSED], ids=[c[0] for c in REFUSED])
+def test_programs_that_cannot_be_filtered_are_refused(models, tmp_path, monkeypatch, files, programs, says):
+    assert_filter_refused(models["true"], files(), programs, says, tmp_path, monkeypatch)
+
+
+def test_a_data_list_named_in_another_case_is_found(models, tmp_path):
+    # Files copied from the controller's disk: CELL.DAT beside cell.src.
+    shutil.copy(SRC, tmp_path / "cell.src")
+    shutil.copy(KRL / "pallet_cell.dat", tmp_path / "CELL.DAT")
+    (tmp_path / "fo").mkdir()
+    result = filter_job(models["true"], [tmp_path / "cell.src"], tmp_path / "fo", allow_unfiltered=True)
+    assert result["targets"] == 14
+    assert_only_targets_changed(tmp_path / "CELL.DAT", tmp_path / "fo" / "CELL.DAT", ";")

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from filter_support import (
     PROGRAMS,
+    assert_filter_refused,
     assert_only_targets_changed,
     assert_same_poses,
     filter_and_compensate,
@@ -17,6 +18,8 @@ from robocal.errors import InputError
 from robocal.interfaces.filter import filter_job
 from robocal.io.library import load_robot
 from robocal.io.programs import postures
+from robocal.io.programs.core import Number
+from robocal.io.programs.rapid import not_unit
 
 MODULE = PROGRAMS / "rapid" / "PickPlace.mod"
 
@@ -97,3 +100,51 @@ def test_a_filtered_module_is_refused(models, tmp_path):
     with pytest.raises(InputError, match="written by robocal filter already"):
         filter_job(models["true"], [tmp_path / "a" / MODULE.name], tmp_path / "b", allow_unfiltered=True)
     assert not list((tmp_path / "b").iterdir())
+
+
+def _module(old, new):
+    """PickPlace.mod with ``old`` (which it holds once) replaced by ``new``."""
+    text = MODULE.read_bytes().decode("latin-1")
+    assert text.count(old) == 1
+    return {"PickPlace.mod": text.replace(old, new)}
+
+
+# An ABB controller refuses an orientation that is not normalised: robocal refuses it too,
+# rather than writing a unit quaternion in its place.
+REFUSED = [
+    ("robtarget-quaternion-doubled", lambda: _module("[-0.011718,0.931016,-0.360296,0.057085]",
+                                                     "[-0.023436,1.862032,-0.720592,0.11417]"),
+     "PickPlace.mod line 10: the quaternion of robtarget pApproach [-0.023436, 1.862032, -0.720592, 0.11417] has "
+     "norm 2"),
+    ("robtarget-quaternion-off-by-1e-4", lambda: _module("0.931016", "0.931116"),
+     "PickPlace.mod line 10: the quaternion of robtarget pApproach"),
+    ("tooldata-quaternion", lambda: _module("[[0,0,115.5],[1,0,0,0]]", "[[0,0,115.5],[2,0,0,0]]"),
+     "PickPlace.mod line 6: the quaternion of tooldata tGripper [2, 0, 0, 0] has norm 2"),
+    ("wobjdata-quaternion", lambda: _module("[0.9659258,0,0,0.258819]", "[0.9659258,0,0,0.358819]"),
+     "the quaternion of wobjdata wobjTable (uframe)"),
+]
+
+
+@pytest.mark.parametrize("files, says", [c[1:] for c in REFUSED], ids=[c[0] for c in REFUSED])
+def test_a_quaternion_that_is_not_unit_is_refused(models, tmp_path, monkeypatch, files, says):
+    assert_filter_refused(models["true"], files(), ["PickPlace.mod", "--allow-unfiltered"], says, tmp_path, monkeypatch)
+
+
+@pytest.mark.parametrize("written, unit", [
+    ("1, 0, 0, 0", True),
+    ("0.7071, 0.7071, 0, 0", True),              # 4 decimals: 0.70705..0.70715 each reach norm 1
+    ("0.7072, 0.7072, 0, 0", False),             # at least 1.00006
+    ("0.70711, 0.70711, 0, 0", True),
+    ("0.70712, 0.70712, 0, 0", False),           # at least 1.000013
+    ("0.5, 0.5, 0.5, 0.5", True),
+    ("0.866025, 0, 0, 0.5", True),
+    ("0.866, 0, 0, 0.5", True),                  # 0.866025 to 3 decimals (0 and 0.5: to 3 as well)
+    ("0.865, 0, 0, 0.5", False),                 # at most 0.9998
+    ("0.70710678, 0.7071, 0, 0", False),         # the finest component sets the precision: 0.999995
+    ("1, 1, 0, 0", False),                       # whole numbers are exact
+    ("2, 0, 0, 0", False),
+    ("0, 0, 0, 0", False),
+])
+def test_a_quaternion_is_unit_at_the_decimals_written(written, unit):
+    numbers = [Number(0, text.strip()) for text in written.split(",")]
+    assert (len(not_unit([numbers])) == 0) == unit

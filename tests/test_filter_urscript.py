@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from filter_support import (
     PROGRAMS,
+    assert_filter_refused,
     assert_only_targets_changed,
     assert_same_poses,
     filter_and_compensate,
@@ -82,3 +83,37 @@ def test_a_binary_or_motionless_file_is_refused(models, tmp_path, content, says)
     with pytest.raises(RobocalError, match=says):
         filter_job(models["true"], [program], tmp_path / "out")
     assert not list((tmp_path / "out").iterdir())
+
+
+HOME = "movej([0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0], a=1.4, v=1.05)"
+ABOVE, AT = "p[-0.29802, -0.29810, 0.35729, 2.0194, 2.4066, 0.0]", "p[-0.31453, -0.30763, 0.29608, 2.0194, 2.4066, 0]"
+
+
+def _script(*lines):
+    return {"p.script": "def p():\n" + "".join(f"  {line}\n" for line in lines) + "end\n"}
+
+
+# The controller reaches a pose from where the robot stands: with no joint position before it,
+# the first motion's arm branch is unknown.  Positions in mm lie a thousand times too far.
+REFUSED = [
+    ("movel-first", _script(f"movel({ABOVE}, a=0.5, v=0.1)", f"movel({AT})"),
+     "p.script line 2 (inline): no joint position comes before this motion, so the controller reaches it in the arm "
+     "branch of wherever the robot stands when the program starts, which robocal cannot know; put a movej([...])"),
+    ("named-pose-by-movej-first", _script(f"above = {ABOVE}", "movej(above)", HOME, f"movel({AT})"),
+     "p.script line 2 (above): no joint position comes before this motion"),
+    ("positions-in-mm", _script(HOME, "movel(p[-298.02, -298.10, 357.29, 2.0194, 2.4066, 0.0])",
+                                "movel(p[-314.53, -307.63, 296.08, 2.0194, 2.4066, 0])"),
+     "530310 to 552572 mm from its base: URScript positions are in metres, these look like mm (divide them by 1000); "
+     "nothing was written"),
+]
+
+
+@pytest.mark.parametrize("files, says", [c[1:] for c in REFUSED], ids=[c[0] for c in REFUSED])
+def test_scripts_that_cannot_be_filtered_are_refused(models, tmp_path, monkeypatch, files, says):
+    assert_filter_refused(models["true"], files, ["p.script"], says, tmp_path, monkeypatch)
+
+
+def test_a_joint_position_first_fixes_the_branch(models, tmp_path):
+    (tmp_path / "fo").mkdir()
+    (tmp_path / "p.script").write_text(_script(HOME, f"movel({ABOVE}, a=0.5, v=0.1)")["p.script"])
+    assert filter_job(models["true"], [tmp_path / "p.script"], tmp_path / "fo")["targets"] == 1

@@ -21,12 +21,20 @@ so robocal does not guess a transform between the two).
 Postures.  Among the nominal robot's inverse kinematics branches of a target (and the 2 pi
 turns of its joints), the one whose posture matches what the program names (KRL S and T for
 PTP, RAPID confdata) is the hint; a target the robot arrives at with the posture it has (KRL
-LIN/CIRC/SPL, URScript) takes the branch nearest the previous motion's joints.
+LIN/CIRC/SPL, URScript) takes the branch nearest the previous motion's joints.  A program
+whose first motion names no posture (URScript's movel or movej to a pose, a KRL point
+without S and T) is reached in the branch of wherever the robot stands when it starts, which
+no file says: refused, naming the line and what to add.
+
+Units.  The targets of a file in mm (KRL, RAPID) meet the length test of typed positions
+(:func:`robocal.io.units.check_robot_lengths`: metres are a thousandth of a length about
+the robot); unreachable targets that all lie beyond the robot's reach are named so, with the
+unit that would bring them within it (URScript in mm).
 """
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +43,7 @@ from ..errors import FileFormatError, InputError
 from ..io.csv_writing import csv_text
 from ..io.atomic import check_outputs, write_text_atomic
 from ..io.reading import check_regular_file
+from ..io.units import LENGTH_UNITS, SMALLEST_REACH_SHARE, check_robot_lengths, reach_mm
 from ..io.programs import LANGUAGES, krl, language_of, postures
 from ..io.programs.core import (
     ENCODING,
@@ -58,13 +67,16 @@ SUMMARY_COLUMNS = ("file", "line", "name", "status", "moved_mm", "turned_deg", "
 class Prepared:
     """A program read and its targets made ready for the compensator: ``programs``
     ([ProgramFile]), ``targets`` ([Target]), ``poses`` (N, 4, 4) the compensator's targets
-    (measurement frame), ``hints`` (N, n) rad, ``frames`` [(B, Tc)] per target."""
+    (measurement frame), ``hints`` (N, n) rad, ``frames`` [(B, Tc)] per target; ``unknown``
+    the indices of the targets whose arm branch nothing fixes (a program's first motion
+    naming no posture)."""
 
     programs: list
     targets: list
     poses: np.ndarray
     hints: np.ndarray
     frames: list
+    unknown: list = field(default_factory=list)
 
 
 def read_programs(paths, language=None):
@@ -146,8 +158,8 @@ def prepare(programs, model, *, config=None) -> Prepared:
         return Prepared(programs, [], np.zeros((0, 4, 4)), np.zeros((0, nominal.n_joints)), [])
     bases, tools = (np.array(f) for f in zip(*frames))
     controller_poses = bases @ np.array([t.pose for t in targets]) @ np.linalg.inv(tools) @ nominal.tool
-    hints = _hints(programs, targets, controller_poses, nominal)
-    return Prepared(programs, targets, controller_poses, hints, frames)
+    hints, unknown = _hints(programs, targets, controller_poses, nominal)
+    return Prepared(programs, targets, controller_poses, hints, frames, unknown)
 
 
 def _turned(nominal, q, wanted):
@@ -217,9 +229,10 @@ def _scores(targets, language, code, candidates):
 
 
 def _hints(programs, targets, poses, nominal):
-    """(N, n) rad: the nominal robot's joints for each target in the posture it is reached
-    with, taken in program order so that a motion that keeps the posture follows the one
-    before."""
+    """((N, n) rad, [index]): the nominal robot's joints for each target in the posture it is
+    reached with, taken in program order so that a motion that keeps the posture follows the
+    one before; and the targets whose posture nothing fixes: a motion that names none with no
+    motion before it in its program (their hint is the branch nearest zero joints, a guess)."""
     q, valid = ik_all(nominal, poses)
     base = np.where(valid[..., None], q, np.nan)
     named = base.copy()
@@ -242,18 +255,24 @@ def _hints(programs, targets, poses, nominal):
     events = [(t.order, 1, i, t.file) for i, t in enumerate(targets)]
     for program in programs:
         events += [(j.order, 0, j, j.file) for j in program.joint_targets]
-    previous, zero = {}, np.zeros(nominal.n_joints)
+    previous, zero, started, unknown = {}, np.zeros(nominal.n_joints), set(), []
     for order, kind, item, file in sorted(events, key=lambda e: (_program_key(e[3]), e[0], e[1])):
         group = _program_key(file)
         if kind == 0:
             joints = np.asarray(item.joints, dtype=float)
             if joints.shape == (nominal.n_joints,) and np.isfinite(joints).all():
                 previous[group] = nominal.joints_from_file(joints[None])[0]
+                started.add(group)
             continue
         i, target = item, targets[item]
+        opens = np.isfinite(order) and group not in started  # the program's first motion
+        if np.isfinite(order):
+            started.add(group)
         if not valid[i].any():
-            hints[i] = np.nan
+            hints[i] = np.nan  # refused as unreachable, whatever its posture
             continue
+        if opens and target.posture is None:
+            unknown.append(i)
         if unique[i] and not (target.follows and group in previous):
             hints[i] = named[i, first[i]]  # the one branch that matches the named posture
             if np.isfinite(order):
@@ -273,7 +292,7 @@ def _hints(programs, targets, poses, nominal):
         hints[i] = candidates[int(np.argmin(np.where(allowed, distance, np.inf)))]
         if np.isfinite(order):
             previous[group] = hints[i]
-    return hints
+    return hints, unknown
 
 
 @functools.cache
@@ -293,8 +312,11 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
     """Write the filtered programs and filter-summary.csv into ``out_dir``.
 
     Refuses (InputError, nothing written) a program robocal filtered already, run-time
-    motions without ``allow_unfiltered``, targets the model cannot reach, and targets outside
-    its domain of validity without ``accept_extrapolation``.  Returns a JSON-ready dict.
+    motions without ``allow_unfiltered``, positions in another unit than the language's, a
+    first motion whose posture nothing fixes, targets the model cannot reach, and targets
+    outside its domain of validity without ``accept_extrapolation`` (and, as it reads them,
+    a KRL .src without its .dat and a RAPID quaternion that is not unit).  Returns a
+    JSON-ready dict.
     """
     out_dir = Path(out_dir)
     if not out_dir.is_dir():
@@ -320,6 +342,14 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
     frames = None if config is None else krl.read_config(config)
     prepared = prepare(programs, model, config=frames)
     targets = prepared.targets
+    placed = np.array([base @ t.pose for t, (base, _) in zip(targets, prepared.frames)]).reshape(-1, 4, 4)
+    _check_lengths(prepared, placed[:, :3, 3], model.nominal)
+    if prepared.unknown:
+        target = targets[prepared.unknown[0]]
+        raise InputError(f"{target.file} line {target.line} ({target.name}): no joint position comes before this "
+                         "motion, so the controller reaches it in the arm branch of wherever the robot stands when "
+                         f"the program starts, which robocal cannot know; {_module_of(prepared, target).POSTURE_ADVICE}"
+                         "; nothing was written")
     corrected, inside = np.zeros((0, 4, 4)), np.zeros(0, dtype=bool)
     domain_summary = NO_DOMAIN if fitted.domain_ is None else "no targets"
     if targets:
@@ -328,8 +358,9 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
         reached = result.success & reachable
         if not reached.all():
             bad = [f"{t.file} line {t.line} ({t.name})" for t, ok in zip(targets, reached) if not ok]
+            why = _beyond_reach(prepared, placed[:, :3, 3], reached, model.nominal)
             raise InputError(f"{len(bad)} target(s) cannot be reached by the calibrated robot: {', '.join(bad[:10])}"
-                             f"{' ...' if len(bad) > 10 else ''}; nothing was written")
+                             f"{' ...' if len(bad) > 10 else ''}{why}; nothing was written")
         inside = np.ones(len(targets), dtype=bool)
         if fitted.domain_ is not None:
             check = fitted.domain_.check(result.q, prepared.poses[:, :3, 3])
@@ -372,6 +403,61 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
             "unfiltered": [f"{r.file} line {r.line}: {r.what}" for r in run_time],
             "outside_domain": int((~inside).sum()), "domain_summary": domain_summary,
             "max_moved_mm": float(moved.max()) if len(moved) else 0.0}
+
+
+def _module_of(prepared, target):
+    return next(p.module for p in prepared.programs if p.path == target.file)
+
+
+def _by_file(prepared):
+    """{file: (its language module, indices of its targets)}, in the order the targets come."""
+    files = {}
+    for k, target in enumerate(prepared.targets):
+        files.setdefault(target.file, (_module_of(prepared, target), []))[1].append(k)
+    return files
+
+
+def _check_lengths(prepared, positions, nominal):
+    """InputError when the targets of a file in mm (KRL, RAPID) are no lengths about the robot
+    in mm: ``positions`` (N, 3) where each target's frame is in the robot's base (B·P), its
+    largest coordinate a thousandth of what it should be (metres), by robocal.io.units, as the
+    positions of a targets file."""
+    for file, (module, rows) in _by_file(prepared).items():
+        if module.LENGTH_UNIT == "mm":
+            check_robot_lengths(nominal, positions[rows], f"the target positions of {file} (in the robot's base)")
+
+
+def _beyond_reach(prepared, positions, reached, nominal):
+    """What to add to the refusal of unreachable targets for each file whose every target
+    lies beyond the robot's reach (''): how far, and the length unit that would bring them
+    all within it (robocal.io.units.LENGTH_UNITS), or the file's units as a question."""
+    reach, origin = reach_mm(nominal), np.asarray(nominal.base, dtype=float)[:3, 3]
+    notes = []
+    for file, (module, rows) in _by_file(prepared).items():
+        if reached[rows].any():
+            continue
+        # The TCP reaches as far as the flange plus the tool.
+        limit = reach + np.array([np.linalg.norm(prepared.frames[k][1][:3, 3]) for k in rows])
+        distance = np.linalg.norm(positions[rows] - origin, axis=1)
+        if not (distance > limit).all():
+            notes.append(f"none of the targets of {file} can be reached: are they in {module.UNITS}, in the "
+                         "robot's base?")
+            continue
+        stated = LENGTH_UNITS[module.LENGTH_UNIT]
+        fits = [unit for unit, factor in LENGTH_UNITS.items()
+                if unit != module.LENGTH_UNIT and (distance * factor / stated <= limit).all()
+                and (distance * factor / stated).max() >= reach * SMALLEST_REACH_SHARE]
+        where = (f"every target of {file} lies beyond the robot's reach ({reach:.0f} mm), {distance.min():.0f} to "
+                 f"{distance.max():.0f} mm from its base")
+        if fits:
+            unit = max(fits, key=LENGTH_UNITS.get)  # the nearest to the stated unit that brings them within
+            ratio = LENGTH_UNITS[unit] / stated
+            fix = f"divide them by {1 / ratio:.4g}" if ratio < 1 else f"multiply them by {ratio:.4g}"
+            notes.append(f"{where}: {module.NAME} positions are in {module.LENGTH_UNIT}, these look like {unit} "
+                         f"({fix})")
+        else:
+            notes.append(f"{where}: are they in {module.UNITS}?")
+    return "".join(f"; {note}" for note in notes)
 
 
 def _write_all(files):

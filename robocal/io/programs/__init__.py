@@ -4,7 +4,9 @@ One module per language (``krl``, ``rapid``, ``urscript``) with the same functio
 ``group(paths)`` (the files a program is made of), ``parse(files)`` ([ProgramFile] with the
 Cartesian targets, run-time motions and joint targets), ``comment_offset(text)`` (where
 robocal's line goes), ``new_numbers(target, pose)`` (the file's numbers for a new pose) and
-``COMMENT``, ``NAME``, ``EXTENSIONS``; ``core`` holds what they share.
+``COMMENT``, ``NAME``, ``EXTENSIONS``, ``LENGTH_UNIT`` and ``UNITS`` (the file's units),
+``POSTURE_ADVICE`` (how a program fixes the arm branch of its first motion); ``core`` holds
+what they share.
 """
 from pathlib import Path
 

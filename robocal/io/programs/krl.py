@@ -37,6 +37,12 @@ from .core import (
 NAME = "KUKA KRL"
 COMMENT = ";"
 EXTENSIONS = (".src", ".dat")
+# The unit of the file's positions (a key of robocal.io.units.LENGTH_UNITS), and of its poses.
+LENGTH_UNIT = "mm"
+UNITS = "mm and degrees"
+# What to add when nothing fixes the arm branch of a program's first motion (filter refuses it).
+POSTURE_ADVICE = ("start the program with a PTP to joint values (an E6AXIS, as a BCO run needs) or give the point "
+                  "S and T")
 CARTESIAN_TYPES = ("E6POS", "POS", "FRAME")
 POSE_KEYS = ("X", "Y", "Z", "A", "B", "C")
 # Motions whose posture is the point's own (S, T); the others keep the posture the robot has.
@@ -62,12 +68,25 @@ def group(paths):
         path = Path(path)
         out.append(path)
         if path.suffix.lower() == ".src":
-            for suffix in (".dat", ".DAT"):
-                dat = path.with_suffix(suffix)
-                if dat.exists():
-                    out.append(dat)
-                    break
+            dat = data_list_of(path)
+            if dat is not None:
+                out.append(dat)
     return out
+
+
+def data_list_of(src):
+    """The .dat beside a .src (its name in any case: files copied from a controller's Windows
+    disk may be CELL.DAT beside cell.src), or None."""
+    src = Path(src)
+    for suffix in (".dat", ".DAT"):
+        if src.with_suffix(suffix).is_file():
+            return src.with_suffix(suffix)
+    wanted = src.stem.lower() + ".dat"
+    try:
+        found = [p for p in src.parent.iterdir() if p.name.lower() == wanted and p.is_file()]
+    except OSError:
+        return None
+    return min(found) if found else None
 
 
 def comment_offset(text) -> int:
@@ -164,9 +183,29 @@ def parse(files):
         _declarations(program, stripped[program.path], declared, fdats)
     for program in programs:
         if program.path.lower().endswith(".src"):
-            _code(program, stripped[program.path], declared, fdats)
+            undeclared = _code(program, stripped[program.path], declared, fdats)
+            _check_data_list(program, files, undeclared)
         fill_poses(program.targets, poses_of)
     return programs
+
+
+def _check_data_list(program, files, undeclared):
+    """FileFormatError when a .src moves to names that no file given declares and its .dat
+    is not among them: the data list was left behind (not a run-time value)."""
+    if not undeclared:
+        return
+    stem = Path(program.path).stem.lower()
+    if any(Path(f).suffix.lower() == ".dat" and Path(f).stem.lower() == stem for f in files):
+        return
+    names = list(dict.fromkeys(name for _, name in undeclared))
+    lines = sorted({line for line, _ in undeclared})
+    src = Path(program.path)
+    raise FileFormatError(
+        f"{src.name} moves to {', '.join(names[:5])}{' ...' if len(names) > 5 else ''} (line{'s' * (len(lines) > 1)} "
+        f"{', '.join(map(str, lines[:5]))}{' ...' if len(lines) > 5 else ''}) without declaring "
+        f"{'them' if len(names) > 1 else 'it'}, and its data "
+        f"list is missing: no {src.with_suffix('.dat').name} (in any case) in {src.resolve().parent}; put the .dat "
+        "beside the .src, or give it too; nothing was written")
 
 
 def _declarations(program, text, declared, fdats):
@@ -211,7 +250,7 @@ def _declared(program, text, kind, name, brace, declared, fdats, at):
 def _code(program, text, declared, fdats):
     """Motions (in order), frames in force and Cartesian variables assigned in code."""
     types = dict(getattr(program, "types", {}))
-    state = {"tool": None, "base": None, "fdat": None}
+    state = {"tool": None, "base": None, "fdat": None, "undeclared": []}
     order, offset = 0, 0
     for number, line in enumerate(text.split("\n"), start=1):
         line_start, offset = offset, offset + len(line) + 1
@@ -239,6 +278,7 @@ def _code(program, text, declared, fdats):
             if name in (k.split("[")[0] for k in declared if declared[k][0] != "axis") or kind in CARTESIAN_TYPES:
                 program.run_time.append(RunTime(program.path, number, f"{assign.group(1)}{assign.group(2) or ''}"
                                                                       f"{assign.group(3) or ''} assigned in code"))
+    return state["undeclared"]
 
 
 def _motion(program, text, line, base_offset, number, motion, declared, fdats, state, order):
@@ -286,8 +326,10 @@ def _motion(program, text, line, base_offset, number, motion, declared, fdats, s
         key = re.sub(r"\s+", "", token.group()).upper()
         entry = declared.get(key)
         if entry is None:
-            program.run_time.append(RunTime(program.path, number, f"{kind} {token.group()}: no literal value in "
-                                                                  "the program (assigned at run time)"))
+            state["undeclared"].append((number, token.group()))
+            program.run_time.append(RunTime(program.path, number, f"{kind} {token.group()}: declared in none of the "
+                                                                  "program's files (a global of another data list, "
+                                                                  "or assigned at run time)"))
         elif entry[0] == "axis":
             program.joint_targets.append(JointTarget(program.path, order, _axes(entry[1])))
         elif entry[0] == "partial":

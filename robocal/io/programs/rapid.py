@@ -32,6 +32,11 @@ from .core import (
 NAME = "ABB RAPID"
 COMMENT = "!"
 EXTENSIONS = (".mod", ".modx", ".prg")
+# The unit of the file's positions (a key of robocal.io.units.LENGTH_UNITS), and of its poses.
+LENGTH_UNIT = "mm"
+UNITS = "mm and unit quaternions"
+# What to add when nothing fixes the arm branch of a program's first motion (filter refuses it).
+POSTURE_ADVICE = "give the robtarget its confdata"
 # Decimals written at least when a number changes: 0.0001 mm, and 1e-7 of a quaternion (1e-5 deg).
 MIN_DECIMALS = {"mm": 4, "quaternion": 7}
 
@@ -117,8 +122,10 @@ def poses_of(values):
     return poses
 
 
-def _frame(node):
-    """[[x,y,z],[q1..q4]] -> (4, 4)."""
+def _frame(node, path, line, what):
+    """[[x,y,z],[q1..q4]] -> (4, 4); FileFormatError for a quaternion that is not unit."""
+    if len(not_unit([node[1]])):
+        _refuse_quaternion(path, line, what, node[1])
     return poses_of(np.array([[v.value for v in node[0] + node[1]]]))[0]
 
 
@@ -155,8 +162,48 @@ def _split_arguments(text, start, end):
 
 
 def parse(files):
-    """[ProgramFile] of the program's files, targets found and their poses filled."""
-    return parse_each(files, NAME, COMMENT, _parse, poses_of)
+    """[ProgramFile] of the program's files, targets found and their poses filled;
+    FileFormatError for a quaternion that is not unit (:func:`not_unit`)."""
+    programs = parse_each(files, NAME, COMMENT, _parse, poses_of)
+    for program in programs:
+        bad = not_unit([t.numbers[3:7] for t in program.targets])
+        if len(bad):
+            target = program.targets[bad[0]]
+            _refuse_quaternion(program.path, target.line, f"robtarget {target.name}", target.numbers[3:7],
+                               len(bad))
+    return programs
+
+
+def not_unit(quaternions):
+    """Indices of the quaternions (each 4 :class:`Number` as written) that are no unit
+    quaternion rounded to the decimals written.
+
+    An ABB controller refuses an orientation whose squares do not sum to 1, and programs
+    write 4 to 9 decimals: the tolerance is the file's own precision.  The digits stand for
+    any value within half a unit of the last decimal of the quaternion's finest component (a
+    writer that drops trailing zeros writes 0 for 0.000000 and 0.5 for 0.500000; whole
+    numbers alone are exact), so a quaternion passes when that box of values meets the unit
+    sphere: its nearest point to the origin within 1, its farthest beyond.  Written to 6
+    decimals, a quaternion may be off 1 by about 1e-6; one doubled or halved by a generator's
+    mistake is refused whatever its digits."""
+    if not len(quaternions):
+        return np.zeros(0, dtype=int)
+    values = np.abs(np.array([[n.value for n in q] for q in quaternions], dtype=float))
+    decimals = np.array([max(n.decimals for n in q) for q in quaternions], dtype=float)
+    half = np.where(decimals > 0, 0.5 * 10.0 ** -decimals, 0.0)[:, None]
+    nearest = np.sqrt((np.maximum(values - half, 0.0) ** 2).sum(axis=1))
+    farthest = np.sqrt(((values + half) ** 2).sum(axis=1))
+    # 1e-12: the sums of squares in floating point, far below any decimals written.
+    return np.flatnonzero((nearest > 1.0 + 1e-12) | (farthest < 1.0 - 1e-12))
+
+
+def _refuse_quaternion(path, line, what, numbers, count=1):
+    norm = float(np.linalg.norm([n.value for n in numbers]))
+    others = f" ({count - 1} more robtarget(s) alike)" if count > 1 else ""
+    raise FileFormatError(
+        f"{path} line {line}: the quaternion of {what} [{', '.join(n.text for n in numbers)}] has norm {norm:.6g}, "
+        f"not 1 at the decimals written{others}: an ABB controller refuses an orientation that is not normalised, so "
+        "robocal does not filter it into one; normalise it in the program (RAPID's NOrient); nothing was written")
 
 
 def _parse(program, text):
@@ -183,10 +230,11 @@ def _parse(program, text):
         elif kind == "jointtarget":
             declared[name.upper()] = (kind, tuple(v.value for v in node[0]) if isinstance(node[0], list) else None)
         elif kind == "tooldata":
-            program.frames[("tool", name.upper())] = _frame(node[1])
+            program.frames[("tool", name.upper())] = _frame(node[1], program.path, line, f"tooldata {name}")
         elif kind == "wobjdata":
-            program.frames[("wobj", name.upper())] = _frame(node[3]) @ _frame(node[4])
-        del line
+            user, frame = (_frame(node[k], program.path, line, f"wobjdata {name} ({part})")
+                           for k, part in ((3, "uframe"), (4, "oframe")))
+            program.frames[("wobj", name.upper())] = user @ frame
     starts = [start for start, _ in declaration_spans]
     for match in _MOTION.finditer(text):
         k = bisect.bisect_right(starts, match.start()) - 1

@@ -30,6 +30,11 @@ from .core import (
 NAME = "URScript"
 COMMENT = "#"
 EXTENSIONS = (".script",)
+# The unit of the file's positions (a key of robocal.io.units.LENGTH_UNITS), and of its poses.
+LENGTH_UNIT = "metres"
+UNITS = "metres and radians"
+# What to add when nothing fixes the arm branch of a program's first motion (filter refuses it).
+POSTURE_ADVICE = "put a movej([...]) to the joints the robot starts from (radians) before it"
 MOTIONS = ("movel", "movej", "movep", "movec")
 # Decimals written at least when a number changes: 1e-7 m (0.0001 mm) and 1e-7 rad.
 MIN_DECIMALS = 7
