@@ -262,6 +262,7 @@ def read_measurements(path: str | os.PathLike, n_joints: int | None = None, join
     Raises:
         FileFormatError: the file is missing, malformed or inconsistent; the message names
             the file, and the row and column where there is one.
+        InputError: measured orientations rx, ry, rz that look like radians.
 
     Warns:
         RobocalWarning: joint values that look like radians; identical rows.
@@ -303,6 +304,9 @@ def read_measurements(path: str | os.PathLike, n_joints: int | None = None, join
         extra={name: table.column(name) for name in table.header
                if name not in _NAMED_COLUMNS and name not in joint_names},
     )
+    if measurements.orientations is not None:
+        # The one test of typed angles (robocal.io.units), as a targets file's rx, ry, rz meet it.
+        check_angles(measurements.orientations, f"the measured rx, ry, rz of {measurements.path}")
     if not (robot_judges_units and measurements.positions is not None):
         # Ball-in-socket data have no positions for the robot to judge their units by.
         _warn_if_radians(measurements)

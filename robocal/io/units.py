@@ -26,8 +26,9 @@ miss?  The stated units stand unless another reading explains the data
   spacings): their size against the robot's reach (or a fixture's smallest span), and which
   other unit would make them a length of that robot: :func:`check_lengths`;
 * angles typed or carried without a robot's TCP to judge them by (``--rpy``, ``--hint``
-  without targets, a targets file's ``rx, ry, rz``): :func:`looks_like_radians`, the one
-  numeric test, and :func:`check_angles`, its refusal.
+  without targets, the ``rx, ry, rz`` of a targets file, a measurement file and an ISO 9283
+  campaign, its ``rx_cmd, ry_cmd, rz_cmd``): :func:`looks_like_radians`, the one numeric
+  test, and :func:`check_angles`, its refusal.
 """
 from __future__ import annotations
 
