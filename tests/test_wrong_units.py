@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from user_files import EXAMPLES, invoke, prepare, refuse, text
+from user_files import EXAMPLES, campaign, invoke, prepare, refuse, text
 
 Q = [f"q{i}" for i in range(1, 7)]
 XYZ = ["x", "y", "z"]
@@ -128,31 +128,6 @@ REFUSED = [
 @pytest.mark.parametrize("args, files, says", [row[1:] for row in REFUSED], ids=[row[0] for row in REFUSED])
 def test_wrong_unit_is_refused(tmp_path, args, files, says):
     refuse(tmp_path, args, files, says)
-
-
-def campaign(factor_cmd=1.0, factor_measured=1.0, angles=None, angles_cmd=1.0):
-    """An ISO 9283 campaign from the base plan (iso.csv): each visit measured 0.1 mm beside its
-    command (seeded), the commanded and measured positions times the factors; ``angles``: the
-    measured rx, ry, rz too, 0.05 deg beside the command (within +-180), times ``angles``, and
-    the commanded ones times ``angles_cmd``."""
-    def make(base):
-        rows = list(csv.reader(io.StringIO((base / "iso.csv").read_text())))
-        header = rows[0]
-        k = [header.index(c) for c in ("x_cmd", "y_cmd", "z_cmd")]
-        a = [header.index(c) for c in ("rx_cmd", "ry_cmd", "rz_cmd")]
-        out = io.StringIO()
-        writer = csv.writer(out, lineterminator="\n")
-        writer.writerow(header + XYZ + (RPY if angles is not None else []))
-        for n, row in enumerate(rows[1:]):
-            wobble = [0.1 * math.sin(n * 7 + j) for j in range(3)]
-            measured = [repr((float(row[i]) + w) * factor_measured) for i, w in zip(k, wobble)]
-            if angles is not None:
-                measured += [repr(((float(row[i]) + 0.05 * math.cos(n * 5 + j) + 180) % 360 - 180) * angles)
-                             for j, i in enumerate(a)]
-            writer.writerow([repr(float(v) * factor_cmd) if i in k else repr(float(v) * angles_cmd) if i in a else v
-                             for i, v in enumerate(row)] + measured)
-        return out.getvalue()
-    return make
 
 
 def tracker_points(factor=1.0, unit_line=""):

@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import FileFormatError
 from .csv_table import _read_table
 from .file_kinds import KIND_COLUMN, check
+from .tables import warn_about_identical_rows
 from .units import check_angles, check_point_lengths, check_same_unit
 
 COMMANDED = ("x_cmd", "y_cmd", "z_cmd")
@@ -81,13 +82,19 @@ def read_iso_campaign(path) -> IsoCampaign:
         # The one test of typed angles, as a targets or measurement file's rx, ry, rz meet it.
         check_angles(commanded_angles, f"the commanded rx_cmd, ry_cmd, rz_cmd of {table.path}")
         check_angles(attained_angles, f"the measured rx, ry, rz of {table.path}")
-    return IsoCampaign(
+    campaign = IsoCampaign(
         path=table.path,
         commanded=commanded, attained=attained,
         commanded_angles=commanded_angles, attained_angles=attained_angles,
         pose=table.texts("pose") if "pose" in table.header else None,
         cycle=cycle, rows=table.lines, joints=_joint_command(table),
         instrument=tuple(dict.fromkeys(table.texts("instrument"))) if "instrument" in table.header else None)
+    # A visit measured twice to every written decimal is one visit exported twice: the one
+    # warning every reader of measured rows gives.
+    warn_about_identical_rows(table.path, table.lines, [values for values in (
+        campaign.pose, campaign.cycle, commanded, attained, commanded_angles, attained_angles, campaign.joints)
+        if values is not None])
+    return campaign
 
 
 def _joint_command(table):
