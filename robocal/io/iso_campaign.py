@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import FileFormatError
 from .csv_table import _read_table
 from .file_kinds import KIND_COLUMN, check
-from .tables import warn_about_identical_rows
+from .tables import Measurements, warn_about_identical_rows
 from .units import check_angles, check_point_lengths, check_same_unit
 
 COMMANDED = ("x_cmd", "y_cmd", "z_cmd")
@@ -95,6 +95,13 @@ def read_iso_campaign(path) -> IsoCampaign:
         campaign.pose, campaign.cycle, commanded, attained, commanded_angles, attained_angles, campaign.joints)
         if values is not None])
     return campaign
+
+
+def campaign_measurements(campaign: IsoCampaign) -> Measurements:
+    """The visits of ``campaign`` as a measurement file's rows (file units): each visit's joint
+    command q1..qN with its measured x, y, z, for the checks every reader of a robot's data
+    meets (units judged by the robot, the one data check); the campaign has a joint command."""
+    return Measurements(path=campaign.path, joints=campaign.joints, positions=campaign.attained, rows=campaign.rows)
 
 
 def _joint_command(table):
