@@ -87,11 +87,12 @@ def nominal_fk(base, form="{!r}", noise_mm=0.0):
     return "q1,q2,q3,q4,q5,q6,x,y,z\n" + "\n".join(rows) + "\n"
 
 
-def campaign(factor_cmd=1.0, factor_measured=1.0, angles=None, angles_cmd=1.0):
+def campaign(factor_cmd=1.0, factor_measured=1.0, angles=None, angles_cmd=1.0, rpy=None):
     """An ISO 9283 campaign from the base plan (iso.csv): each visit measured 0.1 mm beside its
     command (seeded), the commanded and measured positions times the factors; ``angles``: the
     measured rx, ry, rz too, 0.05 deg beside the command (within +-180), times ``angles``, and
-    the commanded ones times ``angles_cmd``."""
+    the commanded ones times ``angles_cmd``; ``rpy``: the commanded angles (deg) instead of
+    the plan's."""
     def make(base):
         rows = list(csv.reader(io.StringIO((base / "iso.csv").read_text())))
         header = rows[0]
@@ -101,6 +102,9 @@ def campaign(factor_cmd=1.0, factor_measured=1.0, angles=None, angles_cmd=1.0):
         writer = csv.writer(out, lineterminator="\n")
         writer.writerow(header + ["x", "y", "z"] + (["rx", "ry", "rz"] if angles is not None else []))
         for n, row in enumerate(rows[1:]):
+            if rpy is not None:
+                for i, value in zip(a, rpy):
+                    row[i] = repr(float(value))
             wobble = [0.1 * math.sin(n * 7 + j) for j in range(3)]
             measured = [repr((float(row[i]) + w) * factor_measured) for i, w in zip(k, wobble)]
             if angles is not None:

@@ -19,7 +19,7 @@ from ..errors import FileFormatError
 from .csv_table import _read_table
 from .file_kinds import KIND_COLUMN, check
 from .tables import Measurements, warn_about_identical_rows
-from .units import check_angles, check_point_lengths, check_same_unit
+from .units import check_angles, check_point_lengths, check_same_angle_unit, check_same_unit
 
 COMMANDED = ("x_cmd", "y_cmd", "z_cmd")
 ATTAINED = ("x", "y", "z")
@@ -82,6 +82,8 @@ def read_iso_campaign(path) -> IsoCampaign:
         # The one test of typed angles, as a targets or measurement file's rx, ry, rz meet it.
         check_angles(commanded_angles, f"the commanded rx_cmd, ry_cmd, rz_cmd of {table.path}")
         check_angles(attained_angles, f"the measured rx, ry, rz of {table.path}")
+        check_same_angle_unit(commanded_angles, attained_angles, f"the measured rx, ry, rz of {table.path}",
+                              "the commanded rx_cmd, ry_cmd, rz_cmd")
     campaign = IsoCampaign(
         path=table.path,
         commanded=commanded, attained=attained,
