@@ -127,12 +127,22 @@ def refusal_folder(campaign, tmp_path_factory):
         writer = csv.DictWriter(stream, fieldnames=kept, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
+    with open(folder / "radians.csv", "w", newline="") as stream:
+        writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows({k: repr(float(np.radians(float(v)))) if k.startswith("q") else v for k, v in row.items()}
+                         for row in rows)
+    # Another robot's campaign: the real UR10 series D's ISO cubes (d_iso.csv) for the UR5 model.
+    run_ok("dataset", "ipa-ur10-d", "--out", folder / "d")
     return folder
 
 
 @pytest.mark.parametrize("args, says", [
     ("iso9283 nojoints.csv --model model.json", "has no joint command q1..q6"),
     ("iso9283 fivejoints.csv --model model.json", "has joint columns q1..q5, but the model's robot"),
+    ("iso9283 radians.csv --model model.json", "radians.csv: the joint values look like radians"),
+    ("iso9283 d_iso.csv --model model.json", "so these data are not this robot's"),
+    ("iso9283 d_iso.csv --model model.json --report iso.html", "so these data are not this robot's"),
     ("iso9283 measured.csv --model measured.csv", "written by 'robocal iso9283 plan', not a model file"),
     ("iso9283 measured.csv --report iso.pdf", "give --report a .html file name"),
     ("iso9283 measured.csv --report nofolder/iso.html", "nofolder"),
@@ -152,3 +162,13 @@ def test_the_model_report_carries_the_iso_page_of_a_campaign(campaign, tmp_path)
     text = (tmp_path / "r.html").read_text()
     assert "ISO 9283 pose characteristics</h2>" in text and "Test conditions and instrument" in text
     assert all(f"{p['AP_mm']:.4f}" in text for p in printed["compensated"]["poses"])
+
+
+def test_a_real_campaign_with_its_own_robots_model_is_figured(refusal_folder, tmp_path):
+    # The real UR10 series D: its ISO cubes with a model calibrated on its tracker data pass the
+    # checks (units, the one data check) that refuse them for a UR5 model (above).
+    run_ok("calibrate", refusal_folder / "d.toml", refusal_folder / "d.csv", "--out", tmp_path / "d_model.json")
+    printed = json.loads(run_ok("iso9283", refusal_folder / "d_iso.csv", "--model", tmp_path / "d_model.json",
+                                "--json").stdout)
+    assert [p["pose"] for p in printed["compensated"]["poses"]] == [p["pose"] for p in printed["poses"]]
+    assert all(np.isfinite(p["AP_mm"]) for p in printed["compensated"]["poses"])

@@ -11,7 +11,7 @@ import re
 import pytest
 from typer.testing import CliRunner
 
-from user_files import invoke, prepare, refuse, run_process
+from user_files import campaign, invoke, prepare, refuse, run_process
 from robocal.interfaces.cli import app
 
 VERBS = ["simulate", "evaluate", "compensate", "filter", "serve", "report", "export", "compare", "validate",
@@ -178,16 +178,36 @@ def test_data_warned_about_and_then_refused_give_the_refusal_alone(tmp_path, arg
     refuse(tmp_path, args, files, says)
 
 
-@pytest.mark.parametrize("args", [
-    ["calibrate", "ur5", "d.csv", "--out", "o.json"], ["evaluate", "ur5_model.json", "d.csv"],
-    ["evaluate", "ur5_model.json", "d.csv", "--json"], ["report", "ur5_model.json", "d.csv", "--out", "r.html"],
-], ids=["calibrate", "evaluate", "evaluate-json", "report"])
-def test_data_warned_about_and_accepted_still_show_the_warning_once(tmp_path, args):
-    prepare(tmp_path, {"d.csv": _rows("ur5.csv", lambda rows: rows + rows[:3])})
+def _repeated(make, count):
+    """The file ``make`` gives with its first ``count`` data rows written again at its end."""
+    def repeated(base):
+        header, *rows = make(base).splitlines()
+        return "\n".join([header, *rows, *rows[:count]]) + "\n"
+    return repeated
+
+
+# Rows exported twice, to every written decimal: every reader of measured rows warns once (the
+# one implementation, robocal.io.tables.warn_about_identical_rows), and the data are used.
+REPEATED_MEASUREMENTS = _repeated(lambda base: (base / "ur5.csv").read_text(), 3)
+REPEATED_CAMPAIGN = _repeated(campaign(), 5)
+WARNED_AND_ACCEPTED = [
+    ("calibrate", ["calibrate", "ur5", "d.csv", "--out", "o.json"], REPEATED_MEASUREMENTS, "rows 2 and 62"),
+    ("evaluate", ["evaluate", "ur5_model.json", "d.csv"], REPEATED_MEASUREMENTS, "rows 2 and 62"),
+    ("evaluate-json", ["evaluate", "ur5_model.json", "d.csv", "--json"], REPEATED_MEASUREMENTS, "rows 2 and 62"),
+    ("report", ["report", "ur5_model.json", "d.csv", "--out", "r.html"], REPEATED_MEASUREMENTS, "rows 2 and 62"),
+    ("iso9283", ["iso9283", "d.csv"], REPEATED_CAMPAIGN, "5 groups of rows are identical (rows 2 and 152;"),
+    ("iso9283-json", ["iso9283", "d.csv", "--json"], REPEATED_CAMPAIGN, "5 groups of rows are identical (rows 2 and 152;"),
+]
+
+
+@pytest.mark.parametrize("args, content, says", [r[1:] for r in WARNED_AND_ACCEPTED],
+                         ids=[r[0] for r in WARNED_AND_ACCEPTED])
+def test_data_warned_about_and_accepted_still_show_the_warning_once(tmp_path, args, content, says):
+    prepare(tmp_path, {"d.csv": content})
     outcome = invoke(tmp_path, args)
     assert outcome.code == 0, outcome.output
     warned = [line for line in outcome.lines if "are identical" in line]
-    assert len(warned) == 1 and "rows 2 and 62" in warned[0], outcome.lines
+    assert len(warned) == 1 and says in warned[0], outcome.lines
 
 
 def test_a_held_warning_is_printed_before_the_result_in_a_pipe(tmp_path):

@@ -45,6 +45,23 @@ def test_tolerances_scale_with_the_robot_and_read_from_the_robot_file():
         chain_from_dict(doc)
 
 
+def test_tolerances_are_the_arms_whatever_tool_a_registration_gives_it():
+    # Registration gives the start of a calibration the tool the data ask for: another robot's
+    # data (a UR10's ISO cubes fitted as a UR5's) asked for a 121 m one.
+    ur5 = builtin("ur5")
+    for tool in ([0.0, 0.0, 150.0], [-25.9, -100.2, 121121.1]):
+        assert default_tolerances(ur5.replace(tool=compose_pose(tool, np.zeros(3)))) == default_tolerances(ur5)
+
+
+def test_another_real_robots_data_that_register_with_a_long_tool_are_refused():
+    dataset = ipa_ur10("D")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(InputError, match="not this robot's"):
+            KinematicCalibration("full").fit(builtin("ur5"), dataset.observations.joints,
+                                             dataset.observations.positions)
+
+
 def test_a_parameter_the_poses_barely_see_is_held_by_its_prior_not_refused():
     # Position-only data with the TCP 2 mm off the last axis: the last joint's offset and the
     # angles about it barely move the TCP.  Plain least squares lets them take up noise; under

@@ -4,14 +4,19 @@ inches or micrometres for mm, radians for degrees, in CSV columns, options (--bo
 --rpy, --hint, --tracker, --walls, --region), fixture spacings and robot files. Untagged, each
 is refused in one line naming the unit it looks like; tagged in the header (x[m], q1[rad]),
 it gives the same answer as the file in mm and degrees."""
+import atexit
 import csv
+import functools
 import io
 import json
 import math
+import shutil
+import tempfile
+from pathlib import Path
 
 import pytest
 
-from user_files import EXAMPLES, invoke, prepare, refuse, text
+from user_files import EXAMPLES, campaign, invoke, prepare, refuse, text
 
 Q = [f"q{i}" for i in range(1, 7)]
 XYZ = ["x", "y", "z"]
@@ -19,11 +24,15 @@ RPY = ["rx", "ry", "rz"]
 
 
 def scaled(name, columns, factor, unit=None, keep=None):
-    """The base file ``name`` (or an example, ``examples/NAME``) with ``columns`` multiplied by
-    ``factor`` (and tagged [unit]); ``keep``: only these columns (and robocal_file)."""
+    """The base file ``name`` (or an example, ``examples/NAME``; ``six-d``: a simulated UR5's
+    measurements with orientations) with ``columns`` multiplied by ``factor`` (and tagged
+    [unit]); ``keep``: only these columns (and robocal_file)."""
     def make(base):
-        path = EXAMPLES / name[len("examples/"):] if name.startswith("examples/") else base / name
-        rows = list(csv.reader(io.StringIO(path.read_text())))
+        if name == "six-d":
+            source = six_d_text()
+        else:
+            source = (EXAMPLES / name[len("examples/"):] if name.startswith("examples/") else base / name).read_text()
+        rows = list(csv.reader(io.StringIO(source)))
         if keep is not None:
             chosen = [i for i, c in enumerate(rows[0]) if c in keep or c == "robocal_file"]
             rows = [[row[i] for i in chosen] for row in rows]
@@ -35,6 +44,16 @@ def scaled(name, columns, factor, unit=None, keep=None):
             writer.writerow([repr(float(v) * factor) if header[i] in columns else v for i, v in enumerate(row)])
         return out.getvalue()
     return make
+
+
+@functools.cache
+def six_d_text():
+    """A simulated UR5's measurements with rx, ry, rz (deg), made once per run."""
+    folder = Path(tempfile.mkdtemp(prefix="robocal-six-d-"))
+    atexit.register(shutil.rmtree, folder, True)
+    outcome = invoke(folder, ["simulate", "ur5", "--n", "60", "--orientation", "--seed", "4", "--out", "six.csv"])
+    assert outcome.code == 0, outcome.output
+    return (folder / "six.csv").read_text()
 
 
 FIX_M = 'name = "plate m"\n[sockets]\nA = [0.0, 0.0, 0.0]\nB = [0.15, 0.0, 0.0]\nC = [0.0, 0.12, 0.0]\n'
@@ -74,6 +93,10 @@ REFUSED = [
     ("targets-hint-one-joint-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", ["q5"], math.pi / 180)}, "the posture hints q5 look like radians"),
     ("kr-targets-seed-hint-radians", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("examples/kr150-targets.csv", Q, math.pi / 180)}, "the posture hints q1..q6 look like radians"),
     ("kr-targets-seed-hint-radians-iterate", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv", "--iterate"], {"t.csv": scaled("examples/kr150-targets.csv", Q, math.pi / 180)}, "the posture hints q1..q6 look like radians"),
+    ("measurements-orientation-radians", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("six-d", RPY, math.pi / 180)}, "the measured rx, ry, rz of m.csv look like radians"),
+    ("validate-orientation-radians", ["validate", "ur5", "m.csv", "--folds", "3"], {"m.csv": scaled("six-d", RPY, math.pi / 180)}, "the measured rx, ry, rz of m.csv look like radians"),
+    ("evaluate-orientation-radians", ["evaluate", "ur5_model.json", "m.csv"], {"m.csv": scaled("six-d", RPY, math.pi / 180)}, "the measured rx, ry, rz of m.csv look like radians"),
+    ("compare-orientation-radians", ["compare", "ur5", "m.csv", "--folds", "3"], {"m.csv": scaled("six-d", RPY, math.pi / 180)}, "the measured rx, ry, rz of m.csv look like radians"),
     ("targets-orientation-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", RPY, math.pi / 180)}, "look like radians"),
     ("targets-hint-radians", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", Q, math.pi / 180)}, "the posture hints q1..q6 look like radians"),
     ("simulate-box-metres", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", "--box", "-0.4,0.4,-0.4,0.4,0.1,0.5", "--out", "s.csv"], None, "they look like metres"),
@@ -107,24 +130,6 @@ def test_wrong_unit_is_refused(tmp_path, args, files, says):
     refuse(tmp_path, args, files, says)
 
 
-def campaign(factor_cmd=1.0, factor_measured=1.0):
-    """An ISO 9283 campaign from the base plan (iso.csv): each visit measured 0.1 mm beside its
-    command (seeded), the commanded and measured positions times the factors."""
-    def make(base):
-        rows = list(csv.reader(io.StringIO((base / "iso.csv").read_text())))
-        header = rows[0]
-        k = [header.index(c) for c in ("x_cmd", "y_cmd", "z_cmd")]
-        out = io.StringIO()
-        writer = csv.writer(out, lineterminator="\n")
-        writer.writerow(header + XYZ)
-        for n, row in enumerate(rows[1:]):
-            wobble = [0.1 * math.sin(n * 7 + j) for j in range(3)]
-            measured = [repr((float(row[i]) + w) * factor_measured) for i, w in zip(k, wobble)]
-            writer.writerow([repr(float(v) * factor_cmd) if i in k else v for i, v in enumerate(row)] + measured)
-        return out.getvalue()
-    return make
-
-
 def tracker_points(factor=1.0, unit_line=""):
     """A tracker's point export (name x y z) of the base measurements' first 20 poses, times
     ``factor``, with the joint log beside it (name, q1..q6)."""
@@ -141,12 +146,15 @@ def tracker_points(factor=1.0, unit_line=""):
 
 
 IMPORT = ["import", "--points", "pts.txt", "--joints", "j.csv", "--out", "m.csv"]
-# Positions read without a robot to judge them (an ISO campaign, a tracker's points).
+# Positions and angles read without a robot to judge them (an ISO campaign, a tracker's points).
 REFUSED_WITHOUT_ROBOT = [
     ("iso-campaign-metres", ["iso9283", "f.csv"], {"f.csv": campaign(1e-3, 1e-3)}, "they look like metres"),
     ("iso-campaign-measured-metres", ["iso9283", "f.csv"], {"f.csv": campaign(1.0, 1e-3)}, "the measured x, y, z of f.csv: largest"),
     ("iso-campaign-measured-inches", ["iso9283", "f.csv"], {"f.csv": campaign(1.0, 1 / 25.4)}, "they look like inches"),
     ("iso-campaign-measured-cm", ["iso9283", "f.csv"], {"f.csv": campaign(1.0, 0.1)}, "they look like cm"),
+    ("iso-campaign-measured-angles-radians", ["iso9283", "f.csv"], {"f.csv": campaign(angles=math.pi / 180)}, "the measured rx, ry, rz of f.csv look like radians"),
+    ("iso-campaign-small-measured-angles-radians", ["iso9283", "f.csv"], {"f.csv": campaign(angles=math.pi / 180, rpy=(30, 20, 10))}, "the measured rx, ry, rz of f.csv look like radians: read so, they lie 0.0"),
+    ("iso-campaign-angles-radians", ["iso9283", "f.csv"], {"f.csv": campaign(angles=math.pi / 180, angles_cmd=math.pi / 180)}, "the commanded rx_cmd, ry_cmd, rz_cmd of f.csv look like radians"),
     ("import-points-metres-unstated", IMPORT, tracker_points(1e-3), "no unit stated, read as mm"),
     ("import-points-metres-unstated-names-fix", IMPORT, tracker_points(1e-3), "they look like metres; state the unit (--units m"),
 ]
@@ -165,6 +173,11 @@ ACCEPTED = [
     ("targets-no-hints", ["compensate", "ur5_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("targets.csv", XYZ, 1.0, keep=XYZ + RPY)}, "o.csv"),
     ("kr-targets-seed-hint", ["compensate", "kr_model.json", "t.csv", "--out", "o.csv"], {"t.csv": scaled("examples/kr150-targets.csv", XYZ, 1.0)}, "o.csv"),
     ("iso-campaign", ["iso9283", "f.csv", "--json"], {"f.csv": campaign()}, None),
+    ("iso-campaign-angles", ["iso9283", "f.csv", "--json"], {"f.csv": campaign(angles=1.0)}, None),
+    ("iso-campaign-small-angles", ["iso9283", "f.csv", "--json"], {"f.csv": campaign(angles=1.0, rpy=(0.5, 0.3, 0.2))}, None),
+    ("iso-campaign-angles-away-from-commands", ["iso9283", "f.csv", "--json"], {"f.csv": campaign(angles=1.0, rpy=(30, 20, 10), angles_cmd=0.5)}, None),
+    ("measurements-orientation", ["calibrate", "ur5", "m.csv", "--out", "o.json"], {"m.csv": scaled("six-d", Q, 1.0)}, "o.json"),
+    ("evaluate-orientation", ["evaluate", "ur5_model.json", "m.csv"], {"m.csv": scaled("six-d", Q, 1.0)}, None),
     ("import-points-mm-unstated", IMPORT, tracker_points(), "m.csv"),
     ("import-points-metres-stated", IMPORT, tracker_points(1e-3, "// Units: m\n"), "m.csv"),
     ("import-points-metres-option", IMPORT + ["--units", "m"], tracker_points(1e-3), "m.csv"),
@@ -178,6 +191,22 @@ def test_the_same_shapes_in_mm_and_degrees_are_accepted(tmp_path, args, files, o
     outcome = invoke(tmp_path, args)
     assert outcome.code == 0, outcome.output
     assert output is None or (tmp_path / output).stat().st_size > 0
+
+
+def test_orientations_tagged_radians_calibrate_to_the_same_model(tmp_path):
+    prepare(tmp_path, {"deg.csv": scaled("six-d", Q, 1.0), "rad.csv": scaled("six-d", RPY, math.pi / 180, "rad")})
+    for data, out in (("deg.csv", "a.json"), ("rad.csv", "b.json")):
+        outcome = invoke(tmp_path, ["calibrate", "ur5", data, "--out", out])
+        assert outcome.code == 0, outcome.output
+    assert _mean(tmp_path, "a.json", "deg.csv") == pytest.approx(_mean(tmp_path, "b.json", "deg.csv"), rel=1e-6)
+
+
+def test_iso_campaign_angles_give_the_small_offset_they_were_given(tmp_path):
+    prepare(tmp_path, {"f.csv": campaign(angles=1.0)})
+    outcome = invoke(tmp_path, ["iso9283", "f.csv", "--json"])
+    assert outcome.code == 0, outcome.output
+    poses = json.loads(outcome.result.stdout)["poses"]
+    assert all(abs(pose[f"AP{c}_deg"]) < 0.1 for pose in poses for c in "abc")
 
 
 def _mean(folder, model, data):

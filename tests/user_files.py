@@ -8,7 +8,10 @@ file, too few poses, unreachable plans, unwritable outputs, unbounded work, pipe
 The inputs of these tables were written from the README and each verb's --help, without
 reading robocal's source; each row is an input a user could plausibly give."""
 import atexit
+import csv
 import functools
+import io
+import math
 import os
 import shutil
 import subprocess
@@ -82,6 +85,35 @@ def nominal_fk(base, form="{!r}", noise_mm=0.0):
     positions = positions + np.random.default_rng(0).normal(0.0, noise_mm, positions.shape)
     rows = [",".join(form.format(float(v)) for v in [*q, *p]) for q, p in zip(joints, positions)]
     return "q1,q2,q3,q4,q5,q6,x,y,z\n" + "\n".join(rows) + "\n"
+
+
+def campaign(factor_cmd=1.0, factor_measured=1.0, angles=None, angles_cmd=1.0, rpy=None):
+    """An ISO 9283 campaign from the base plan (iso.csv): each visit measured 0.1 mm beside its
+    command (seeded), the commanded and measured positions times the factors; ``angles``: the
+    measured rx, ry, rz too, 0.05 deg beside the command (within +-180), times ``angles``, and
+    the commanded ones times ``angles_cmd``; ``rpy``: the commanded angles (deg) instead of
+    the plan's."""
+    def make(base):
+        rows = list(csv.reader(io.StringIO((base / "iso.csv").read_text())))
+        header = rows[0]
+        k = [header.index(c) for c in ("x_cmd", "y_cmd", "z_cmd")]
+        a = [header.index(c) for c in ("rx_cmd", "ry_cmd", "rz_cmd")]
+        out = io.StringIO()
+        writer = csv.writer(out, lineterminator="\n")
+        writer.writerow(header + ["x", "y", "z"] + (["rx", "ry", "rz"] if angles is not None else []))
+        for n, row in enumerate(rows[1:]):
+            if rpy is not None:
+                for i, value in zip(a, rpy):
+                    row[i] = repr(float(value))
+            wobble = [0.1 * math.sin(n * 7 + j) for j in range(3)]
+            measured = [repr((float(row[i]) + w) * factor_measured) for i, w in zip(k, wobble)]
+            if angles is not None:
+                measured += [repr(((float(row[i]) + 0.05 * math.cos(n * 5 + j) + 180) % 360 - 180) * angles)
+                             for j, i in enumerate(a)]
+            writer.writerow([repr(float(v) * factor_cmd) if i in k else repr(float(v) * angles_cmd) if i in a else v
+                             for i, v in enumerate(row)] + measured)
+        return out.getvalue()
+    return make
 
 
 def text(name):

@@ -20,7 +20,9 @@ from ..acceptance.iso9283 import DEFAULT_MATCH_MM, PREDICTED_NOTE, characteristi
 from ..acceptance.job import check_match_mm
 from ..errors import InputError
 from ..io.atomic import check_outputs
-from ..io.iso_campaign import read_iso_campaign
+from ..estimation.plausibility import check_model_data
+from ..io.iso_campaign import campaign_measurements, read_iso_campaign
+from ..io.observations import observations
 
 
 def systematic_error(model, fitted, joints_file):
@@ -74,6 +76,9 @@ def _compensated(campaign, model_path, match_mm):
     if campaign.joints.shape[1] != chain.n_joints:
         raise InputError(f"{campaign.path} has joint columns q1..q{campaign.joints.shape[1]}, but the model's robot "
                          f"{chain.name!r} has {chain.n_joints} joints")
+    # The campaign's joint commands and measured positions are a robot's data given to a model:
+    # the units judged by its robot and the one data check, as evaluate's (jobs.read_model_data).
+    check_model_data(model, observations(model.kinematics, campaign_measurements(campaign)), model_path)
     predicted = predicted_compensated(campaign, systematic_error(model, fitted, campaign.joints), match_mm=match_mm)
     return {"predicted": True, "model": str(model_path), "method": model.method, "note": PREDICTED_NOTE,
             **{k: v for k, v in predicted.to_dict().items() if k != "file"}}

@@ -18,7 +18,8 @@ import numpy as np
 from ..errors import FileFormatError
 from .csv_table import _read_table
 from .file_kinds import KIND_COLUMN, check
-from .units import check_point_lengths, check_same_unit
+from .tables import Measurements, warn_about_identical_rows
+from .units import check_angles, check_point_lengths, check_same_angle_unit, check_same_unit
 
 COMMANDED = ("x_cmd", "y_cmd", "z_cmd")
 ATTAINED = ("x", "y", "z")
@@ -51,6 +52,8 @@ def read_iso_campaign(path) -> IsoCampaign:
     Raises:
         FileFormatError: a missing column group, cells that are not finite numbers, or
             orientation columns on one side only.
+        InputError: positions that are not mm, angles that look like radians
+            (:mod:`robocal.io.units`).
     """
     table = _read_table(path)
     check(table.path, "campaign", header=table.header, column=table.column)
@@ -73,14 +76,34 @@ def read_iso_campaign(path) -> IsoCampaign:
     check_point_lengths(commanded, f"the commanded x_cmd, y_cmd, z_cmd of {table.path}")
     check_point_lengths(attained, f"the measured x, y, z of {table.path}")
     check_same_unit(commanded, attained, f"the measured x, y, z of {table.path}", "the commanded x_cmd, y_cmd, z_cmd")
-    return IsoCampaign(
+    commanded_angles = table.numbers(COMMANDED_ANGLES) if angles else None
+    attained_angles = table.numbers(ATTAINED_ANGLES) if angles else None
+    if angles:
+        # The one test of typed angles, as a targets or measurement file's rx, ry, rz meet it.
+        check_angles(commanded_angles, f"the commanded rx_cmd, ry_cmd, rz_cmd of {table.path}")
+        check_angles(attained_angles, f"the measured rx, ry, rz of {table.path}")
+        check_same_angle_unit(commanded_angles, attained_angles, f"the measured rx, ry, rz of {table.path}",
+                              "the commanded rx_cmd, ry_cmd, rz_cmd")
+    campaign = IsoCampaign(
         path=table.path,
         commanded=commanded, attained=attained,
-        commanded_angles=table.numbers(COMMANDED_ANGLES) if angles else None,
-        attained_angles=table.numbers(ATTAINED_ANGLES) if angles else None,
+        commanded_angles=commanded_angles, attained_angles=attained_angles,
         pose=table.texts("pose") if "pose" in table.header else None,
         cycle=cycle, rows=table.lines, joints=_joint_command(table),
         instrument=tuple(dict.fromkeys(table.texts("instrument"))) if "instrument" in table.header else None)
+    # A visit measured twice to every written decimal is one visit exported twice: the one
+    # warning every reader of measured rows gives.
+    warn_about_identical_rows(table.path, table.lines, [values for values in (
+        campaign.pose, campaign.cycle, commanded, attained, commanded_angles, attained_angles, campaign.joints)
+        if values is not None])
+    return campaign
+
+
+def campaign_measurements(campaign: IsoCampaign) -> Measurements:
+    """The visits of ``campaign`` as a measurement file's rows (file units): each visit's joint
+    command q1..qN with its measured x, y, z, for the checks every reader of a robot's data
+    meets (units judged by the robot, the one data check); the campaign has a joint command."""
+    return Measurements(path=campaign.path, joints=campaign.joints, positions=campaign.attained, rows=campaign.rows)
 
 
 def _joint_command(table):

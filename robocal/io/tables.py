@@ -262,6 +262,7 @@ def read_measurements(path: str | os.PathLike, n_joints: int | None = None, join
     Raises:
         FileFormatError: the file is missing, malformed or inconsistent; the message names
             the file, and the row and column where there is one.
+        InputError: measured orientations rx, ry, rz that look like radians.
 
     Warns:
         RobocalWarning: joint values that look like radians; identical rows.
@@ -303,6 +304,9 @@ def read_measurements(path: str | os.PathLike, n_joints: int | None = None, join
         extra={name: table.column(name) for name in table.header
                if name not in _NAMED_COLUMNS and name not in joint_names},
     )
+    if measurements.orientations is not None:
+        # The one test of typed angles (robocal.io.units), as a targets file's rx, ry, rz meet it.
+        check_angles(measurements.orientations, f"the measured rx, ry, rz of {measurements.path}")
     if not (robot_judges_units and measurements.positions is not None):
         # Ball-in-socket data have no positions for the robot to judge their units by.
         _warn_if_radians(measurements)
@@ -417,10 +421,20 @@ def _warn_if_radians(measurements: Measurements) -> None:
 
 
 def _warn_about_identical_rows(measurements: Measurements) -> None:
-    groups = _identical_row_groups(measurements)
+    parts = [values for values in (measurements.joints, measurements.positions, measurements.orientations,
+                                   measurements.fixture, measurements.socket) if values is not None]
+    warn_about_identical_rows(measurements.path, measurements.rows, parts)
+
+
+def warn_about_identical_rows(path, lines, parts) -> None:
+    """The one warning, for every reader of rows of measured values, of rows repeated verbatim
+    (a repeated export): ``parts``, the columns the reader takes, (N,) or (N, k) arrays of
+    numbers or texts; ``lines`` (N,) the rows' file lines."""
+    groups = _identical_row_groups(parts)
     if not groups:
         return
-    described = [_describe_rows(measurements.rows[group]) for group in groups[:_DUPLICATES_SHOWN]]
+    lines = np.asarray(lines)
+    described = [_describe_rows(lines[group]) for group in groups[:_DUPLICATES_SHOWN]]
     if len(groups) == 1:
         finding = f"{described[0]} are identical"
     else:
@@ -428,21 +442,25 @@ def _warn_about_identical_rows(measurements: Measurements) -> None:
         finding = f"{len(groups)} groups of rows are identical ({'; '.join(described)}{more})"
     warnings.warn(
         RobocalWarning(
-            f"{measurements.path}: {finding}: a repeated export? "
+            f"{path}: {finding}: a repeated export? "
             f"The rows are kept; delete them if they are not genuine repeats"
         ),
-        stacklevel=3,
+        stacklevel=4,
     )
 
 
-def _identical_row_groups(measurements: Measurements) -> list[np.ndarray]:
-    """Indices of rows with the same joints and measured values, one array per group."""
-    parts = [measurements.joints]
-    parts += [values for values in (measurements.positions, measurements.orientations) if values is not None]
-    for ids in (measurements.fixture, measurements.socket):
-        if ids is not None:
-            parts.append(np.unique(ids, return_inverse=True)[1].reshape(-1, 1).astype(float))
-    keys = np.hstack(parts)
+def _identical_row_groups(parts) -> list[np.ndarray]:
+    """Indices of rows equal in every one of ``parts`` (as :func:`warn_about_identical_rows`),
+    one array per group of two or more, in the order of their first row."""
+    columns = []
+    for values in parts:
+        values = np.asarray(values)
+        if values.dtype.kind in "US" or values.dtype == object:
+            values = np.unique(values.astype(str), return_inverse=True)[1].reshape(values.shape).astype(float)
+        columns.append(values.reshape(len(values), -1).astype(float))
+    keys = np.hstack(columns)
+    if len(keys) == 0:
+        return []
     _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
     inverse = inverse.reshape(-1)
     if counts.max() == 1:

@@ -26,8 +26,10 @@ miss?  The stated units stand unless another reading explains the data
   spacings): their size against the robot's reach (or a fixture's smallest span), and which
   other unit would make them a length of that robot: :func:`check_lengths`;
 * angles typed or carried without a robot's TCP to judge them by (``--rpy``, ``--hint``
-  without targets, a targets file's ``rx, ry, rz``): :func:`looks_like_radians`, the one
-  numeric test, and :func:`check_angles`, its refusal.
+  without targets, the ``rx, ry, rz`` of a targets file, a measurement file and an ISO 9283
+  campaign, its ``rx_cmd, ry_cmd, rz_cmd``): :func:`looks_like_radians`, the one numeric
+  test, and :func:`check_angles`, its refusal; measured beside commanded angles (an ISO
+  campaign), also in one unit: :func:`check_same_angle_unit`.
 """
 from __future__ import annotations
 
@@ -443,6 +445,34 @@ def check_angles(values, what, *, joints=False):
         largest = float(np.abs(np.asarray(values, dtype=float)).max())
         raise InputError(f"{what} look like radians (all within one {'turn' if joints else 'half-turn'}, largest "
                          f"{largest:.6g}), but robocal reads degrees: convert with numpy.degrees()")
+
+
+# Measured orientations of the poses a robot was commanded to (an ISO campaign) lie tenths of
+# a degree from their commands.  Measured in radians and read as degrees, they lie tens of
+# degrees from them; read as radians, within this (median over the visits of the largest of
+# the three angles' differences, deg).
+SAME_ANGLES_DEG = 5.0
+
+
+def check_same_angle_unit(reference, values, what, reference_what):
+    """InputError when the angles ``values`` (N, 3, as typed) of ``what`` lie more than
+    :data:`SAME_ANGLES_DEG` from ``reference`` (N, 3 deg), the same poses' commanded angles,
+    read as degrees, and within it read as radians, :data:`EVIDENCE_RATIO` times nearer: the
+    evidence of commanded and measured in one unit (as :func:`check_same_unit` for lengths),
+    for radians that :func:`looks_like_radians` cannot tell from small degree values."""
+    reference, values = np.asarray(reference, dtype=float), np.asarray(values, dtype=float)
+    if len(reference) == 0:
+        return
+
+    def miss(angles):
+        difference = (angles - reference + 180.0) % 360.0 - 180.0
+        return float(np.median(np.abs(difference).max(axis=1)))
+
+    as_degrees, as_radians = miss(values), miss(values * ANGLE_UNITS["radians"])
+    if as_degrees > SAME_ANGLES_DEG >= as_radians and as_radians * EVIDENCE_RATIO < as_degrees:
+        raise InputError(f"{what} look like radians: read so, they lie {as_radians:.3g} deg from {reference_what} "
+                         f"(median), read as degrees {as_degrees:.3g} deg; robocal reads degrees: convert them with "
+                         "numpy.degrees()")
 
 
 def check_typed_units(chain, *, box=None, rpy=None, hint=None, tool=None, tracker=None, region=None, walls=None):

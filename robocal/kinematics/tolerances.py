@@ -19,8 +19,8 @@ Base and tool carry no prior: the tracker may stand anywhere and the tool is wha
 mounted, so registration and the data place them.
 
 The defaults are one standard deviation of what calibrations of real arms find, lengths
-scaled with the robot's size (its total link length over a KR 150-2's, see
-:func:`~robocal.kinematics.gravity.size_factor`): full calibrations of the three real
+scaled with the robot's size (its total link length to the flange, without the tool, over a
+KR 150-2's, see :func:`~robocal.kinematics.gravity.size_factor`): full calibrations of the three real
 arms robocal ships moved link lengths by up to 1.3 mm (UR10 series B, a2; size 0.49),
 joint zeros by up to 0.11 deg and axis angles by up to 0.67 deg (UR5, alpha3), joint gains
 by a few hundred ppm, and bent joints through compliance by at most 0.08 deg.
@@ -100,10 +100,14 @@ class Tolerances:
 
 
 def default_tolerances(chain):
-    """The default :class:`Tolerances` of ``chain``: lengths scaled to its size (module notes)."""
+    """The default :class:`Tolerances` of ``chain``: lengths scaled to its arm's size (module
+    notes), to the flange.  The tool is not the arm's: a calibration registers one to the data
+    before its prior is built, and another robot's data registered to this one can take a tool
+    of any length (a UR10's ISO cubes fitted as a UR5's: 121 m), which would loosen every
+    length tolerance a hundredfold and let the data check pass them."""
     from .gravity import size_factor
 
-    size = float(size_factor(chain.rigid))
+    size = float(size_factor(chain.rigid.replace(tool=np.eye(4))))
     return Tolerances(length=max(LENGTH_FLOOR_MM, LENGTH_PER_SIZE_MM * size), joint_zero=np.radians(JOINT_ZERO_DEG),
                       axis_angle=np.radians(AXIS_ANGLE_DEG), gain=GAIN_PPM * 1e-6,
                       compliance_bend=np.radians(COMPLIANCE_BEND_DEG))
