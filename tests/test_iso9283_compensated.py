@@ -164,11 +164,16 @@ def test_the_model_report_carries_the_iso_page_of_a_campaign(campaign, tmp_path)
     assert all(f"{p['AP_mm']:.4f}" in text for p in printed["compensated"]["poses"])
 
 
-def test_a_real_campaign_with_its_own_robots_model_is_figured(refusal_folder, tmp_path):
-    # The real UR10 series D: its ISO cubes with a model calibrated on its tracker data pass the
-    # checks (units, the one data check) that refuse them for a UR5 model (above).
-    run_ok("calibrate", refusal_folder / "d.toml", refusal_folder / "d.csv", "--out", tmp_path / "d_model.json")
-    printed = json.loads(run_ok("iso9283", refusal_folder / "d_iso.csv", "--model", tmp_path / "d_model.json",
-                                "--json").stdout)
-    assert [p["pose"] for p in printed["compensated"]["poses"]] == [p["pose"] for p in printed["poses"]]
-    assert all(np.isfinite(p["AP_mm"]) for p in printed["compensated"]["poses"])
+def test_a_real_campaign_commanded_with_another_tool_is_refused_not_figured(refusal_folder, tmp_path, monkeypatch):
+    # The real UR10 series D: its ISO cubes pass, with a model calibrated on its own tracker
+    # data, the checks (units, the one data check) that refuse them for a UR5 model (above).
+    # But their commanded positions lie 92 mm from where the robot file's nominal robot puts
+    # the joint commands (another tool or frame): figured anyway, the compensated AP came out
+    # 19 mm where 1.14 mm was measured.
+    run_ok("calibrate", refusal_folder / "d.toml", refusal_folder / "d.csv", "--out", refusal_folder / "d_model.json")
+    try:
+        before = copy_inputs(refusal_folder, tmp_path, monkeypatch)
+        assert_refused(["iso9283", "d_iso.csv", "--model", "d_model.json"], "the campaign's tool or frame is not the "
+                       "model's", tmp_path, before)
+    finally:
+        (refusal_folder / "d_model.json").unlink()

@@ -79,9 +79,36 @@ def _compensated(campaign, model_path, match_mm):
     # The campaign's joint commands and measured positions are a robot's data given to a model:
     # the units judged by its robot and the one data check, as evaluate's (jobs.read_model_data).
     check_model_data(model, observations(model.kinematics, campaign_measurements(campaign)), model_path)
+    _check_commands_are_the_models(campaign, model, model_path)
     predicted = predicted_compensated(campaign, systematic_error(model, fitted, campaign.joints), match_mm=match_mm)
     return {"predicted": True, "model": str(model_path), "method": model.method, "note": PREDICTED_NOTE,
             **{k: v for k, v in predicted.to_dict().items() if k != "file"}}
+
+
+def _check_commands_are_the_models(campaign, model, model_path):
+    """InputError when the campaign's commanded positions are not where the model's nominal
+    robot (its forward kinematics from its base, what ``iso9283 plan`` commands) puts the
+    joint commands: then the campaign's TCP or frame is another one, and the model's
+    systematic error, taken between its prediction and that nominal robot, would carry the
+    difference into every compensated figure (ipa UR10 series D's campaign, 92 mm from the
+    robot file's tool: AP 1.14 mm measured, 19 mm "compensated").  Allowed: the registered
+    nominal robot's 95th percentile of predicted error (a controller whose own model
+    differs from the drawing as a real robot does), else the largest training residual
+    before calibration."""
+    joints = model.nominal.joints_from_file(campaign.joints)
+    nominal = model.nominal.replace(base=np.eye(4)).fk_positions(joints)
+    apart = np.linalg.norm(nominal - campaign.commanded, axis=1)
+    predicted = model.training.get("predicted_error") or {}
+    allowed = predicted.get("nominal_p95_mm") or (model.training.get("residual_before") or {}).get("max_mm")
+    if allowed is None or apart.max() <= allowed:
+        return
+    worst = int(np.argmax(apart))
+    raise InputError(
+        f"{campaign.path}: the commanded positions are not where the nominal robot of {model_path} puts the joint "
+        f"commands (robot base frame): up to {apart.max():.1f} mm apart (line {campaign.rows[worst]}), where that "
+        f"robot's own error allows {allowed:.1f} mm; the campaign's tool or frame is not the model's. Command the "
+        "campaign from the model's robot file (robocal iso9283 plan), or calibrate the model with the campaign's "
+        "tool")
 
 
 def model_iso_section(campaign_path, model_path):
