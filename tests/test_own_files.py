@@ -8,7 +8,7 @@ import pytest
 
 from refusals import assert_refused, copy_inputs, run_ok
 from robocal.errors import FileFormatError
-from robocal.io.file_kinds import KIND_COLUMN, identify, recognise
+from robocal.io.file_kinds import KIND_COLUMN, check, identify, recognise
 from robocal.io.tables import read_measurements, read_targets
 
 
@@ -96,8 +96,11 @@ def test_a_user_frame_column_of_other_words_is_no_kind(outputs, tmp_path):
     assert read_targets(tmp_path / "targets.csv").positions.shape == (len(reached), 3)
 
 
-def test_a_user_file_with_none_of_robocals_columns_is_no_kind():
-    assert recognise(["q1", "q2", "x", "y", "z", "frame"]) is None
+def test_a_user_file_with_none_of_robocals_columns_is_none_of_robocals_kinds():
+    # a user's measurements are told by their columns, and read as measurements or targets
+    assert recognise(["q1", "q2", "x", "y", "z", "frame"]) == "measurements"
+    for reader in ("measurements", "targets", "configurations", "joint-log"):
+        assert check("meas.csv", reader, header=["q1", "q2", "x", "y", "z", "frame"]) == "measurements"
     assert recognise(["x", "y", "z", "rx", "ry", "rz", "in_domain"]) is None
 
 

@@ -25,7 +25,7 @@ REFUSED = [
     ("evaluate m_schema.json meas.csv", "not a robocal model file"),
     ("evaluate m_method.json meas.csv", "checksum"),
     ("evaluate m_created.json meas.csv", "checksum"),
-    ("evaluate meas.csv model.json", "not a robocal model file"),
+    ("evaluate meas.csv model.json", "meas.csv is a measurement file"),
     ("evaluate tsinghua.toml meas.csv", "is a robot file, written by 'robocal export', not a model file"),
     ("evaluate model.json meas.csv --fixture missing.toml", "does not exist"),
     ("evaluate model.json meas.csv --out x.json", "--out"),

@@ -17,7 +17,7 @@ REFUSED = [
     ("show r_text.toml", "must be a number"),
     ("show r_binary.toml", "not a text file"),
     ("show u_notxml.urdf", "not well-formed XML"),
-    ("show meas.csv", ".toml or .urdf"),
+    ("show meas.csv", "meas.csv is a measurement file"),
     ("show model.json", "is a robocal model file, written by 'robocal calibrate', not a robot file"),
     ("show", "robot"),
     ("robots extra", "extra"),

@@ -18,7 +18,7 @@ REFUSED = [
     ("report m_version.json meas.csv --out r.html", "upgrade robocal"),
     ("report model.json no_q1.csv --out r.html", "no q1"),
     ("report model.json meas.csv --out r.html --validation val_bad.json", "cross_validation"),
-    ("report model.json meas.csv --out r.html --validation meas.csv", "robocal validate --json"),
+    ("report model.json meas.csv --out r.html --validation meas.csv", "meas.csv is a measurement file"),
     ("report model.json meas.csv --out r.html --validation val_kriging.json", "the model is 'kinematic'"),
     ("report model.json meas.csv --out r.html --validation val_no_pool.json", "cross_validation.pooled.mean_mm"),
     # an output that is an input, or a second output in a missing folder: refused before anything is written

@@ -40,7 +40,7 @@ REFUSED = [
     ("simulate ur5 --sampling grid --out s.csv", "--box"),
     ("simulate ur5 --errors missing.json --out s.csv", "does not exist"),
     ("simulate ur5 --errors model.json --out s.csv", "written by 'robocal calibrate', not a truth file"),
-    ("simulate ur5 --errors meas.csv --out s.csv", "meas.csv is not a JSON truth file"),
+    ("simulate ur5 --errors meas.csv --out s.csv", "meas.csv is a measurement file"),
     ("simulate ur5 --out nodir/s.csv", "nodir"),
     ("simulate iiwa14 --errors liu2022 --out s.csv", "kr150-2"),
     ("simulate u_text.urdf --out s.csv", "not three numbers"),

@@ -7,6 +7,7 @@ import csv
 import io
 import json
 import random
+import shutil
 
 import pytest
 
@@ -73,3 +74,71 @@ def test_evaluate_on_training_poses_says_they_lie_inside_the_domain(tmp_path):
     assert outcome.code == 0, outcome.output
     assert "training poses" in outcome.output
     assert "all 60 poses lie inside the training domain" in outcome.output
+
+
+# --------------------------------------------------------------------------------------------
+# A model re-registered on a new set-up (calibrate MODEL.json --method frames) was fitted to
+# the new poses too: its base and tool come from them.  Scored on them, it is not held out.
+
+def _lines(path):
+    return path.read_text().splitlines()
+
+
+@pytest.fixture(scope="module")
+def moved(tmp_path_factory):
+    """The base files, with 50 new poses of the same simulated UR5 (the same seed draws
+    ur5.csv's 60 poses first, then these): ``frames.csv`` (25) re-registered
+    ``ur5_model.json`` into ``moved.json``, ``held.csv`` (25) is new to it; ``again.json``
+    is ``moved.json`` re-registered on ``held.csv``."""
+    folder = prepare(tmp_path_factory.mktemp("moved"))
+    outcome = invoke(folder, ["simulate", "ur5", "--n", "110", "--errors", "typical", "--seed", "1", "--out", "all.csv"])
+    assert outcome.code == 0, outcome.output
+    lines = _lines(folder / "all.csv")
+    assert [line.split(",")[:6] for line in lines[:61]] == [line.split(",")[:6] for line in _lines(folder / "ur5.csv")]
+    (folder / "frames.csv").write_text("\n".join(lines[:1] + lines[61:86]) + "\n")
+    (folder / "held.csv").write_text("\n".join(lines[:1] + lines[86:]) + "\n")
+    for args in (["calibrate", "ur5_model.json", "frames.csv", "--method", "frames", "--out", "moved.json"],
+                 ["calibrate", "moved.json", "held.csv", "--method", "frames", "--out", "again.json"]):
+        outcome = invoke(folder, args)
+        assert outcome.code == 0, outcome.output
+    return folder
+
+
+def _mixed(folder):
+    frames, held = _lines(folder / "frames.csv"), _lines(folder / "held.csv")
+    return "\n".join(held + frames[1:11]) + "\n"
+
+
+REREGISTERED = [
+    # (id, model, the file scored (a name, or a callable of the folder giving its text), poses, training poses)
+    ("its-reregistration-poses", "moved.json", "frames.csv", 25, 25),
+    ("its-reregistration-poses-reversed", "moved.json", lambda f: "\n".join(_lines(f / "frames.csv")[:1] + _lines(f / "frames.csv")[:0:-1]) + "\n", 25, 25),
+    ("its-calibration-poses", "moved.json", "ur5.csv", 60, 60),
+    ("new-poses", "moved.json", "held.csv", 25, 0),
+    ("new-poses-and-ten-reregistration-poses", "moved.json", _mixed, 35, 10),
+    # a second re-registration replaces the first's frames: the first's poses are new to it
+    ("second-reregistration-on-its-poses", "again.json", "held.csv", 25, 25),
+    ("second-reregistration-on-the-firsts-poses", "again.json", "frames.csv", 25, 0),
+]
+
+
+@pytest.mark.parametrize("model, data, poses, training", [row[1:] for row in REREGISTERED], ids=[row[0] for row in REREGISTERED])
+def test_a_reregistered_model_counts_its_reregistration_poses(moved, tmp_path, model, data, poses, training):
+    shutil.copytree(moved, tmp_path, dirs_exist_ok=True)
+    if callable(data):
+        (tmp_path / "e.csv").write_text(data(moved))
+        data = "e.csv"
+    outcome = invoke(tmp_path, ["evaluate", model, data, "--json"])
+    assert outcome.code == 0, outcome.output
+    result = json.loads(outcome.result.stdout)
+    assert (result["n"], result["training_poses"]) == (poses, training)
+
+
+@pytest.mark.parametrize("data, says", [
+    ("frames.csv", "training poses (not held out: every one is a pose the model was trained on)"),
+    ("held.csv", "held-out poses (none of them is a training pose)")], ids=["reregistration-poses", "new-poses"])
+def test_report_on_a_reregistered_model_says_whether_it_saw_the_poses(moved, tmp_path, data, says):
+    shutil.copytree(moved, tmp_path, dirs_exist_ok=True)
+    outcome = invoke(tmp_path, ["report", "moved.json", data, "--out", "r.html"])
+    assert outcome.code == 0, outcome.output
+    assert says in (tmp_path / "r.html").read_text()

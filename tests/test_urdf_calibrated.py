@@ -108,7 +108,7 @@ def refusal_folder(exported, tmp_path_factory):
     ("export model.json --format toml --urdf panda.urdf --out c.toml", "give --format urdf"),
     ("export model.json --format urdf --urdf panda.urdf --convention dh --out c.urdf", "and no --convention"),
     ("export gains.json --format urdf --urdf panda.urdf --out c.urdf", "scales or couples joints"),
-    ("export model.json --format urdf --urdf meas.csv --out c.urdf", "meas.csv is not well-formed XML"),
+    ("export model.json --format urdf --urdf meas.csv --out c.urdf", "meas.csv is a measurement file"),
 ])
 def test_export_into_the_original_urdf_refuses_in_one_line(args, says, refusal_folder, tmp_path, monkeypatch):
     before = copy_inputs(refusal_folder, tmp_path, monkeypatch)

@@ -5,7 +5,9 @@ model...), data of one robot given as another's, and ball-in-socket data given t
 methods and back. Each row is refused in one line that names what the file is, and nothing
 is written."""
 import atexit
+import csv
 import functools
+import io
 import json
 import shutil
 import tempfile
@@ -17,8 +19,74 @@ from user_files import EXAMPLES as EXAMPLES_DIR
 from user_files import assert_clean_refusal, invoke, nominal_fk, prepare, refuse
 from robocal.io.file_kinds import KIND_COLUMN, KINDS, READERS, identify
 
+
+
+def _rows(base, name):
+    return list(csv.reader(io.StringIO((base / name).read_text())))
+
+
+def _text(rows):
+    return "\n".join(",".join(row) for row in rows) + "\n"
+
+
+def unlabelled(name):
+    """A file of the base folder without its kind column, as a user's script rewrites it."""
+    def make(base):
+        rows = _rows(base, name)
+        keep = [k for k, column in enumerate(rows[0]) if column != KIND_COLUMN]
+        return _text([[row[k] for k in keep] for row in rows])
+    return make
+
+
+def six_d(count, tag=False):
+    """ur5.csv's first ``count`` rows with measured orientations: a 6-D measurement file
+    (``q1 ... q6, x, y, z, sx, sy, sz, rx, ry, rz``); ``tag``: its columns carry their units."""
+    def make(base):
+        rows = _rows(base, "ur5.csv")
+        header = rows[0] + ["rx", "ry", "rz"]
+        if tag:
+            header = [f"{name}[{'deg' if name.startswith(('q', 'r')) else 'mm'}]" for name in header]
+        return _text([header] + [row + ["178.5", "-1.2", f"{30 + k}"] for k, row in enumerate(rows[1:count + 1])])
+    return make
+
+
+def measured_campaign(base):
+    """iso.csv's visits measured 0.1 mm off their commands (x, y, z) and at the commanded
+    angles (rx, ry, rz), without the kind column: an ISO 9283 campaign as a user's script writes it."""
+    rows = _rows(base, "iso.csv")
+    header = rows[0]
+    kind = header.index(KIND_COLUMN)
+    measured = [header.index(c) for c in ("x_cmd", "y_cmd", "z_cmd", "rx_cmd", "ry_cmd", "rz_cmd")]
+    out = [[c for k, c in enumerate(header) if k != kind] + ["x", "y", "z", "rx", "ry", "rz"]]
+    for i, row in enumerate(rows[1:]):
+        out.append([c for k, c in enumerate(row) if k != kind]
+                   + [repr(float(row[k]) + 0.1 * (i % 3) * (j < 3)) for j, k in enumerate(measured)])
+    return _text(out)
+
+
+PLACEMENTS = "fixture,x,y,z,rx,ry,rz\nA,1500,0,300,0,0,0\nB,1400,300,250,0,0,30\n"
+UR5_PLACEMENTS = ["design", "ur5", "--fixture", "plate.toml", "--placements", "p.csv", "--n", "12", "--per-socket", "2",
+                  "--out", "plan2.csv"]
+
 REFUSED = [
     # (id, args, extra files, what the error line says)
+    # A user's files are told apart by their columns: joint columns beside positions are
+    # measurements (or targets with posture hints), never fixture placements ...
+    ("placements-6d-measurements", UR5_PLACEMENTS, {"p.csv": six_d(6)}, "p.csv is a measurement file (joint columns q1 ... qN"),
+    ("placements-6d-measurements-unit-tagged", UR5_PLACEMENTS, {"p.csv": six_d(6, tag=True)}, "p.csv is a measurement file (joint columns q1 ... qN"),
+    ("placements-measurements", UR5_PLACEMENTS, {"p.csv": lambda base: (base / "ur5.csv").read_text()}, "p.csv is a measurement file"),
+    ("placements-targets-with-hints-unlabelled", UR5_PLACEMENTS, {"p.csv": unlabelled("targets.csv")}, "p.csv is a measurement file (joint columns q1 ... qN"),
+    ("placements-commands-unlabelled", UR5_PLACEMENTS, {"p.csv": unlabelled("cmds.csv")}, "written by 'robocal compensate', not a placements file"),
+    ("placements-plan-unlabelled", UR5_PLACEMENTS, {"p.csv": unlabelled("plan.csv")}, "written by 'robocal design', not a placements file"),
+    ("placements-measured-campaign", UR5_PLACEMENTS, {"p.csv": measured_campaign}, "p.csv is an ISO 9283 campaign (commanded x_cmd"),
+    # ... and a placements file (its fixture column) is no measurement or targets file
+    ("calibrate-placements", ["calibrate", "ur5", "pl.csv", "--out", "m.json"], {"pl.csv": PLACEMENTS}, "pl.csv is a placements file (fixture frames"),
+    ("evaluate-placements", ["evaluate", "ur5_model.json", "pl.csv"], {"pl.csv": PLACEMENTS}, "pl.csv is a placements file (fixture frames"),
+    ("compensate-placements-as-targets", ["compensate", "ur5_model.json", "pl.csv", "--out", "o.csv"], {"pl.csv": PLACEMENTS}, "pl.csv is a placements file (fixture frames"),
+    ("design-existing-placements", ["design", "ur5", "--n", "5", "--pool", "200", "--existing", "pl.csv", "--out", "p.csv"], {"pl.csv": PLACEMENTS}, "pl.csv is a placements file"),
+    ("iso-placements", ["iso9283", "pl.csv"], {"pl.csv": PLACEMENTS}, "pl.csv is a placements file"),
+    # a campaign's x, y, z were measured, not desired
+    ("compensate-measured-campaign-as-targets", ["compensate", "ur5_model.json", "c.csv", "--out", "o.csv"], {"c.csv": measured_campaign}, "c.csv is an ISO 9283 campaign"),
     ("calibrate-commands", ["calibrate", "ur5", "cmds.csv", "--out", "m.json"], None, "written by 'robocal compensate', not a measurement file"),
     ("calibrate-per-pose", ["calibrate", "ur5", "perpose.csv", "--out", "m.json"], None, "written by 'robocal evaluate --per-pose'"),
     ("calibrate-plan", ["calibrate", "ur5", "plan.csv", "--out", "m.json"], None, "planned poses, written by 'robocal design'"),
@@ -217,8 +285,14 @@ EXAMPLES = {
     "fixture": (None, "plate.toml"),
     "fleet": (lambda base: shutil.copy(EXAMPLES_DIR / "fleet" / "fleet.toml", base / "fleet.toml"), "fleet.toml"),
 }
-# Simulated measurements are written unmarked: a measurement file is what a user gives.
-UNMARKED = {"measurements"}
+# A user's kinds, written unmarked (simulated measurements too: a measurement file is what a
+# user gives), recognised by their columns: kind -> (how to make it, the file it is).
+USERS = {
+    "measurements": (None, "ur5.csv"),
+    "campaign": (lambda base: (base / "user-campaign.csv").write_text(measured_campaign(base)), "user-campaign.csv"),
+    "placements": (lambda base: (base / "placements.csv").write_text(PLACEMENTS), "placements.csv"),
+}
+UNMARKED = set(USERS)
 SUFFIX = {"CSV": ".csv", "JSON": ".json", "HTML": ".html", "TOML": ".toml", "XML": ".urdf"}
 
 # reader -> a command that reads the file F as it (a user's hand-made files beside it)
@@ -248,13 +322,14 @@ def examples():
     base = Path(tempfile.mkdtemp(prefix="robocal-kinds-"))
     atexit.register(shutil.rmtree, base, True)
     prepare(base)
-    for make in dict.fromkeys(make for make, _ in EXAMPLES.values() if make is not None):
+    for make in dict.fromkeys(make for make, _ in {**EXAMPLES, **USERS}.values() if make is not None):
         make(base)
     return base
 
 
 def test_every_kind_robocal_writes_has_an_example():
     assert set(EXAMPLES) == set(KINDS) - UNMARKED
+    assert set(USERS) == {kind.name for kind in KINDS.values() if kind.columns and not kind.written_by} - {"targets"}
 
 
 def test_every_reader_has_a_command():
@@ -269,13 +344,21 @@ def test_each_file_robocal_writes_says_its_kind(kind):
         assert text.splitlines()[0].split(",")[-1] == KIND_COLUMN
 
 
-WRONG = [(kind, reader) for kind in sorted(EXAMPLES) for reader in READERS if kind not in READERS[reader].accepts]
+@pytest.mark.parametrize("kind", sorted(USERS))
+def test_a_users_file_is_recognised_by_its_columns(kind):
+    text = (examples() / USERS[kind][1]).read_text()
+    assert KIND_COLUMN not in text.splitlines()[0]
+    assert identify(text) == kind
+
+
+EVERY = {**EXAMPLES, **USERS}
+WRONG = [(kind, reader) for kind in sorted(EVERY) for reader in READERS if kind not in READERS[reader].accepts]
 
 
 @pytest.mark.parametrize("kind, reader", WRONG, ids=[f"{kind}-as-{reader}" for kind, reader in WRONG])
 def test_every_reader_refuses_every_other_kind_naming_it(tmp_path, kind, reader):
     name = "F" + SUFFIX[KINDS[kind].form]
-    prepare(tmp_path, {**HAND_MADE, name: (examples() / EXAMPLES[kind][1]).read_bytes()})
+    prepare(tmp_path, {**HAND_MADE, name: (examples() / EVERY[kind][1]).read_bytes()})
     outcome = invoke(tmp_path, [name if arg == "F" else arg for arg in READS[reader]])
     assert_clean_refusal(outcome, f"{name} is {KINDS[kind].what}")
     assert "not a" in outcome.lines[0], outcome.lines[0]
@@ -290,7 +373,11 @@ GOOD = [
     ("design-poses-as-configurations", "configurations", "F.csv", lambda base: (base / "plan.csv").read_text()),
     ("user-joint-log", "joint-log", "F.csv", HAND_MADE["joints.csv"]),
     ("user-points", "points", "F.txt", HAND_MADE["points.txt"]),
-    ("user-placements", "placements", "F.csv", "fixture,x,y,z,rx,ry,rz\nA,1500,0,300,0,0,0\nB,1400,300,250,0,0,30\n"),
+    ("user-placements", "placements", "F.csv", PLACEMENTS),
+    ("user-placements-unnamed", "placements", "F.csv", "x,y,z,rx,ry,rz\n1500,0,300,0,0,0\n1400,300,250,0,0,30\n"),
+    ("user-targets-with-hints", "targets", "F.csv", unlabelled("targets.csv")),
+    ("user-campaign", "campaign", "F.csv", measured_campaign),
+    ("iso-plan-measured", "campaign", "F.csv", lambda base: (examples() / "campaign.csv").read_text()),
     ("model", "model", "F.json", lambda base: (base / "ur5_model.json").read_text()),
     ("truth", "truth", "F.json", lambda base: (base / "ur5_truth.json").read_text()),
     ("validation", "validation", "F.json", lambda base: (examples() / "val.json").read_text()),

@@ -11,7 +11,7 @@ from ..errors import FileFormatError, InputError
 from ..estimation.metrics import error_stats
 from ..io.atomic import check_outputs
 from ..io.csv_writing import write_per_pose
-from ..io.fingerprint import of_observations, seen_observations
+from ..io.fingerprint import of_observations, seen_by_model
 from ..io.library import load_robot
 from ..io.model_file import load_model, save_model
 from ..io.observations import read_observations, read_target_poses, write_joint_commands
@@ -95,8 +95,12 @@ def reregister_job(model_path, measurements, out, *, parameters=None, beyond_lim
     if predicted is not None:
         moved.record_ = moved.record_.replace(predicted_error=predicted.to_dict())
     training = {key: model.training[key] for key in KEPT_TRAINING if key in model.training}
+    # The new set-up's poses are poses the model was fitted to (its frames come from them):
+    # fingerprinted as a calibration's are (robocal.io.fingerprint), so that a score on them
+    # is not called held out.
     training.update(reregistered_from=str(model_path), reregistration_file=str(measurements),
-                    reregistration_poses=observations.n_poses)
+                    reregistration_poses=observations.n_poses,
+                    reregistration_fingerprint=of_observations(model.nominal, observations))
     document = moved.to_model_file(model.nominal, training)
     if fitted.bound_ is not None:
         # The original's bound, checked (and widened where needed) on the new set-up's poses.
@@ -180,12 +184,10 @@ def _bound_summary(error, bound, inside):
 
 
 def _training_poses(model, observations, where):
-    """How many of ``observations`` the model was trained on, by content (None: the model
+    """How many of ``observations`` the model was fitted to, by content (None: the model
     file keeps no fingerprint of its training rows, written before it did)."""
-    entry = model.training.get("fingerprint")
-    if entry is None:
-        return None
-    return int(seen_observations(entry, model.kinematics, observations, where=str(where)).sum())
+    seen = seen_by_model(model.training, model.kinematics, observations, where=str(where))
+    return None if seen is None else int(seen.sum())
 
 
 def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False, per_pose=None):
@@ -197,8 +199,9 @@ def evaluate_job(model_path, measurements, fixture=None, beyond_limits=False, pe
     error lies within the model's 95 % bound (robocal.methods.bound; None, with ``bound_note``
     saying why, for a model file without one), and ``per_pose`` (a path) writes one CSV line
     per pose (:func:`robocal.io.csv_writing.write_per_pose`).  ``training_poses`` counts the
-    poses the model was trained on, by content (the model file's fingerprint; None for a file
-    without one): a score of them is not held out.  Returns an :class:`.results.Evaluated`."""
+    poses the model was fitted to, by content (the model file's fingerprints: its calibration's
+    and a re-registration's poses; None for a file without one): a score of them is not held
+    out.  Returns an :class:`.results.Evaluated`."""
     if per_pose is not None:
         check_outputs([per_pose], [model_path, measurements, fixture])
     model, fitted = load_fitted(model_path)

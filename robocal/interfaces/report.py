@@ -16,7 +16,7 @@ import numpy as np
 from .. import __version__
 from ..errors import FileFormatError, InputError, RobocalWarning
 from ..estimation.metrics import iso9283_position
-from ..io.fingerprint import seen_observations
+from ..io.fingerprint import seen_by_model
 from ..io.atomic import check_outputs, write_bytes_atomic, write_text_atomic
 from . import plots
 from .html_style import STYLE
@@ -273,15 +273,17 @@ def _summary(model, fitted, data, label, cv, model_path):
 
 def _held_out(model, data, measurements, model_path):
     """(held out?, the label of the poses scored): decided by content, the rows the model
-    file's fingerprint says it was trained on (robocal.io.fingerprint); for a model file
-    written before it kept one, by the training file's name."""
-    entry = model.training.get("fingerprint")
-    if entry is None:
-        held_out = Path(str(model.training.get("file", ""))).resolve() != Path(str(measurements)).resolve()
+    file's fingerprints say it was fitted to (robocal.io.fingerprint: its calibration's
+    poses and a re-registration's); for a model file written before it kept one, by the
+    training file's name."""
+    seen = seen_by_model(model.training, model.kinematics, data, where=str(model_path))
+    if seen is None:
+        fitted_to = {Path(str(model.training[key])).resolve() for key in ("file", "reregistration_file")
+                     if key in model.training}
+        held_out = Path(str(measurements)).resolve() not in fitted_to
         return held_out, ("held-out poses (judged by the file name: this model file keeps no fingerprint of its "
                           "training rows)" if held_out else "training poses (not held out: scores what the model has "
                           "seen)")
-    seen = seen_observations(entry, model.kinematics, data, where=str(model_path))
     if not seen.any():
         return True, "held-out poses (none of them is a training pose)"
     if seen.all():

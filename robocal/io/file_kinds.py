@@ -18,8 +18,14 @@ what the file is.  So:
   naming what it is and what the reader wants.
 
 CSV files written before the column existed (or with it cut off) are recognised by the
-columns only robocal writes (:attr:`Kind.columns`).  A user's own files (no
-:data:`KIND_COLUMN`, none of those columns) are never refused here.
+columns only robocal writes (:attr:`Kind.columns`).  A user's files are recognised by their
+columns too, where the columns tell them apart: joint columns beside measured positions or
+sockets are a measurement file, commanded ``x_cmd, y_cmd, z_cmd`` an ISO 9283 campaign, a
+``fixture`` column beside ``x, y, z, rx, ry, rz`` and no joint columns a placements file;
+the first kind whose columns a file holds is its kind (robocal's kinds first, so that a
+commands file is not taken for measurements).  A placements file without its ``fixture``
+column and a targets file without posture hints hold the same columns, ``x, y, z, rx, ry,
+rz``: neither is recognised, and a user's file recognised as no kind is never refused here.
 
 A file of another format given where a table belongs, not one of robocal's kinds (a JSON or
 XML document, a TOML file, a robot program), is named by :func:`text_format` from its first
@@ -69,9 +75,6 @@ class Kind:
 
 
 KINDS = {kind.name: kind for kind in (
-    # Simulated measurements are written unmarked (they are read as any measurement file);
-    # the kind exists for readers that name what they accept.
-    Kind("measurements", "a measurement file", "robocal simulate"),
     Kind("commands", "robocal's joint commands and corrected targets", "robocal compensate",
          columns=(("reachable",), ("in_domain", "frame"), ("uncertainty_mm", "frame"), ("frame=" + COMMANDS_FRAME,))),
     Kind("poses", "robocal's planned poses (what to measure, not measurements)", "robocal design",
@@ -84,6 +87,16 @@ KINDS = {kind.name: kind for kind in (
          "robocal iso9283 plan"),
     Kind("filter-summary", "robocal's filter summary (what filter changed in each program line)", "robocal filter",
          columns=(("file", "line", "status", "moved_mm", "turned_deg"),)),
+    # A user's kinds, recognised by their columns after robocal's own (a commands file has a
+    # measurement file's columns too).  Measurements are written unmarked, by a user's
+    # instrument or 'robocal simulate' alike: their columns say what they are.
+    Kind("campaign", "an ISO 9283 campaign (commanded x_cmd, y_cmd, z_cmd of each visit)", "",
+         columns=(("x_cmd", "y_cmd", "z_cmd"),)),
+    Kind("measurements", "a measurement file (joint columns q1 ... qN beside x, y, z or fixture, socket)",
+         "", columns=(("q1", "x", "y", "z"), ("q1", "fixture", "socket"))),
+    # After measurements: a file with joint columns is not one.
+    Kind("placements", "a placements file (fixture frames: fixture, x, y, z, rx, ry, rz; no joint columns)", "",
+         columns=(("fixture", "x", "y", "z", "rx", "ry", "rz"),)),
     # Targets are what a user writes; the examples robocal ships say what they are, so that
     # one given as measurements (its q columns are posture hints, its x, y, z desired) is
     # named, not calibrated on.
@@ -121,19 +134,21 @@ class Reader:
 
 READERS = {
     "measurements": Reader("a measurement file", "measured data: q1..qN with the x, y, z the instrument measured",
-                           # A design's poses become measurements when the measured x, y, z are added.
-                           ("measurements", "poses")),
+                           # A design's poses become measurements when the measured x, y, z are
+                           # added; a campaign's visits are joint commands and measured positions.
+                           ("measurements", "poses", "campaign")),
     "targets": Reader("a targets file", "the targets themselves (x, y, z, rx, ry, rz)", ("measurements", "targets")),
     "configurations": Reader("a file of joint configurations", "measured or planned joint configurations (q1..qN)",
-                             ("measurements", "poses")),
+                             ("measurements", "poses", "campaign")),
     "campaign": Reader("an ISO 9283 campaign", "the visits: x_cmd, y_cmd, z_cmd and the measured x, y, z (mm)",
-                       # A plan becomes a campaign when the measured x, y, z are added to it.
-                       ("iso-plan",)),
+                       # A plan becomes a campaign when the measured x, y, z are added to it; a
+                       # measurement file lacks the commanded columns, which the reader names.
+                       ("iso-plan", "campaign", "measurements")),
     "joint-log": Reader("a joint log", "the controller's joint log (a name or time column and q1..qN)",
-                        ("measurements",)),
+                        ("measurements", "campaign")),
     "points": Reader("a tracker point file", "the tracker's export of named points (name x y z)"),
     "placements": Reader("a placements file", "the fixture's placements: x, y, z (mm) and rx, ry, rz (deg) of the "
-                         "fixture frame in the robot base frame, one row each"),
+                         "fixture frame in the robot base frame, one row each", ("placements",)),
     "model": Reader("a model file", "the model file 'robocal calibrate' wrote (JSON)", ("model",)),
     "truth": Reader("a truth file", "the file 'robocal simulate --truth' wrote, or a preset name", ("truth",)),
     "validation": Reader("a validation file", "what 'robocal validate ... --json > FILE' wrote", ("validation",)),
@@ -164,6 +179,10 @@ def marked_rows(header, rows, kind: str):
     return [*header, KIND_COLUMN], [[*row, kind] for row in rows]
 
 
+# A header cell's unit tag ("q2[rad]", "x [m]"; robocal.io.csv_table), not part of its name.
+_UNIT_TAG = re.compile(r"\s*\[[^\]]*\]\s*$")
+
+
 def recognise(header, column=None) -> str | None:
     """The kind of CSV robocal file with ``header`` (column names); ``column(name)`` gives
     a column's cells (for :data:`KIND_COLUMN` and the columns recognised by their text).
@@ -173,7 +192,7 @@ def recognise(header, column=None) -> str | None:
         FileFormatError: the kind column holds something robocal never writes, or more
             than one kind (files pasted together).
     """
-    names = {str(name).strip() for name in header}
+    names = {_UNIT_TAG.sub("", str(name)).strip() for name in header}
     if KIND_COLUMN in names and column is not None:
         found = sorted({str(cell).strip() for cell in column(KIND_COLUMN)} - {""})
         if found:

@@ -11,9 +11,12 @@ degrees.
 A model file keeps the training rows' joint configurations, rounded to :data:`RESOLUTION`,
 in ``training.fingerprint`` (not their measured positions: the model file does not carry the
 data it was fitted to); :func:`seen` finds, in a k-d tree over the joints (periodic on the
-revolute ones), the rows within TOLERANCE of a training row.  Whatever says "held out",
-"validated" or "scored on new poses" (``evaluate``, ``report``) asks :func:`seen` which of its
-rows the model was trained on.
+revolute ones), the rows within TOLERANCE of a training row.  A model re-registered on a new
+set-up (``calibrate MODEL.json --method frames``) was fitted to those poses too: its base and
+tool come from them, and it keeps theirs, made by the same function, in
+``training.reregistration_fingerprint`` (:data:`ENTRIES`).  Whatever says "held out",
+"validated" or "scored on new poses" (``evaluate``, ``report``) asks
+:func:`seen_by_model` which of its rows the model was fitted to, every entry at once.
 
 Model files written before this rule keep 64-bit digests of joints and positions rounded to
 1e-3 on two grids (``"grids"``); they are read as they were written: a row is seen when its
@@ -36,6 +39,10 @@ TOLERANCE = 0.06
 RESOLUTION = 1e-3
 # Prismatic joints are placed in a box this large (mm), so that only revolute joints wrap.
 _FLAT_BOX = 1e7
+
+# The entries of a model file's training record that fingerprint poses the model was fitted
+# to: those it was calibrated on, and those a re-registration identified its frames from.
+ENTRIES = ("fingerprint", "reregistration_fingerprint")
 
 # The fingerprint of model files written before joints alone decided.
 LEGACY_RESOLUTION = 1e-3
@@ -156,3 +163,18 @@ def seen_observations(entry, chain, observations, where="the model file"):
 def _socket_labels(observations):
     return np.char.add(np.char.add(np.asarray(observations.placement).astype(str), "/"),
                        np.asarray(observations.socket).astype(str))
+
+
+def seen_by_model(training, chain, observations, where="the model file"):
+    """(N,) bool: the rows of :class:`~robocal.io.observations.Observations` of ``chain`` that
+    the model whose training record is ``training`` was fitted to, by any fingerprint of
+    :data:`ENTRIES` (:func:`seen_observations`).  None when the record keeps no fingerprint of
+    the poses it was calibrated on (a model file written before it did): which rows are
+    training rows cannot be told then, even where a re-registration's poses are known."""
+    if training.get(ENTRIES[0]) is None:
+        return None
+    out = np.zeros(observations.n_poses, dtype=bool)
+    for entry in ENTRIES:
+        if training.get(entry) is not None:
+            out |= seen_observations(training[entry], chain, observations, where=where)
+    return out

@@ -203,9 +203,9 @@ CALIBRATION = Table({"parameters": Table(others=PARAMETER), "units": TEXT,
                               "residual_after", "iterations", "converged"))
 PREDICTED_ERROR = Table({"where": TEXT, "poses": WHOLE}, others=Maybe(NUMBER))
 # robocal.methods.records.FitRecord.to_dict, beside what the data were (file, poses, kind).
+FINGERPRINT = Table({"resolution": NUMBER, "tolerance": NUMBER, "n_joints": WHOLE, "joints": TEXT, "grids": TEXTS})
 TRAINING = Table({"file": TEXT, "n_poses": WHOLE, "kind": TEXT, "fixture_file": Maybe(TEXT),
-                  "fingerprint": Table({"resolution": NUMBER, "tolerance": NUMBER, "n_joints": WHOLE, "joints": TEXT,
-                                        "grids": TEXTS}),
+                  "fingerprint": FINGERPRINT, "reregistration_fingerprint": FINGERPRINT,
                   "residual_before": Maybe(ERROR_STATS), "residual_after_training": Maybe(ERROR_STATS),
                   "nominal_in_given_frame": Maybe(ERROR_STATS), "registered": Maybe(FLAG),
                   "iterations": Maybe(WHOLE), "calibration": Maybe(CALIBRATION), "diagnostics": Maybe(TEXTS),
