@@ -162,7 +162,7 @@ KINDS = [
 
 @pytest.mark.parametrize("make, says", [k[1:] for k in KINDS], ids=[k[0] for k in KINDS])
 @pytest.mark.parametrize("verb", [["compensate", "ur5_model.json", "targets.csv", "--out"],
-                                  ["design", "ur5", "--n", "6", "--pool", "100", "--out"]], ids=["compensate", "design"])
+                                  ["design", "ur5", "--n", "12", "--pool", "200", "--out"]], ids=["compensate", "design"])
 def test_an_output_that_is_no_regular_file_is_refused_without_waiting(tmp_path, verb, make, says):
     from user_files import run_process
 
