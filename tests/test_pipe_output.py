@@ -67,6 +67,9 @@ RUNS = [
     ("validate", ["validate", "ur5", "ur5.csv", "--folds", "3"]),
     ("iso-plan", ["iso9283", "plan", "ur5", "--out", "i.csv"]),
     ("export", ["export", "ur5_model.json", "--out", "e.urdf"]),
+    # Titles longer than the console (the console prints text unwrapped, titles too): wrapped.
+    ("design-fixture", ["design", "kr150-2", "--fixture", "plate.toml", "--region", "1200,2000,-500,500,200,800", "--n", "72", "--out", "p.csv"]),
+    ("design-long-name", ["design", "ur5", "--n", "12", "--pool", "200", "--out", "the-poses-to-measure-on-the-second-day-of-the-campaign.csv"]),
 ]
 
 

@@ -2,6 +2,7 @@
 tables and one-line notes otherwise.  The commands compute (``robocal.interfaces.jobs`` and
 the other jobs) and hand their results to these functions; nothing here computes."""
 import contextlib
+import copy
 import json
 import sys
 import textwrap
@@ -29,16 +30,33 @@ def result_starts():
 
 
 class _ResultConsole(Console):
-    """The console of results: what waits for the first result line runs before it.  A note
+    """The console of results: what waits for the first result line runs before it.  No line
+    it prints is wider than the console, so that a result reads in an 80-column log: a note
     (one plain text) is wrapped at the console's width, its continuation lines indented under
-    its first word, so that it reads in an 80-column log; tables size themselves, and JSON
-    is printed without the console (:func:`print_json`)."""
+    its first word, and so is a table's title (the console prints text unwrapped, a title
+    included); tables size their rows themselves, and JSON is printed without the console
+    (:func:`print_json`)."""
 
     def print(self, *args, **kwargs):
         result_starts()
-        if len(args) == 1 and isinstance(args[0], str) and not kwargs and len(args[0]) > self.width:
-            args = (_wrapped(args[0], self.width),)
+        if len(args) == 1 and not kwargs:
+            args = (_fitted(args[0], self.width),)
         super().print(*args, **kwargs)
+
+
+def _fitted(renderable, width):
+    """``renderable`` with its text wrapped at ``width``: a note (a string, or a Text of one
+    style), or a table's title; anything else as it is."""
+    if isinstance(renderable, str) and len(renderable) > width:
+        return _wrapped(renderable, width)
+    if isinstance(renderable, Text) and not renderable.spans and len(renderable.plain) > width:
+        return Text(_wrapped(renderable.plain, width), style=renderable.style)
+    if isinstance(renderable, Table) and isinstance(renderable.title, str) and len(renderable.title) > width:
+        fitted = copy.copy(renderable)
+        fitted.title = "\n".join(textwrap.wrap(renderable.title, width=width, break_long_words=False,
+                                               break_on_hyphens=False))
+        return fitted
+    return renderable
 
 
 def _wrapped(text, width):
