@@ -205,6 +205,69 @@ def _stats_row(table, label, stats):
     table.add_row(label, f"{stats['mean_mm']:.4f}", f"{stats['rms_mm']:.4f}", f"{stats['max_mm']:.4f}")
 
 
+# --------------------------------------------------------------------------- lists of rows
+def line_ranges(lines):
+    """Line numbers as runs: ``[4, 5, 6, 9]`` -> ``"4-6, 9"``."""
+    runs = []
+    for line in sorted(set(lines)):
+        if runs and line == runs[-1][1] + 1:
+            runs[-1][1] = line
+        else:
+            runs.append([line, line])
+    return ", ".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
+
+
+def some_names(names, width=50):
+    """``names`` joined, or the first ones, "...", and the last when they would pass ``width``
+    characters."""
+    names = [str(name) for name in names]
+    joined = ", ".join(names)
+    if len(joined) <= width:
+        return joined
+    shown = []
+    while names[:len(shown) + 1] and len(", ".join(names[:len(shown) + 1])) <= width - len(names[-1]) - 7:
+        shown.append(names[len(shown)])
+    return ", ".join(shown + ["...", names[-1]])
+
+
+def say_rows(label, style, rows, one, many):
+    """One line for the rows a command left out (``rows``: (line, name)), however many: for
+    one, ``one`` (formatted with its ``line`` and ``name``), else ``many`` (with their
+    ``count``, ``lines`` as ranges and ``names``, some of them); --json lists every row."""
+    if len(rows) == 1:
+        say(label, style, one.format(line=rows[0][0], name=rows[0][1]))
+    elif rows:
+        say(label, style, many.format(count=len(rows), lines=line_ranges(line for line, _ in rows),
+                                      names=some_names(name for _, name in rows)))
+
+
+def print_imported(result, out_file, as_json):
+    """import: the join's summary; then, in a line each, the joint rows with no point, the
+    points with no joint row (every line, as ranges), and the points measured more than once."""
+    if as_json:
+        print_json(result)
+        return
+    lists = ("joint_rows_without_point", "points_without_joint_row", "averaged")
+    print_result({k: v for k, v in result.items() if k not in lists}, False,
+                 f"{result['matched']} poses joined by {result['by']} -> {out_file}")
+    say_rows("warning", "yellow", [(e["line"], e["key"]) for e in result["joint_rows_without_point"]],
+             "joint row on line {line} ({name}) has no point: left out",
+             "{count} joint rows have no point, left out: lines {lines} ({names})")
+    say_rows("warning", "yellow", [(e["line"], e["name"]) for e in result["points_without_joint_row"]],
+             "point {name} (line {line}) has no joint row: left out",
+             "{count} points have no joint row, left out: lines {lines} ({names})")
+    averaged = result["averaged"]
+    if len(averaged) == 1:
+        entry = averaged[0]
+        say("note", "cyan", f"point {entry['name']} measured {entry['count']} times: averaged (spread "
+                            f"{entry['spread_mm']:.4f} mm)")
+    elif averaged:
+        widest = max(averaged, key=lambda entry: entry["spread_mm"])
+        say("note", "cyan", f"{len(averaged)} points measured more than once, averaged "
+                            f"({some_names(entry['name'] for entry in averaged)}): largest spread "
+                            f"{widest['spread_mm']:.4f} mm, of {widest['name']}")
+
+
 # --------------------------------------------------------------------------- calibrate, compare, validate
 def print_calibration(calibration, chain):
     """Identified parameters with standard errors and units, and what could not be identified
