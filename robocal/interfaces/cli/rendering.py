@@ -139,8 +139,28 @@ def cell(value):
     if isinstance(value, float):
         return f"{value:.4f}"
     if isinstance(value, (list, tuple)):
-        return ", ".join(map(str, value)) or "none"
+        return ", ".join(said_once(value)) or "none"
     return "-" if value is None else str(value)
+
+
+def said_once(items):
+    """The texts of ``items``, each thing said once: ``"who: what"`` texts that say the same
+    ``what`` become one (``output 1: s``, ``output 2: s`` -> ``outputs 1, 2: s``), in the order
+    they came."""
+    said = {}
+    for item in map(str, items):
+        who, colon, what = item.partition(": ")
+        said.setdefault(what if colon else item, []).append(who if colon else None)
+    texts = []
+    for what, whos in said.items():
+        if whos[0] is None:
+            texts.append(what)
+            continue
+        words = [who.split(" ", 1) for who in whos]
+        if len(whos) > 1 and all(len(w) == 2 and w[0] == words[0][0] for w in words):
+            whos = [f"{words[0][0]}s {', '.join(w[1] for w in words)}"]
+        texts.append(f"{', '.join(whos)}: {what}")
+    return texts
 
 
 def without_domain(result):
