@@ -230,6 +230,7 @@ def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_sock
         raise
     sockets = len(rig.ids)
     places = len(candidates.poses)
+    per_socket_given = per_socket
     if per_socket is None:
         per_socket = n // (sockets * places)
         if per_socket < 2:
@@ -239,6 +240,12 @@ def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_sock
         count = places
     else:
         count = n // (sockets * per_socket)
+    if count * sockets * per_socket != n and per_socket_given is None:
+        # Every reachable placement is used: what --n leaves free is the number per socket.
+        fewer, more = per_socket * sockets * places, (per_socket + 1) * sockets * places
+        raise InputError(f"--n {n} over {places} reachable placements x {sockets} sockets is not a whole number per "
+                         f"socket: ask for {fewer} or {more} ({per_socket} or {per_socket + 1} per socket), or give "
+                         "--per-socket to use fewer placements")
     if count * sockets * per_socket != n:
         whole = max(count, 1) * sockets * per_socket
         raise InputError(f"--n {n} is not a whole number of placements x {sockets} sockets x {per_socket} per socket: "
