@@ -22,7 +22,7 @@ from ..errors import InputError
 from ..io.atomic import check_outputs
 from ..io.library import load_robot
 from ..io.observations import check_robot_in_mm, read_observations, read_target_poses
-from ..io.poses import read_joints, read_placements, table, write_poses
+from ..io.poses import joint_table, read_joints, read_placements, write_poses
 from ..io.units import check_robot_lengths, check_typed_units
 from ..kinematics.ik import solve_ik
 from ..spatial import compose_pose, rpy_to_matrix
@@ -40,7 +40,7 @@ def _targets(path, chain, volume):
     """Target configurations (rad): a file's q columns, or its x, y, z, rx, ry, rz targets
     solved by the nominal IK (q columns as posture hints), the unreachable ones dropped;
     refused when one puts the arm outside ``volume`` (a WorkingVolume)."""
-    header, _ = table(path)
+    header = joint_table(path, chain).header
     if "x" not in header and "q1" in header:
         q = read_joints(path, chain, "targets")[0]
         volume.check_given(chain, q, np.arange(2, len(q) + 2), path, "targets")
@@ -60,7 +60,7 @@ def _check_existing(path, chain):
     robot's measurements, or positions that are the nominal robot's own, are refused."""
     from ..estimation.plausibility import check_measured, check_robot_data
 
-    header, _ = table(path)
+    header = joint_table(path, chain).header
     if {"x", "y", "z"} <= set(header):
         observations = read_observations(path, chain)
         check_robot_data(chain, observations, fitting=False)
@@ -73,7 +73,7 @@ def _noise_from(path, chain, parameters, payload):
     positions or too few poses."""
     from ..estimation.calibration import KinematicCalibration
 
-    header, _ = table(path)
+    header = joint_table(path, chain).header
     if not {"x", "y", "z"} <= set(header):
         return None
     observations = read_observations(path, chain)
@@ -99,7 +99,7 @@ def _variance_kernel(path, chain, parameters, payload):
     from ..estimation.joint_kriging import JointKriging
     from ..estimation.kriging import Kriging
 
-    header, _ = table(path)
+    header = joint_table(path, chain).header
     if not {"x", "y", "z"} <= set(header):
         return None
     observations = read_observations(path, chain)
