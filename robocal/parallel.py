@@ -36,6 +36,10 @@ import importlib
 import inspect
 import logging
 import os
+import shutil
+import signal
+import tempfile
+import threading
 from pathlib import PurePath
 
 import numpy as np
@@ -210,28 +214,70 @@ def executor(*, jobs=None, scheduler=None):
 @contextlib.contextmanager
 def _local_client(jobs):
     """A Client of a new local cluster: ``jobs`` processes of one thread, every socket (the
-    scheduler, the workers, their HTTP endpoints) on 127.0.0.1, no dashboard."""
+    scheduler, the workers, their HTTP endpoints) on 127.0.0.1, no dashboard.  Its scratch
+    space (Dask's ``dask-scratch-space``: lock files, a folder per worker) is a temporary
+    folder of its own, removed when the cluster closes, on success, an error, Ctrl-C or
+    SIGTERM alike: Dask's default, the system's temporary folder, is shared and kept."""
     distributed = require_dask("a local cluster")
     import dask
 
-    # Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536 (to give memory back sooner).
-    # Setting it at all fixes glibc's mmap threshold, so every large temporary array becomes a
-    # fresh mapping with its page faults, and robocal's fits make many such arrays: compare on
-    # the 1,000 UR5 poses took 96 s on one worker with it, 70 s without (63 s here).
-    # Each worker runs this module's dask_setup as it starts (a Dask preload), which ignores
-    # Ctrl-C there: a terminal sends it to the whole process group, and every worker would print
-    # its own traceback; the command line answers it once and closes the cluster.  Ignoring it
-    # here instead, for the children to inherit, would lose a Ctrl-C given while the cluster starts.
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
-                          "distributed.worker.preload": [__name__]}):
-        cluster = distributed.LocalCluster(
-            n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
-            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"}, silence_logs=logging.CRITICAL)
+    scratch, cluster = tempfile.mkdtemp(prefix="robocal-dask-"), None
     try:
+        # Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536 (to give memory back sooner).
+        # Setting it at all fixes glibc's mmap threshold, so every large temporary array becomes a
+        # fresh mapping with its page faults, and robocal's fits make many such arrays: compare on
+        # the 1,000 UR5 poses took 96 s on one worker with it, 70 s without (63 s here).
+        # Each worker runs this module's dask_setup as it starts (a Dask preload), which ignores
+        # Ctrl-C there: a terminal sends it to the whole process group, and every worker would print
+        # its own traceback; the command line answers it once and closes the cluster.  Ignoring it
+        # here instead, for the children to inherit, would lose a Ctrl-C given while the cluster
+        # starts.  That one is held until the cluster stands (_signals_held), then acted on, so
+        # that the cluster is closed: stopped half-built, it left its workers and scratch behind.
+        with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                              "distributed.worker.preload": [__name__], "temporary-directory": scratch}), \
+                _signals_held():
+            cluster = distributed.LocalCluster(
+                n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"}, silence_logs=logging.CRITICAL,
+                local_directory=scratch)
         with distributed.Client(cluster) as client:
             yield client
     finally:
-        cluster.close()
+        if cluster is not None:
+            cluster.close()
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """Hold a SIGINT or SIGTERM that arrives in the block until it ends, then act on it as
+    this process would have (its handler, e.g. the command line's interruption), whether the
+    block succeeded or failed; a second one acts at once.  Outside the main thread (no signal
+    arrives there) the block just runs."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending, previous = [], {}
+
+    def hold(signum, frame):
+        pending.append(signum)
+        signal.signal(signum, previous[signum])
+
+    for number in (signal.SIGINT, signal.SIGTERM):
+        handler = signal.getsignal(number)
+        if handler in (signal.SIG_IGN, None):  # ignored stays ignored; None: not Python's to hold
+            continue
+        previous[number] = handler
+        signal.signal(number, hold)
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+        # Also when the block failed: a Ctrl-C to the process group stops a worker that is still
+        # starting, and the cluster's "Nanny failed to start" is that Ctrl-C's doing.
+        if pending:
+            signal.raise_signal(pending[0])
 
 
 def dask_setup(worker):

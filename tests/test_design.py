@@ -452,7 +452,7 @@ def _candidates_file(path, rows, header=("q1", "q2", "q3", "q4", "q5", "q6")):
     ("few", "ask for at least 9 poses"),
     ("box", "are reachable by robot"),
     ("missing", "lacks column q6"),
-    ("nan", "row 4, column q2: 'nan' is not a finite number"),
+    ("nan", "row 4, column 'q2': 'nan' is not a finite number"),  # as a measurement file says it
     ("radians", "they look like radians"),
     ("metres", "looks like metres"),
     ("suffix", "names a JSON file: name it"),

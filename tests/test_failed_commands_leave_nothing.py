@@ -14,6 +14,11 @@ URSCRIPT = "def prog():\n  movej([0,-1.57,1.57,-1.57,-1.57,0])\n  movel(p[0.4,0.
 REFUSED = [
     ("calibrate-into-missing-folder", ["calibrate", "ur5", "ur5.csv", "--out", "nodir/o.json"], None, "directory nodir does not exist"),
     ("calibrate-out-is-a-folder", ["calibrate", "ur5", "ur5.csv", "--out", "o.json"], {"o.json/keep": "x"}, "o.json is a directory"),
+    ("calibrate-out-ends-in-slash", ["calibrate", "ur5", "ur5.csv", "--out", "newdir/"], None, "newdir/ names a folder, not a file"),
+    ("calibrate-out-ends-in-slash-dot", ["calibrate", "ur5", "ur5.csv", "--out", "newdir/."], None, "newdir/. names a folder, not a file"),
+    ("compensate-out-ends-in-slash", ["compensate", "ur5_model.json", "targets.csv", "--out", "c/"], None, "c/ names a folder, not a file"),
+    ("simulate-truth-ends-in-slash", ["simulate", "ur5", "--n", "10", "--out", "s.csv", "--truth", "t/"], None, "t/ names a folder, not a file"),
+    ("iso-plan-out-ends-in-slash", ["iso9283", "plan", "ur5", "--out", "plans/"], None, "plans/ names a folder, not a file"),
     ("calibrate-out-named-csv", ["calibrate", "ur5", "ur5.csv", "--out", "o.csv"], None, "name it o.json"),
     ("calibrate-out-over-its-input", ["calibrate", "ur5", "ur5.csv", "--out", "ur5.csv"], None, "name it ur5.json"),
     ("simulate-truth-into-missing-folder", ["simulate", "ur5", "--n", "10", "--out", "s.csv", "--truth", "nodir/t.json"], None, "directory nodir does not exist"),
@@ -119,6 +124,73 @@ def test_an_output_that_is_a_device_stays_a_device(tmp_path, verb):
     for name in ("null", "full"):
         assert stat.S_ISCHR((tmp_path / name).stat().st_mode), f"{name} was replaced by a regular file"
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+def _fifo(folder):
+    os.mkfifo(folder / "pipe")
+    return "pipe"
+
+
+def _socket(folder):
+    import socket
+
+    server = socket.socket(socket.AF_UNIX)
+    server.bind(str(folder / "sock"))
+    return "sock"
+
+
+def _link_to_fifo(folder):
+    os.symlink(_fifo(folder), folder / "link")
+    return "link"
+
+
+def _link_to_folder(folder):
+    (folder / "sub").mkdir()
+    os.symlink("sub", folder / "link")
+    return "link"
+
+
+# An output that is no regular file is refused in one line before any work, never waited on:
+# a named pipe nobody reads (opening it to write would wait for ever), a socket, a folder
+# behind a symbolic link.  Run as a process with a deadline: a hang fails the row.
+KINDS = [
+    ("fifo-without-reader", _fifo, "pipe is a named pipe (FIFO) that no program reads"),
+    ("symlink-to-fifo", _link_to_fifo, "link is a named pipe (FIFO) that no program reads"),
+    ("socket", _socket, "sock is a socket, not a file"),
+    ("symlink-to-folder", _link_to_folder, "link is a directory"),
+]
+
+
+@pytest.mark.parametrize("make, says", [k[1:] for k in KINDS], ids=[k[0] for k in KINDS])
+@pytest.mark.parametrize("verb", [["compensate", "ur5_model.json", "targets.csv", "--out"],
+                                  ["design", "ur5", "--n", "12", "--pool", "200", "--out"]], ids=["compensate", "design"])
+def test_an_output_that_is_no_regular_file_is_refused_without_waiting(tmp_path, verb, make, says):
+    from user_files import run_process
+
+    prepare(tmp_path)
+    name = make(tmp_path)
+    before = sorted(os.listdir(tmp_path))
+    process = run_process(tmp_path, [*verb, name], timeout=60)
+    lines = process.stderr.strip().splitlines()
+    assert process.returncode == 2 and len(lines) == 1 and says in lines[0], process.stderr
+    assert process.stdout == "" and sorted(os.listdir(tmp_path)) == before
+
+
+def test_a_named_pipe_with_a_reader_receives_the_whole_output(tmp_path):
+    import threading
+
+    from user_files import run_process
+
+    prepare(tmp_path)
+    os.mkfifo(tmp_path / "pipe")
+    received = []
+    reader = threading.Thread(target=lambda: received.append((tmp_path / "pipe").read_text()), daemon=True)
+    reader.start()
+    process = run_process(tmp_path, ["compensate", "ur5_model.json", "targets.csv", "--out", "pipe"], timeout=60)
+    reader.join(10)
+    assert process.returncode == 0, process.stderr
+    assert received and received[0].splitlines()[0].startswith("q1,") and len(received[0].splitlines()) == 9
+    assert stat.S_ISFIFO((tmp_path / "pipe").stat().st_mode)
 
 
 def test_a_write_the_system_stops_names_the_output_and_leaves_nothing(tmp_path):

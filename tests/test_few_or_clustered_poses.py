@@ -133,3 +133,21 @@ def test_sockets_of_several_placements_do_not_warn_of_one(tmp_path):
                                 "plate.toml", "--out", "o.json"])
     assert outcome.code == 0, outcome.output
     assert not any("one fixture placement" in line for line in outcome.lines), outcome.lines
+
+
+def test_kriging_on_poses_along_a_line_says_what_to_measure_once(tmp_path):
+    # 40 poses along x (y and z within 0.5 mm): the correlation length across the line cannot
+    # be found, for two outputs alike.  The diagnostic says what to measure, once for both,
+    # and names no setting the command line does not have (it said "lower theta_bounds").
+    import re
+
+    from user_files import invoke, prepare
+
+    prepare(tmp_path)
+    assert invoke(tmp_path, ["simulate", "ur5", "--sampling", "lhs", "--box", "200,600,-100,-99.5,300,300.5",
+                             "--n", "40", "--seed", "21", "--out", "f.csv"]).code == 0
+    outcome = invoke(tmp_path, ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json"])
+    assert outcome.code == 0, outcome.output
+    text = " ".join(re.sub(r"[│┃┌┐└┘├┤─]", " ", outcome.output).split())
+    assert text.count("hit its lower bound") == 1 and "outputs 1, 2: theta hit its lower bound" in text, text
+    assert "measure points spread wider" in text and not re.search(r"\b[a-z]+_[a-z_]+\b", text), text

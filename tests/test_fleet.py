@@ -208,8 +208,10 @@ def test_a_failed_robot_keeps_the_files_of_an_earlier_run(tmp_path, data):
 @needs_dask
 def test_the_command_line_on_a_local_cluster_exits_1_when_a_robot_fails(tmp_path, data):
     fleet = small_fleet(data, tmp_path)
+    env, scratch = _own_temporary_folder(tmp_path)
     done = subprocess.run(ROBOCAL + ["fleet", str(fleet), "--out", str(tmp_path / "out"), "--jobs", "2"],
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300, env=env)
+    assert list(scratch.iterdir()) == []  # the cluster's scratch space went with it
     assert done.returncode == 1, done.stderr
     assert "1 of 3 robots failed" in done.stderr and "Traceback" not in done.stderr
     assert "local cluster of 2 workers" in done.stdout
@@ -274,33 +276,51 @@ def _wait_for_address(scheduler_file, process, seconds=60):
     pytest.fail("dask scheduler did not write its address")
 
 
+def _own_temporary_folder(tmp_path):
+    """An environment whose temporary folder (TMPDIR) is an empty one of the test's: where
+    Dask's scratch space went (dask-scratch-space: lock files, a folder per worker)."""
+    folder = tmp_path / "tmp"
+    folder.mkdir()
+    return dict(os.environ, TMPDIR=str(folder)), folder
+
+
+# Stopping a fleet on a local cluster: when its two workers work, or while the cluster starts
+# (its first worker process just spawned).  It answers in one line, and leaves no worker
+# process and nothing in the temporary folder (Dask's scratch space went there, and stayed).
+STOPS = [("ctrl-c-at-work", signal.SIGINT, 2), ("sigterm-at-work", signal.SIGTERM, 2),
+         ("sigterm-while-the-cluster-starts", signal.SIGTERM, 1)]
+
+
 @pytest.mark.slow
 @needs_dask
-def test_ctrl_c_closes_the_local_cluster(tmp_path, data):
+@pytest.mark.parametrize("signum, workers_seen", [s[1:] for s in STOPS], ids=[s[0] for s in STOPS])
+def test_a_stopped_fleet_closes_its_local_cluster_and_leaves_no_scratch(tmp_path, data, signum, workers_seen):
     import psutil
 
     fleet = write_fleet(tmp_path / "fleet.toml", [
         {"name": f"r{k}", "robot": "irb120", "train": str(data / "irb_train.csv"), "method": "auto"} for k in range(4)])
+    env, scratch = _own_temporary_folder(tmp_path)
     process = subprocess.Popen(ROBOCAL + ["fleet", str(fleet), "--out", str(tmp_path / "out"), "--jobs", "2"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
         parent = psutil.Process(process.pid)
         deadline = time.monotonic() + 60
         workers = []
-        while len(workers) < 2 and time.monotonic() < deadline and process.poll() is None:
+        while len(workers) < workers_seen and time.monotonic() < deadline and process.poll() is None:
             workers = [c for c in parent.children(recursive=True) if "spawn" in " ".join(c.cmdline())]
-            time.sleep(0.2)
-        assert len(workers) == 2, "the local cluster's two workers did not start"
-        process.send_signal(signal.SIGINT)
+            time.sleep(0.05)
+        assert len(workers) >= workers_seen, "the local cluster's workers did not start"
+        workers = parent.children(recursive=True)
+        process.send_signal(signum)
         _, stderr = process.communicate(timeout=60)
     finally:
         if process.poll() is None:
             process.kill()
-    assert process.returncode == 128 + signal.SIGINT, stderr
-    assert "Traceback" not in stderr
+    assert process.returncode == 128 + signum, stderr
+    assert "Traceback" not in stderr and stderr.strip().splitlines()[-1] == "interrupted", stderr
     gone, alive = psutil.wait_procs(workers, timeout=20)
     assert not alive, f"worker processes left running: {alive}"
-
+    assert list(scratch.iterdir()) == [] and not (tmp_path / "out").exists()
 
 
 @needs_dask

@@ -73,3 +73,52 @@ def test_iso9283_plans_a_campaign_and_prints_the_figures_the_api_computes(tmp_pa
 def test_metrology_verbs_refuse_in_one_line(args, says, folder, tmp_path, monkeypatch):
     before = copy_inputs(folder, tmp_path, monkeypatch)
     assert_refused(args.split(), says, tmp_path, before)
+
+
+def _more_joint_rows(folder):
+    """40 joint rows no point was measured for (P60..P99, on lines 62..101 of the log)."""
+    rows = (folder / "joints.csv").read_text().splitlines()
+    return "\n".join(rows + [f"P{60 + k}," + row.split(",", 1)[1] for k, row in enumerate(rows[1:41])]) + "\n"
+
+
+def _more_points(folder):
+    """Points P60..P89 with no joint row (lines 64..93 of the points file)."""
+    lines = (folder / "points.txt").read_text().splitlines()
+    return "\n".join(lines + [f"P{60 + k};1;2;3" for k in range(30)]) + "\n"
+
+
+def _points_twice(folder):
+    """Every point measured twice, 0.02 mm apart in x the second time."""
+    lines = (folder / "points.txt").read_text().splitlines()
+    again = []
+    for line in lines[3:]:
+        name, x, y, z = line.split(";")
+        again.append(";".join([name, repr(float(x.replace(",", ".")) + 0.02).replace(".", ","), y, z]))
+    return "\n".join(lines + again) + "\n"
+
+
+# Many rows left out (or averaged) are reported in one line, not one line each: their count,
+# every line as ranges, some of their names; --json lists each.
+UNMATCHED = [
+    ("joint-rows-without-point", "joints.csv", _more_joint_rows, 60,
+     "warning: 40 joint rows have no point, left out: lines 62-101 (P60, P61"),
+    ("points-without-joint-row", "points.txt", _more_points, 60,
+     "warning: 30 points have no joint row, left out: lines 64-93 (P60, P61"),
+    ("points-measured-twice", "points.txt", _points_twice, 60,
+     "note: 60 points measured more than once, averaged (P0, P1, P10"),
+]
+
+
+@pytest.mark.parametrize("name, make, matched, says", [u[1:] for u in UNMATCHED], ids=[u[0] for u in UNMATCHED])
+def test_rows_left_out_of_an_import_are_reported_in_one_line(name, make, matched, says, folder, tmp_path,
+                                                            monkeypatch):
+    copy_inputs(folder, tmp_path, monkeypatch)
+    (tmp_path / name).write_text(make(folder))
+    result = run_ok("import", "--points", "points.txt", "--joints", "joints.csv", "--out", "m.csv")
+    notes = [line for line in result.output.splitlines() if line.startswith(("warning:", "note:"))]
+    assert len(notes) == 1 and notes[0].startswith(says), notes
+    assert len(notes[0]) < 160 and f"{matched} poses joined" in result.output
+    listed = json.loads(run_ok("import", "--points", "points.txt", "--joints", "joints.csv", "--out", "m.csv",
+                               "--json").output)
+    assert sum(map(len, (listed["joint_rows_without_point"], listed["points_without_joint_row"],
+                         listed["averaged"]))) == int(says.split()[1])

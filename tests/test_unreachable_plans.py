@@ -31,6 +31,9 @@ REFUSED = [
     ("design-targets-out-of-reach", [*D, "--targets", "tf.csv", "--out", "p.csv"], {"tf.csv": "x,y,z,rx,ry,rz\n5000,0,0,180,0,0\n5100,0,0,180,0,0\n"}, "none of the targets of tf.csv can be reached"),
     ("design-candidates-beyond-limits", ["design", "ur5", "--n", "12", "--candidates", "c.csv", "--out", "p.csv"], {"c.csv": "q1,q2,q3,q4,q5,q6\n" + "".join(f"{400 + i},0,0,0,0,0\n" for i in range(30))}, "lies beyond joint 1's limits"),
     ("design-too-few-poses", ["design", "ur5", "--n", "5", "--pool", "200", "--out", "p.csv"], None, "ask for at least 9 poses"),
+    # --n that no whole number per socket gives over every placement: the two that do (24 was refused suggesting 24)
+    ("design-fixture-n-not-per-socket", ["design", "kr150-2", "--fixture", "plate.toml", "--placements", "pl.csv", "--n", "24", "--out", "p.csv"], {"pl.csv": "x,y,z,rx,ry,rz\n1500,-300,400,0,0,0\n1600,300,400,0,0,90\n1400,0,700,0,0,45\n"}, "--n 24 over 3 reachable placements x 3 sockets is not a whole number per socket: ask for 18 or 27 (2 or 3 per socket)"),
+    ("design-fixture-n-not-placements", ["design", "kr150-2", "--fixture", "plate.toml", "--placements", "pl.csv", "--per-socket", "2", "--n", "25", "--out", "p.csv"], {"pl.csv": "x,y,z,rx,ry,rz\n1500,-300,400,0,0,0\n1600,300,400,0,0,90\n1400,0,700,0,0,45\n"}, "--n 25 is not a whole number of placements x 3 sockets x 2 per socket: ask for 24 or 30"),
     ("design-fixture-too-few-poses", ["design", "kr150-2", "--n", "6", "--fixture", "plate.toml", "--region", "1000,1500,-300,300,0,200", "--out", "p.csv"], None, "leave fewer than 2 per socket"),
     ("iso-centre-below-the-floor", ["iso9283", "plan", "ur5", "--centre", "400,0,-800", "--out", "i.csv"], None, "about 400, 0, -800 mm is reachable"),
     ("iso-centre-out-of-reach", ["iso9283", "plan", "ur5", "--centre", "3000,0,300", "--out", "i.csv"], None, "about 3000, 0, 300 mm is reachable"),

@@ -247,6 +247,37 @@ def test_tagged_targets_give_the_same_commands(tmp_path, columns, factor, unit):
         assert [float(v) for v in a[:12]] == pytest.approx([float(v) for v in b[:12]], abs=1e-6)
 
 
+# design's candidates, targets and measured poses are read as measurement files are: a column
+# tagged with its unit (q1[rad]) plans what the file in degrees plans (candidates tagged q1[rad]
+# were refused: "lacks columns q1 ... q6").
+DESIGN = ["design", "ur5", "--n", "10", "--out", "p.csv"]
+TAGGED_DESIGN = [
+    ("candidates-radians", ["--candidates", "f.csv"], "plan.csv", Q, math.pi / 180, "rad", Q),
+    ("targets-radians", ["--pool", "200", "--targets", "f.csv"], "plan.csv", Q, math.pi / 180, "rad", Q),
+    ("existing-radians", ["--pool", "200", "--existing", "f.csv"], "ur5.csv", Q, math.pi / 180, "rad", None),
+    ("existing-metres", ["--pool", "200", "--existing", "f.csv"], "ur5.csv", XYZ, 1e-3, "m", None),
+]
+
+
+@pytest.mark.parametrize("args, name, columns, factor, unit, keep", [row[1:] for row in TAGGED_DESIGN],
+                         ids=[row[0] for row in TAGGED_DESIGN])
+def test_tagged_design_inputs_plan_what_degrees_and_mm_plan(tmp_path, args, name, columns, factor, unit, keep):
+    plans, results = [], []
+    for folder, tagged in ((tmp_path / "plain", (1.0, None)), (tmp_path / "tagged", (factor, unit))):
+        folder.mkdir()
+        prepare(folder, {"f.csv": scaled(name, columns, *tagged, keep=keep)})
+        outcome = invoke(folder, DESIGN + args + ["--json"])
+        assert outcome.code == 0, outcome.output
+        plans.append(list(csv.DictReader(open(folder / "p.csv"))))
+        results.append(json.loads(outcome.result.stdout))
+    # The noise a calibration of the measured poses leaves (--existing): found in both.
+    assert results[0]["noise_from"] == results[1]["noise_from"]
+    assert results[0]["noise_mm"] == pytest.approx(results[1]["noise_mm"], rel=1e-6)
+    assert [row["pose"] for row in plans[0]] == [row["pose"] for row in plans[1]]
+    for a, b in zip(*plans):
+        assert [float(a[q]) for q in Q] == pytest.approx([float(b[q]) for q in Q], abs=1e-6)
+
+
 # iso9283 plan's typed numbers meet the same units check as design's and simulate's.
 ISO_PLAN_UNITS = [
     ("--rpy", "3.1416,0,0", "look like radians"),

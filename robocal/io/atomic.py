@@ -9,6 +9,15 @@ An interruption (``KeyboardInterrupt``, or the ``SystemExit`` the command line r
 SIGTERM) that stops a write removes the temporary file and is re-raised with the attribute
 ``unwritten_file``: the target it left as it was, for the one line the command line prints.
 
+What an output path may be is judged here, for every command, before any work
+(:func:`check_outputs`) and again as it is written: a name ending in ``/`` names a folder,
+not a file, and is refused (``--out newdir/`` used to write a file ``newdir``); so are a
+folder, a disk (a block device) and a socket.  A device such as ``/dev/null`` or a pipe
+(``--out /dev/stdout`` in a pipeline) is written through, never renamed over; a named pipe
+no program reads is refused at once, where opening it would wait for a reader for ever.
+The descriptor the check opens on a pipe is kept for the write: closing it would tell the
+reader the output had ended.
+
 A command writes several files (a measurement file and its truth, a dataset's four files, a
 fleet's folders), and one that fails half-way must not leave the first ones behind:
 :func:`outputs_together` makes the files and folders written in its block one unit.  Each
@@ -22,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import errno
 import os
 import secrets
 import shutil
@@ -57,7 +67,7 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes | Iterable[bytes]) -
         InputError: the directory does not exist, ``path`` is a directory, or the
             directory is not writable.
     """
-    target = Path(path)
+    target = _output_path(path)
     directory = target.parent
     _check_writable_target(target, directory)
     if _is_device(target):
@@ -141,6 +151,7 @@ def outputs_together(keep_on=()):
         outputs.keep()
     finally:
         _OUTPUTS.reset(token)
+        _close_held_pipes()
 
 
 def promote(source: str | os.PathLike, target: str | os.PathLike) -> None:
@@ -202,11 +213,50 @@ def _is_device(target: Path) -> bool:
     return not stat.S_ISREG(mode) and not stat.S_ISDIR(mode)
 
 
-def _write_through(target: Path, data) -> Path:
-    """Write ``data`` into the existing device ``target`` as a stream (no atomicity exists for
-    a device); a device that refuses the bytes (``/dev/full``) is an InputError."""
+# The write ends of the pipes check_outputs found a reader on, by (device, inode): kept open
+# for the write, since closing one would end the reader's input before anything was written.
+_PIPES = {}
+
+
+def _held_pipe(target: Path):
+    """The write end of the pipe ``target`` (None when it is no pipe), opened without waiting:
+    a named pipe that no program reads is refused (opening it to write would wait for one)."""
     try:
-        with open(target, "wb") as stream:
+        status = target.stat()
+    except OSError:
+        return None
+    if not stat.S_ISFIFO(status.st_mode):
+        return None
+    key = (status.st_dev, status.st_ino)
+    if key not in _PIPES:
+        try:
+            _PIPES[key] = os.open(target, os.O_WRONLY | os.O_NONBLOCK)
+        except OSError as error:
+            if error.errno == errno.ENXIO:
+                raise InputError(f"{target} is a named pipe (FIFO) that no program reads: writing it would wait "
+                                 "for ever; start its reader first, or choose a regular file for --out") from None
+            raise InputError(f"cannot write {target}: {error.strerror or error}; choose another --out") from None
+    return key
+
+
+def _close_held_pipes():
+    """Close the pipes checked but not written (the command failed first): their readers
+    see the end of an empty output."""
+    while _PIPES:
+        with contextlib.suppress(OSError):
+            os.close(_PIPES.popitem()[1])
+
+
+def _write_through(target: Path, data) -> Path:
+    """Write ``data`` into the existing device or pipe ``target`` as a stream (no atomicity
+    exists for one); a device that refuses the bytes (``/dev/full``), or a pipe whose reader
+    stops, is an InputError.  The device is opened without waiting (a serial line waits for
+    its carrier), then written in the ordinary blocking way."""
+    try:
+        key = _held_pipe(target)
+        descriptor = _PIPES.pop(key) if key is not None else os.open(target, os.O_WRONLY | os.O_NONBLOCK)
+        os.set_blocking(descriptor, True)
+        with os.fdopen(descriptor, "wb") as stream:
             for chunk in _slices(data):
                 stream.write(chunk)
     except OSError as error:
@@ -233,9 +283,10 @@ def check_outputs(outputs, inputs=()) -> None:
     (its folder exists, it is not a folder), no two outputs are the same file, and no output
     is one of the ``inputs`` (a model written over the measurements it was fitted to).
     Raises InputError naming the path."""
-    outputs = [Path(o) for o in outputs if o is not None]
+    outputs = [_output_path(o) for o in outputs if o is not None]
     for target in outputs:
         _check_writable_target(target, target.parent)
+        _held_pipe(target)  # a pipe without a reader is refused before any work
     for k, target in enumerate(outputs):
         if _is_device(target):  # /dev/null for two outputs, or an input read from a terminal
             continue
@@ -254,6 +305,16 @@ def _same_file(a: Path, b: Path) -> bool:
     return a.resolve() == b.resolve()
 
 
+def _output_path(path: str | os.PathLike) -> Path:
+    """``path`` as a Path, refused when its text names a folder by its form (``newdir/``,
+    ``newdir/.``): a Path drops the ending and would write a file ``newdir``."""
+    text = os.fspath(path)
+    if isinstance(text, str) and os.path.basename(text) in ("", ".") and not Path(text).is_dir():
+        raise InputError(f"{text} names a folder, not a file: give a file name, e.g. "
+                         f"{os.path.join(os.path.normpath(text), 'NAME')}")
+    return Path(text)
+
+
 def _check_writable_target(target: Path, directory: Path) -> None:
     """Fail with a one-line explanation before anything is created."""
     if not directory.is_dir():
@@ -262,6 +323,15 @@ def _check_writable_target(target: Path, directory: Path) -> None:
         raise InputError(f"directory {directory} does not exist: create it or choose another --out")
     if target.is_dir():
         raise InputError(f"{target} is a directory: give a file name, e.g. {target / 'out.csv'}")
+    try:
+        mode = target.stat().st_mode
+    except OSError:
+        return
+    if stat.S_ISBLK(mode):
+        raise InputError(f"{target} is a disk (a block device): robocal writes files, never over a disk; "
+                         "choose another --out")
+    if stat.S_ISSOCK(mode):
+        raise InputError(f"{target} is a socket, not a file: choose another --out")
 
 
 def _sync_directory(directory: Path) -> None:

@@ -1,6 +1,10 @@
 """The files of a measurement plan (``robocal design``): configurations and candidate
 placements read, the poses CSV written.
 
+Configurations (a design's candidates, joint targets, measured poses) are read by the reader
+of measurement files (:mod:`robocal.io.csv_table`, :func:`robocal.io.tables._named_joints`): a
+column tagged with its unit (``q2[rad]``) or named by the robot's joints is read as there.
+
 The poses CSV is the joint part of a measurement file: ``pose`` (the order to measure in),
 ``q1`` … ``qN`` in the controller's degrees (mm for prismatic joints) and ``x_nominal,
 y_nominal, z_nominal``, where the nominal model puts the TCP (mm, robot base frame; a check
@@ -20,7 +24,8 @@ from ..errors import FileFormatError, InputError
 from ..spatial import compose_pose
 from .atomic import write_text_atomic
 from .file_kinds import READERS, check, marked
-from .csv_table import _check_header_line, _records
+from .tables import _named_joints
+from .csv_table import _check_header_line, _read_table, _records
 from .units import check_angles
 
 # Joint values in a file that all lie within this (and spread by at least RADIAN_SPREAD over
@@ -69,35 +74,43 @@ def numbers(path, header, rows, names, unit=""):
     return values
 
 
+def joint_table(path, chain):
+    """The CSV ``path`` read by the reader of measurement and targets files (its unit tags,
+    ``q2[rad]``, applied; joint columns named by the robot's joints renamed q1 ... qN)."""
+    return _named_joints(_read_table(path), chain.joint_names)
+
+
 def read_joints(path, chain, what="configurations"):
-    """Joint values of a CSV (columns q1 … qN in deg, mm on prismatic joints; others
-    ignored) -> ((N, n) rad, header).  One-line errors for missing columns, empty, non-numeric
-    or NaN cells, radian-looking values and values beyond the joint limits."""
-    header, rows = table(path)
+    """Joint values of a CSV (columns q1 … qN in deg, mm on prismatic joints, or tagged with
+    their unit, ``q2[rad]``, or named by the robot's joints, as in a measurement file; others
+    ignored) -> ((N, n) rad, header).  One-line errors for missing columns, empty,
+    non-numeric or NaN cells, radian-looking values and values beyond the joint limits."""
+    data = joint_table(path, chain)
+    header = data.header
     check(path, replace(READERS["configurations"], reading_as=f"a file of {what}"), header=header,
-          column=_cells(header, rows))
+          column=data.column)
     names = [f"q{k}" for k in range(1, chain.n_joints + 1)]
     missing = [name for name in names if name not in header]
     if missing:
         raise FileFormatError(f"{path} lacks column{'s' if len(missing) > 1 else ''} {', '.join(missing)}: {what} need "
                               f"the joint values q1 ... q{chain.n_joints} of robot '{chain.name}' (deg; mm on "
                               "prismatic joints)")
-    if not rows:
-        raise FileFormatError(f"{path} has a header but no rows of {what}")
-    values = numbers(path, header, rows, names, " (deg)")
-    revolute = values[:, chain.revolute]
-    if (len(values) >= RADIAN_ROWS and revolute.size and np.abs(revolute).max() < RADIAN_BOUND
-            and np.ptp(revolute, axis=0).max() >= RADIAN_SPREAD):
+    values = data.numbers(names)
+    # Untagged revolute columns only: a column tagged with its unit says what it holds.
+    untagged = values[:, [k for k in np.flatnonzero(chain.revolute) if names[k] not in data.scales]]
+    if (len(values) >= RADIAN_ROWS and untagged.size and np.abs(untagged).max() < RADIAN_BOUND
+            and np.ptp(untagged, axis=0).max() >= RADIAN_SPREAD):
         raise FileFormatError(f"all joint values of {path} lie within ±{RADIAN_BOUND}: they look like radians, but "
-                              "robocal reads degrees; convert them with numpy.degrees() or check the export")
+                              "robocal reads degrees; tag the columns q1[rad] ... or convert them with "
+                              "numpy.degrees()")
     q = chain.joints_from_file(values)
     tolerance = np.where(chain.revolute, np.radians(LIMIT_TOLERANCE), LIMIT_TOLERANCE)
     beyond = np.flatnonzero(np.any((q < chain.lower - tolerance) | (q > chain.upper + tolerance), axis=1))
     if beyond.size:
         outside = (q[beyond[0]] < chain.lower - tolerance) | (q[beyond[0]] > chain.upper + tolerance)
         joint = int(np.flatnonzero(outside)[0])
-        raise InputError(f"{path} row {beyond[0] + 2}: q{joint + 1} = {values[beyond[0], joint]:.6g} lies beyond joint "
-                         f"{joint + 1}'s limits of robot '{chain.name}' "
+        raise InputError(f"{path} row {data.lines[beyond[0]]}: q{joint + 1} = {values[beyond[0], joint]:.6g} lies "
+                         f"beyond joint {joint + 1}'s limits of robot '{chain.name}' "
                          f"({len(beyond)} row{'s' if beyond.size > 1 else ''} "
                          "so): remove those rows or fix the robot file's min and max")
     return np.clip(q, chain.lower, chain.upper), header

@@ -22,7 +22,7 @@ from ..errors import InputError
 from ..io.atomic import check_outputs
 from ..io.library import load_robot
 from ..io.observations import check_robot_in_mm, read_observations, read_target_poses
-from ..io.poses import read_joints, read_placements, table, write_poses
+from ..io.poses import joint_table, read_joints, read_placements, write_poses
 from ..io.units import check_robot_lengths, check_typed_units
 from ..kinematics.ik import solve_ik
 from ..spatial import compose_pose, rpy_to_matrix
@@ -40,7 +40,7 @@ def _targets(path, chain, volume):
     """Target configurations (rad): a file's q columns, or its x, y, z, rx, ry, rz targets
     solved by the nominal IK (q columns as posture hints), the unreachable ones dropped;
     refused when one puts the arm outside ``volume`` (a WorkingVolume)."""
-    header, _ = table(path)
+    header = joint_table(path, chain).header
     if "x" not in header and "q1" in header:
         q = read_joints(path, chain, "targets")[0]
         volume.check_given(chain, q, np.arange(2, len(q) + 2), path, "targets")
@@ -60,7 +60,7 @@ def _check_existing(path, chain):
     robot's measurements, or positions that are the nominal robot's own, are refused."""
     from ..estimation.plausibility import check_measured, check_robot_data
 
-    header, _ = table(path)
+    header = joint_table(path, chain).header
     if {"x", "y", "z"} <= set(header):
         observations = read_observations(path, chain)
         check_robot_data(chain, observations, fitting=False)
@@ -73,7 +73,7 @@ def _noise_from(path, chain, parameters, payload):
     positions or too few poses."""
     from ..estimation.calibration import KinematicCalibration
 
-    header, _ = table(path)
+    header = joint_table(path, chain).header
     if not {"x", "y", "z"} <= set(header):
         return None
     observations = read_observations(path, chain)
@@ -99,7 +99,7 @@ def _variance_kernel(path, chain, parameters, payload):
     from ..estimation.joint_kriging import JointKriging
     from ..estimation.kriging import Kriging
 
-    header, _ = table(path)
+    header = joint_table(path, chain).header
     if not {"x", "y", "z"} <= set(header):
         return None
     observations = read_observations(path, chain)
@@ -230,6 +230,7 @@ def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_sock
         raise
     sockets = len(rig.ids)
     places = len(candidates.poses)
+    per_socket_given = per_socket
     if per_socket is None:
         per_socket = n // (sockets * places)
         if per_socket < 2:
@@ -239,6 +240,12 @@ def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_sock
         count = places
     else:
         count = n // (sockets * per_socket)
+    if count * sockets * per_socket != n and per_socket_given is None:
+        # Every reachable placement is used: what --n leaves free is the number per socket.
+        fewer, more = per_socket * sockets * places, (per_socket + 1) * sockets * places
+        raise InputError(f"--n {n} over {places} reachable placements x {sockets} sockets is not a whole number per "
+                         f"socket: ask for {fewer} or {more} ({per_socket} or {per_socket + 1} per socket), or give "
+                         "--per-socket to use fewer placements")
     if count * sockets * per_socket != n:
         whole = max(count, 1) * sockets * per_socket
         raise InputError(f"--n {n} is not a whole number of placements x {sockets} sockets x {per_socket} per socket: "

@@ -307,13 +307,13 @@ class Kriging:
             if optimised:
                 for k in np.flatnonzero(state.theta <= lo * BOUND_TOLERANCE):
                     self.diagnostics_.append(
-                        f"{who}: theta hit its lower bound in dimension {k}: the field is "
-                        f"smoother than the bound allows (lower theta_bounds to let the "
-                        f"correlation length grow)")
+                        f"{who}: theta hit its lower bound in dimension {k}: the error barely "
+                        f"changes along that input over these points (measure points spread "
+                        f"wider along it, or take the error as smooth there)")
                 for k in np.flatnonzero(state.theta >= hi / BOUND_TOLERANCE):
                     self.diagnostics_.append(
-                        f"{who}: theta hit its upper bound in dimension {k}: the field varies "
-                        f"faster than the points resolve (add points or raise theta_bounds)")
+                        f"{who}: theta hit its upper bound in dimension {k}: the error varies "
+                        f"faster along that input than the points resolve (measure more points)")
                 if self.nugget == "estimate" and state.nugget >= NUGGET_BOUNDS[1] / BOUND_TOLERANCE:
                     self.diagnostics_.append(
                         f"{who}: the nugget hit its upper bound {NUGGET_BOUNDS[1]:g}: the data "

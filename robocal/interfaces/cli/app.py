@@ -18,6 +18,7 @@ import warnings
 import numpy as np
 import typer
 from rich.table import Table
+from rich.text import Text
 from typer import rich_utils
 from typer.core import TyperCommand, TyperGroup
 
@@ -56,9 +57,14 @@ class _HelpTable(Table):
     name options, arguments and commands never wrap, so that a narrow terminal (an 80-column
     log) shrinks the type and help columns and never cuts a name short with "…";
     and the help column gives the type column the width of its longest choice when it can
-    keep its own longest word ("full+compliance+gain s" was broken).  An options row is
-    [required marker,] long names, short names, their negations, type, help; a commands row
-    is name, help."""
+    keep its own longest word ("full+compliance+gain s" was broken).  Where even that leaves
+    a name, a choice or a word of help broken (calibrate's 13 parameter sets, a 60-column
+    terminal), the names and the type go in one column, the type under the names, as wide as
+    its longest word, and the help takes the rest.  An options
+    row is [required marker,] long names, short names, their negations, type, help; a
+    commands row is name, help."""
+
+    _stacked = False
 
     def add_row(self, *renderables, **kwargs):
         super().add_row(*renderables, **kwargs)
@@ -67,17 +73,39 @@ class _HelpTable(Table):
         for column in names:
             self.columns[column].no_wrap = True
 
+    def _longest(self, column):
+        return max((_longest_word(cell) for cell in self.columns[column].cells), default=0) + \
+            self._get_padding_width(column)
+
     def _calculate_column_widths(self, console, options):
         widths = super()._calculate_column_widths(console, options)
-        if len(widths) >= 6 and self.columns:
+        if len(widths) >= 6 and self.columns and not self._stacked:
             kind, help_ = len(widths) - 2, len(widths) - 1
-            longest = [max((_longest_word(cell) for cell in self.columns[c].cells), default=0)
-                       + self._get_padding_width(c) for c in (kind, help_)]
-            need = longest[0] - widths[kind]
-            if need > 0 and widths[help_] - need >= longest[1]:
+            longest = [self._longest(c) for c in range(len(widths))]
+            need = longest[kind] - widths[kind]
+            if need > 0 and widths[help_] - need >= longest[help_]:
                 widths[kind] += need
                 widths[help_] -= need
+            if any(width < need for width, need in zip(widths, longest)):
+                self._stack(kind)
+                return super()._calculate_column_widths(console, options)
         return widths
+
+    def _stack(self, kind):
+        """One column of names in place of the four (long, short, negations) and the type:
+        a row's names joined by " / ", its type on the next line; as wide as its longest word,
+        wrapped between words."""
+        self._stacked = True
+        columns, first = self.columns, kind - 4
+        for row in range(len(columns[kind]._cells)):
+            cells = [columns[c]._cells[row] for c in range(first, kind)]
+            names = Text(" / ").join([cell for cell in cells if _longest_word(cell)])
+            type_cell = columns[kind]._cells[row]
+            columns[first]._cells[row] = Text.assemble(names, "\n", type_cell) if _longest_word(type_cell) else names
+        for column in range(kind, first, -1):
+            del columns[column]
+        columns[first].no_wrap = False
+        columns[first].width = self._longest(first) - self._get_padding_width(first)
 
 
 # Every command's help is drawn by typer's rich_utils: one change covers them all.

@@ -6,7 +6,7 @@ from ...errors import InputError
 from ...settings import Choice, Number, Numbers, Setting
 from .app import verb
 from .options import JSON, ROOT, TIP, declared, out_option
-from .rendering import print_iso9283, print_json, print_result, say
+from .rendering import print_imported, print_iso9283, print_json, print_result, say
 
 ISO_ACTIONS = ("plan",)
 
@@ -62,19 +62,7 @@ def import_points(*, points: str, joints: str, out_file: str = out_option("Measu
     from ...io.point_join import import_points as run
 
     result = run(points, joints, out_file, units=units, by=by, max_dt=max_dt)
-    if as_json:
-        print_json(result)
-        return
-    print_result({k: v for k, v in result.items() if k not in ("joint_rows_without_point", "points_without_joint_row",
-                                                               "averaged")}, False,
-                 f"{result['matched']} poses joined by {result['by']} -> {out_file}")
-    for entry in result["joint_rows_without_point"]:
-        say("warning", "yellow", f"joint row on line {entry['line']} ({entry['key']}) has no point: left out")
-    for entry in result["points_without_joint_row"]:
-        say("warning", "yellow", f"point {entry['name']} (line {entry['line']}) has no joint row: left out")
-    for entry in result["averaged"]:
-        say("note", "cyan", f"point {entry['name']} measured {entry['count']} times: averaged (spread "
-                            f"{entry['spread_mm']:.4f} mm)")
+    print_imported(result, out_file, as_json)
 
 
 @verb()

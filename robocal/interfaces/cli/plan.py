@@ -207,9 +207,10 @@ def design(robot: str = ROBOT, *, n: int,
         if criterion not in SOCKET_CRITERIA:
             raise InputError(f"--criterion {criterion} is for residual models over poses; a ball-in-socket design "
                              "takes prediction or d-optimal")
-        result = socket_job(robot, out_file, fixture=fixture, n=n, placements=placements, region=region,
-                            per_socket=per_socket, criterion=criterion, seed=seed, tool=tool, noise=noise,
-                            margin=margin, max_tilt=max_tilt, root=root, tip=tip)
+        with progress("design", None, enabled=not as_json):  # a heartbeat: its stages are not reported
+            result = socket_job(robot, out_file, fixture=fixture, n=n, placements=placements, region=region,
+                                per_socket=per_socket, criterion=criterion, seed=seed, tool=tool, noise=noise,
+                                margin=margin, max_tilt=max_tilt, root=root, tip=tip)
     else:
         with progress("design", None, enabled=not as_json) as advance:
             result = design_job(robot, out_file, n=n, seed=seed, criterion=criterion, parameters=parameters,

@@ -2,6 +2,7 @@
 tables and one-line notes otherwise.  The commands compute (``robocal.interfaces.jobs`` and
 the other jobs) and hand their results to these functions; nothing here computes."""
 import contextlib
+import copy
 import json
 import sys
 import textwrap
@@ -29,16 +30,33 @@ def result_starts():
 
 
 class _ResultConsole(Console):
-    """The console of results: what waits for the first result line runs before it.  A note
+    """The console of results: what waits for the first result line runs before it.  No line
+    it prints is wider than the console, so that a result reads in an 80-column log: a note
     (one plain text) is wrapped at the console's width, its continuation lines indented under
-    its first word, so that it reads in an 80-column log; tables size themselves, and JSON
-    is printed without the console (:func:`print_json`)."""
+    its first word, and so is a table's title (the console prints text unwrapped, a title
+    included); tables size their rows themselves, and JSON is printed without the console
+    (:func:`print_json`)."""
 
     def print(self, *args, **kwargs):
         result_starts()
-        if len(args) == 1 and isinstance(args[0], str) and not kwargs and len(args[0]) > self.width:
-            args = (_wrapped(args[0], self.width),)
+        if len(args) == 1 and not kwargs:
+            args = (_fitted(args[0], self.width),)
         super().print(*args, **kwargs)
+
+
+def _fitted(renderable, width):
+    """``renderable`` with its text wrapped at ``width``: a note (a string, or a Text of one
+    style), or a table's title; anything else as it is."""
+    if isinstance(renderable, str) and len(renderable) > width:
+        return _wrapped(renderable, width)
+    if isinstance(renderable, Text) and not renderable.spans and len(renderable.plain) > width:
+        return Text(_wrapped(renderable.plain, width), style=renderable.style)
+    if isinstance(renderable, Table) and isinstance(renderable.title, str) and len(renderable.title) > width:
+        fitted = copy.copy(renderable)
+        fitted.title = "\n".join(textwrap.wrap(renderable.title, width=width, break_long_words=False,
+                                               break_on_hyphens=False))
+        return fitted
+    return renderable
 
 
 def _wrapped(text, width):
@@ -121,8 +139,28 @@ def cell(value):
     if isinstance(value, float):
         return f"{value:.4f}"
     if isinstance(value, (list, tuple)):
-        return ", ".join(map(str, value)) or "none"
+        return ", ".join(said_once(value)) or "none"
     return "-" if value is None else str(value)
+
+
+def said_once(items):
+    """The texts of ``items``, each thing said once: ``"who: what"`` texts that say the same
+    ``what`` become one (``output 1: s``, ``output 2: s`` -> ``outputs 1, 2: s``), in the order
+    they came."""
+    said = {}
+    for item in map(str, items):
+        who, colon, what = item.partition(": ")
+        said.setdefault(what if colon else item, []).append(who if colon else None)
+    texts = []
+    for what, whos in said.items():
+        if whos[0] is None:
+            texts.append(what)
+            continue
+        words = [who.split(" ", 1) for who in whos]
+        if len(whos) > 1 and all(len(w) == 2 and w[0] == words[0][0] for w in words):
+            whos = [f"{words[0][0]}s {', '.join(w[1] for w in words)}"]
+        texts.append(f"{', '.join(whos)}: {what}")
+    return texts
 
 
 def without_domain(result):
@@ -185,6 +223,69 @@ def print_exported(result, out_file, as_json):
 
 def _stats_row(table, label, stats):
     table.add_row(label, f"{stats['mean_mm']:.4f}", f"{stats['rms_mm']:.4f}", f"{stats['max_mm']:.4f}")
+
+
+# --------------------------------------------------------------------------- lists of rows
+def line_ranges(lines):
+    """Line numbers as runs: ``[4, 5, 6, 9]`` -> ``"4-6, 9"``."""
+    runs = []
+    for line in sorted(set(lines)):
+        if runs and line == runs[-1][1] + 1:
+            runs[-1][1] = line
+        else:
+            runs.append([line, line])
+    return ", ".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
+
+
+def some_names(names, width=50):
+    """``names`` joined, or the first ones, "...", and the last when they would pass ``width``
+    characters."""
+    names = [str(name) for name in names]
+    joined = ", ".join(names)
+    if len(joined) <= width:
+        return joined
+    shown = []
+    while names[:len(shown) + 1] and len(", ".join(names[:len(shown) + 1])) <= width - len(names[-1]) - 7:
+        shown.append(names[len(shown)])
+    return ", ".join(shown + ["...", names[-1]])
+
+
+def say_rows(label, style, rows, one, many):
+    """One line for the rows a command left out (``rows``: (line, name)), however many: for
+    one, ``one`` (formatted with its ``line`` and ``name``), else ``many`` (with their
+    ``count``, ``lines`` as ranges and ``names``, some of them); --json lists every row."""
+    if len(rows) == 1:
+        say(label, style, one.format(line=rows[0][0], name=rows[0][1]))
+    elif rows:
+        say(label, style, many.format(count=len(rows), lines=line_ranges(line for line, _ in rows),
+                                      names=some_names(name for _, name in rows)))
+
+
+def print_imported(result, out_file, as_json):
+    """import: the join's summary; then, in a line each, the joint rows with no point, the
+    points with no joint row (every line, as ranges), and the points measured more than once."""
+    if as_json:
+        print_json(result)
+        return
+    lists = ("joint_rows_without_point", "points_without_joint_row", "averaged")
+    print_result({k: v for k, v in result.items() if k not in lists}, False,
+                 f"{result['matched']} poses joined by {result['by']} -> {out_file}")
+    say_rows("warning", "yellow", [(e["line"], e["key"]) for e in result["joint_rows_without_point"]],
+             "joint row on line {line} ({name}) has no point: left out",
+             "{count} joint rows have no point, left out: lines {lines} ({names})")
+    say_rows("warning", "yellow", [(e["line"], e["name"]) for e in result["points_without_joint_row"]],
+             "point {name} (line {line}) has no joint row: left out",
+             "{count} points have no joint row, left out: lines {lines} ({names})")
+    averaged = result["averaged"]
+    if len(averaged) == 1:
+        entry = averaged[0]
+        say("note", "cyan", f"point {entry['name']} measured {entry['count']} times: averaged (spread "
+                            f"{entry['spread_mm']:.4f} mm)")
+    elif averaged:
+        widest = max(averaged, key=lambda entry: entry["spread_mm"])
+        say("note", "cyan", f"{len(averaged)} points measured more than once, averaged "
+                            f"({some_names(entry['name'] for entry in averaged)}): largest spread "
+                            f"{widest['spread_mm']:.4f} mm, of {widest['name']}")
 
 
 # --------------------------------------------------------------------------- calibrate, compare, validate
