@@ -38,6 +38,7 @@ import logging
 import os
 import shutil
 import signal
+import sys
 import tempfile
 import threading
 from pathlib import PurePath
@@ -235,7 +236,7 @@ def _local_client(jobs):
         # that the cluster is closed: stopped half-built, it left its workers and scratch behind.
         with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
                               "distributed.worker.preload": [__name__], "temporary-directory": scratch}), \
-                _signals_held():
+                _signals_held(), _stderr_to(os.path.join(scratch, "workers.log")):
             cluster = distributed.LocalCluster(
                 n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
                 scheduler_kwargs={"dashboard_address": "127.0.0.1:0"}, silence_logs=logging.CRITICAL,
@@ -246,6 +247,27 @@ def _local_client(jobs):
         if cluster is not None:
             cluster.close()
         shutil.rmtree(scratch, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def _stderr_to(path):
+    """File descriptor 2 goes to ``path`` in the block, for the processes started there to
+    inherit: a local cluster's workers, which a terminal's Ctrl-C to the process group reaches
+    while they still import Dask, before their preload ignores it, and which would each print
+    that KeyboardInterrupt's traceback (the command line answers it once, held by
+    _signals_held).  Their logs are silenced and their errors reach this process through
+    their results; this process's own stderr is back when the block ends."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    target = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o600)
+    try:
+        os.dup2(target, 2)
+        yield
+    finally:
+        sys.stderr.flush()
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(target)
 
 
 @contextlib.contextmanager

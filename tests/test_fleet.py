@@ -328,8 +328,7 @@ def test_a_stopped_fleet_closes_its_local_cluster_and_leaves_no_scratch(tmp_path
 def test_ctrl_c_to_the_whole_process_group_ends_in_one_line(tmp_path, data):
     # A terminal's Ctrl-C reaches every process of its group, the local cluster's workers too:
     # once started they ignore it, so only the command line answers, once, and leaves no
-    # output folder.  (A Ctrl-C while a worker is still importing, before its preload runs,
-    # still gets that worker's traceback.)
+    # output folder.
     import psutil
 
     fleet = write_fleet(tmp_path / "fleet.toml", [
@@ -360,6 +359,33 @@ def test_ctrl_c_to_the_whole_process_group_ends_in_one_line(tmp_path, data):
     assert process.returncode in (0, 128 + signal.SIGINT), stderr  # 0: the fleet was done before the signal
     if process.returncode:
         assert not (tmp_path / "out").exists()
+
+
+def test_ctrl_c_to_the_whole_process_group_while_a_worker_imports_ends_in_one_line(tmp_path, data):
+    # The instant a worker process exists it is still importing Dask, long before its preload
+    # ignores Ctrl-C, and the group's Ctrl-C stops it with a KeyboardInterrupt: its traceback
+    # went to the terminal.  Workers are started with their stderr in the cluster's scratch
+    # folder, and the command line's own answer is the one line.
+    import psutil
+
+    fleet = write_fleet(tmp_path / "fleet.toml", [
+        {"name": f"r{k}", "robot": "irb120", "train": str(data / "irb_train.csv"), "method": "auto"} for k in range(4)])
+    process = subprocess.Popen(ROBOCAL + ["fleet", str(fleet), "--out", str(tmp_path / "out"), "--jobs", "1"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        parent, deadline, workers = psutil.Process(process.pid), time.monotonic() + 60, []
+        while not workers and time.monotonic() < deadline and process.poll() is None:
+            workers = [c for c in parent.children(recursive=True) if "spawn_main" in " ".join(c.cmdline())]
+            time.sleep(0.01)
+        assert workers, "no worker started"
+        os.killpg(process.pid, signal.SIGINT)
+        _, stderr = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert "Traceback" not in stderr and "Error" not in stderr, stderr
+    assert process.returncode == 128 + signal.SIGINT and stderr.strip() == "interrupted", stderr
+    assert not (tmp_path / "out").exists()
 
 
 # --------------------------------------------------------------------------- without Dask
