@@ -325,17 +325,36 @@ def test_a_stopped_fleet_closes_its_local_cluster_and_leaves_no_scratch(tmp_path
 
 @needs_dask
 @pytest.mark.slow
-def test_ctrl_c_to_the_whole_process_group_ends_in_one_line(tmp_path, data):
-    # A terminal's Ctrl-C reaches every process of its group, the local cluster's workers too:
-    # once started they ignore it, so only the command line answers, once, and leaves no
-    # output folder.
+def _ctrl_c_to_the_group_once(tmp_path, data, ready):
+    """Run a fleet of four ``auto`` fits on one worker in a process group of its own, send
+    the group SIGINT as a terminal's Ctrl-C does once ``ready(workers)`` (psutil processes of
+    the cluster's workers) holds, and return (exit code, stderr)."""
     import psutil
 
     fleet = write_fleet(tmp_path / "fleet.toml", [
         {"name": f"r{k}", "robot": "irb120", "train": str(data / "irb_train.csv"), "method": "auto"} for k in range(4)])
     process = subprocess.Popen(ROBOCAL + ["fleet", str(fleet), "--out", str(tmp_path / "out"), "--jobs", "1"],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        parent, deadline, sent = psutil.Process(process.pid), time.monotonic() + 60, False
+        while not sent and time.monotonic() < deadline and process.poll() is None:
+            workers = [c for c in parent.children(recursive=True) if "spawn_main" in " ".join(c.cmdline())]
+            if workers and ready(workers):
+                os.killpg(process.pid, signal.SIGINT)
+                sent = True
+            time.sleep(0.01)
+        assert sent, "the workers were never ready for the signal"
+        _, stderr = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    return process.returncode, stderr
 
+
+def test_ctrl_c_to_the_whole_process_group_ends_in_one_line(tmp_path, data):
+    # A terminal's Ctrl-C reaches every process of its group, the local cluster's workers too:
+    # once started they ignore it, so only the command line answers, once, and leaves no
+    # output folder.
     def ignoring_ctrl_c(worker):
         try:
             ignored = next(line for line in open(f"/proc/{worker.pid}/status") if line.startswith("SigIgn"))
@@ -343,21 +362,10 @@ def test_ctrl_c_to_the_whole_process_group_ends_in_one_line(tmp_path, data):
             return False
         return bool(int(ignored.split()[1], 16) & (1 << (signal.SIGINT - 1)))
 
-    try:
-        parent, deadline, ready = psutil.Process(process.pid), time.monotonic() + 60, False
-        while not ready and time.monotonic() < deadline and process.poll() is None:
-            workers = [c for c in parent.children(recursive=True) if "spawn_main" in " ".join(c.cmdline())]
-            ready = bool(workers) and all(ignoring_ctrl_c(w) for w in workers)
-            time.sleep(0.1)
-        assert ready, "the worker did not start ignoring Ctrl-C"
-        os.killpg(process.pid, signal.SIGINT)
-        _, stderr = process.communicate(timeout=120)
-    finally:
-        if process.poll() is None:
-            process.kill()
+    code, stderr = _ctrl_c_to_the_group_once(tmp_path, data, lambda workers: all(map(ignoring_ctrl_c, workers)))
     assert "Traceback" not in stderr and "Error" not in stderr, stderr
-    assert process.returncode in (0, 128 + signal.SIGINT), stderr  # 0: the fleet was done before the signal
-    if process.returncode:
+    assert code in (0, 128 + signal.SIGINT), stderr  # 0: the fleet was done before the signal
+    if code:
         assert not (tmp_path / "out").exists()
 
 
@@ -366,25 +374,9 @@ def test_ctrl_c_to_the_whole_process_group_while_a_worker_imports_ends_in_one_li
     # ignores Ctrl-C, and the group's Ctrl-C stops it with a KeyboardInterrupt: its traceback
     # went to the terminal.  Workers are started with their stderr in the cluster's scratch
     # folder, and the command line's own answer is the one line.
-    import psutil
-
-    fleet = write_fleet(tmp_path / "fleet.toml", [
-        {"name": f"r{k}", "robot": "irb120", "train": str(data / "irb_train.csv"), "method": "auto"} for k in range(4)])
-    process = subprocess.Popen(ROBOCAL + ["fleet", str(fleet), "--out", str(tmp_path / "out"), "--jobs", "1"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
-    try:
-        parent, deadline, workers = psutil.Process(process.pid), time.monotonic() + 60, []
-        while not workers and time.monotonic() < deadline and process.poll() is None:
-            workers = [c for c in parent.children(recursive=True) if "spawn_main" in " ".join(c.cmdline())]
-            time.sleep(0.01)
-        assert workers, "no worker started"
-        os.killpg(process.pid, signal.SIGINT)
-        _, stderr = process.communicate(timeout=120)
-    finally:
-        if process.poll() is None:
-            process.kill()
+    code, stderr = _ctrl_c_to_the_group_once(tmp_path, data, lambda workers: True)
     assert "Traceback" not in stderr and "Error" not in stderr, stderr
-    assert process.returncode == 128 + signal.SIGINT and stderr.strip() == "interrupted", stderr
+    assert code == 128 + signal.SIGINT and stderr.strip() == "interrupted", stderr
     assert not (tmp_path / "out").exists()
 
 
