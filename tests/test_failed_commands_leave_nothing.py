@@ -48,6 +48,7 @@ REFUSED = [
     ("iso-plan-without-out", ["iso9283", "plan", "ur5"], None, "iso9283 plan needs the robot and --out"),
     ("dataset-into-missing-folder", ["dataset", "ur5-tsinghua", "--out", "nodir/u"], None, "directory nodir does not exist"),
     ("dataset-out-under-a-file", ["dataset", "ur5-tsinghua", "--out", "afile/u"], {"afile": "x"}, "afile is a file, not a directory"),
+    ("dataset-one-output-is-a-folder", ["dataset", "ur5-tsinghua", "--out", "ts", "--split", "0.5"], {"ts_test.csv/x": ""}, "ts_test.csv is a directory"),
     ("dataset-split-above-one", ["dataset", "ur5-tsinghua", "--out", "u", "--split", "1.5"], None, "--split must be a number between 0 and 1"),
     ("dataset-split-zero", ["dataset", "ur5-tsinghua", "--out", "u", "--split", "0"], None, "--split must be a number between 0 and 1"),
     ("dataset-unknown", ["dataset", "ur6-nowhere", "--out", "u"], None, "'ur6-nowhere' is not available"),
