@@ -274,6 +274,7 @@ FIXTURE_REFUSED = [
     ("coincident-sockets", fixture(lambda t: t.replace("[150.0, 0.0, 0.0]", "[0.0, 0.0, 0.0]")), "are both at"),
     ("sockets-an-array", lambda b: "sockets = [1,2,3]\n", "has no [sockets] table"),
     ("socket-ids-not-in-data", fixture(lambda t: t.replace("A = ", "X = ")), "socket id(s) A are not in fixture"),
+    ("spacings-ten-percent-large", fixture(lambda t: t.replace("150.0", "165.0").replace("120.0", "132.0")), "these ball-in-socket data are not this robot's (or fixture's)"),
     ("kilometre-spacing", fixture(lambda t: t.replace("150.0", "150000.0")), "misses the fixture's socket distances"),
 ]
 

@@ -87,6 +87,19 @@ def joint_changed(column, change):
     return make
 
 
+def noisy(sigma):
+    """ur5.csv with Gaussian noise of ``sigma`` mm on every measured x, y, z (seeded)."""
+    def make(base):
+        import numpy as np
+
+        rows = _rows(base, "ur5.csv")
+        k = [rows[0].index(a) for a in "xyz"]
+        rng = np.random.default_rng(7)
+        return _text([rows[0]] + [[repr(float(v) + rng.normal(0.0, sigma)) if i in k else v for i, v in enumerate(row)]
+                                  for row in rows[1:]])
+    return make
+
+
 REFUSED = [
     # (id, args, extra files, what the error line says)
     # A user's files are told apart by their columns: joint columns beside positions are
@@ -187,6 +200,7 @@ REFUSED = [
     ("kr150-data-as-ur5", ["calibrate", "ur5", "kr.csv", "--out", "o.json"], None, "explains 0% of the error"),
     ("joint-2-counted-the-other-way", ["calibrate", "ur5", "f.csv", "--out", "o.json"], {"f.csv": joint_changed("q2", lambda v: -v)}, "explains 0% of the error"),
     ("joint-2-zero-90-deg-off", ["calibrate", "ur5", "f.csv", "--out", "o.json"], {"f.csv": joint_changed("q2", lambda v: v + 90)}, "lies beyond joint 2's limits"),
+    ("positions-with-50-mm-noise", ["calibrate", "ur5", "f.csv", "--out", "o.json"], {"f.csv": noisy(50.0)}, "explains 0% of the error"),
     ("kr150-data-as-irb120", ["calibrate", "irb120", "kr.csv", "--out", "o.json"], None, "limits -110 to 70 deg of the robot 'ABB IRB 120'"),
     ("kr150-data-as-fanuc", ["calibrate", "fanuc-r2000ic-165f", "kr.csv", "--out", "o.json"], None, "of the robot 'FANUC R-2000iC/165F'"),
     ("ur5-data-as-panda", ["calibrate", "panda", "ur5.csv", "--out", "o.json"], None, "but the robot has 7 joints"),
