@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from user_files import invoke, prepare, refuse, text
+from user_files import campaign, invoke, prepare, refuse, text
 
 
 def ur5(change):
@@ -57,7 +57,19 @@ CSV_REFUSED = [
     ("sep-semicolon-with-decimal-commas", ur5(lambda t: "sep=;\n" + t.replace(",", ";").replace(".", ",")), "use '.' as the decimal point"),
     ("negative-sigma", ur5(lambda t: t.replace(",0.02,0.02,0.02", ",-0.02,0.02,0.02", 2)), "a standard deviation must be > 0"),
     ("zero-sigma", ur5(lambda t: t.replace(",0.02,0.02,0.02", ",0,0,0", 2)), "a standard deviation must be > 0"),
+    ("joints-numbered-from-q0", with_header(lambda h: ",".join(f"q{int(c[1:]) - 1}" if c[:1] == "q" else c for c in h.split(","))), "has a column q0: joint columns are numbered from q1"),
+    ("joints-named-j1-to-j6", with_header(lambda h: h.replace("q", "j")), "has no joint columns: add q1"),
+    ("thousands-separator-in-quoted-x", lambda b: thousands((b / "kr.csv").read_text()), "column 'x': '1,"),
 ]
+
+
+def thousands(text):
+    """``text`` (a CSV) with x written as a spreadsheet shows it, "1,234.5678" (quoted)."""
+    header, *body = text.splitlines()
+    k = header.split(",").index("x")
+    return "\n".join([header] + [",".join(f'"{float(v):,.4f}"' if i == k else v for i, v in enumerate(r.split(",")))
+                                 for r in body]) + "\n"
+
 
 
 @pytest.mark.parametrize("verb", ["calibrate", "evaluate"])
@@ -112,6 +124,8 @@ TARGETS_REFUSED = [
     ("semicolons-decimal-commas", targets(lambda t: t.replace(",", ";").replace(".", ",")), "is not comma-separated"),
     ("duplicate-rx", targets(lambda t: t.replace("ry", "rx", 1)), "column 'rx' appears twice"),
     ("truncated", targets(lambda t: t[: len(t) // 2]), "cells but the header has 13 columns"),
+    ("utf-16-without-bom", targets(lambda t: t.encode("utf-16-le")), "is not a text CSV file"),
+    ("hints-without-orientation", targets(lambda t: "\n".join(",".join(c for i, c in enumerate(r.split(",")) if i not in (3, 4, 5)) for r in t.splitlines()) + "\n"), "lacks columns rx, ry, rz"),
 ]
 
 
@@ -146,6 +160,7 @@ MODEL_REFUSED = [
     ("nan-literal", model(lambda t: t.replace("89.159", "NaN", 1)), "holds NaN or infinite numbers"),
     ("infinity-literal", model(lambda t: t.replace("89.159", "Infinity", 1)), "holds NaN or infinite numbers"),
     ("trailing-garbage", model(lambda t: t + "xyz"), "Extra data"),
+    ("gzip-compressed", model(lambda t: gzip.compress(t.encode())), "it is not a text file"),
     ("no-schema-version", edited("schema_version", KeyError), "has no 'schema_version'"),
     ("schema-version-text", edited("schema_version", "x"), "'schema_version' in the model file has the wrong type"),
     ("schema-version-from-the-future", edited("schema_version", 7), "schema version 7 is newer"),
@@ -183,6 +198,13 @@ def joint_entries(*entries):
     return change
 
 
+# A UR5 in product-of-exponentials form (robocal export --convention poe writes this form).
+POE = 'name = "ur5 poe"\nconvention = "poe"\n' + "".join(
+    f"\n[[joints]]\naxis = {axis}\npoint = {point}\ntheta = 0.0\nmin = -360.0\nmax = 360.0\n" for axis, point in [
+        ("[0.0, 0.0, 1.0]", "[0.0, 0.0, 0.0]"), ("[0.0, 1.0, 0.0]", "[0.0, 0.0, 89.159]"),
+        ("[0.0, 1.0, 0.0]", "[-425.0, 0.0, 89.159]"), ("[0.0, 1.0, 0.0]", "[-817.25, 0.0, 89.159]"),
+        ("[0.0, 0.0, -1.0]", "[-817.25, -109.15, 0.0]"), ("[0.0, 1.0, 0.0]", "[-817.25, 0.0, -5.491]")])
+
 ROBOT_REFUSED = [
     ("truncated", robot(lambda t: t[: len(t) // 2]), "is not valid TOML"),
     ("empty", lambda b: "", "the robot file is empty"),
@@ -199,6 +221,7 @@ ROBOT_REFUSED = [
     ("joints-single-brackets", robot(lambda t: t.replace("[[joints]]", "[joints]", 1)), "is not valid TOML"),
     ("nul-bytes", robot(lambda t: t.replace("\n", "\x00\n", 2)), "is not a text file"),
     ("negative-mass", robot(lambda t: t.replace("mass = 3.7", "mass = -3.7")), "masses must be 6 finite values >= 0 kg"),
+    ("poe-axis-of-zero-length", lambda b: POE.replace("axis = [0.0, 1.0, 0.0]", "axis = [0.0, 0.0, 0.0]", 1), "a POE joint axis has zero length"),
     ("twists-in-radians", robot(joint_entries((1, "alpha", "1.5703"), (4, "alpha", "1.5705"), (5, "alpha", "-1.5708"))), "explains 10% of the error"),
 ]
 
@@ -224,6 +247,7 @@ URDF_REFUSED = [
     ("nan-origin", urdf(lambda t: t.replace('xyz="0.0 0.0 1.0"', 'xyz="nan 0.0 1.0"', 1)), "is not three numbers"),
     ("decimal-comma", urdf(lambda t: t.replace('xyz="0.0 0.0 1.0"', 'xyz="0,0 0.0 1.0"', 1)), "is not three numbers"),
     ("two-numbers", urdf(lambda t: t.replace('xyz="0.0 0.0 1.0"', 'xyz="0.0 1.0"', 1)), "is not three numbers"),
+    ("branch-without-tip", urdf(lambda t: t.replace("</robot>", '<link name="camera"/><joint name="cam" type="fixed"><parent link="base_link"/><child link="camera"/></joint></robot>')), "choose the tip link"),
 ]
 
 
@@ -244,9 +268,13 @@ FIXTURE_REFUSED = [
     ("nan", fixture(lambda t: t.replace("150.0", "nan")), "is not three finite numbers"),
     ("two-coordinates", fixture(lambda t: t.replace("[150.0, 0.0, 0.0]", "[150.0, 0.0]")), "is not three finite numbers"),
     ("coordinate-in-quotes", fixture(lambda t: t.replace("150.0", '"150"')), "is not three finite numbers"),
+    ("socket-given-twice", fixture(lambda t: t + "B = [150.0, 1.0, 0.0]\n"), "is not valid TOML (Cannot overwrite a value"),
+    ("four-coordinates", fixture(lambda t: t.replace("[150.0, 0.0, 0.0]", "[150.0, 0.0, 0.0, 1.0]")), "is not three finite numbers"),
+    ("sockets-as-inline-tables", lambda b: "[sockets]\nA = {x = 0.0, y = 0.0, z = 0.0}\nB = {x = 150.0, y = 0.0, z = 0.0}\nC = {x = 0.0, y = 120.0, z = 0.0}\n", "write it as [x, y, z] in mm"),
     ("coincident-sockets", fixture(lambda t: t.replace("[150.0, 0.0, 0.0]", "[0.0, 0.0, 0.0]")), "are both at"),
     ("sockets-an-array", lambda b: "sockets = [1,2,3]\n", "has no [sockets] table"),
     ("socket-ids-not-in-data", fixture(lambda t: t.replace("A = ", "X = ")), "socket id(s) A are not in fixture"),
+    ("spacings-ten-percent-large", fixture(lambda t: t.replace("150.0", "165.0").replace("120.0", "132.0")), "these ball-in-socket data are not this robot's (or fixture's)"),
     ("kilometre-spacing", fixture(lambda t: t.replace("150.0", "150000.0")), "misses the fixture's socket distances"),
 ]
 
@@ -274,6 +302,7 @@ FLEET_REFUSED = [
     ("unknown-method", FLEET + 'method = "magic"\n', "method must be one of"),
     ("unknown-robot", FLEET.replace('"ur5"', '"ur99"'), "robot 'ur99' is neither a built-in robot"),
     ("truncated", FLEET[:30], "is not valid TOML"),
+    ("options-a-text", FLEET + 'options = "parameters=full"\n', "options must be a table of calibrate's options"),
 ]
 
 
@@ -293,6 +322,8 @@ TRUTH_REFUSED = [
     ("no-format", truth(lambda t: json.dumps({k: v for k, v in json.loads(t).items() if k != "format"})), "not a robocal truth file"),
     ("format-a-text", truth(lambda t: json.dumps(dict(json.loads(t), format="x"))), "not a robocal truth file"),
     ("version-a-text", truth(lambda t: json.dumps(dict(json.loads(t), version="x"))), "this robocal reads version 1"),
+    ("negative-noise", truth(lambda t: json.dumps(dict(json.loads(t), noise=-1.0))), "noise must be a standard deviation >= 0"),
+    ("nan-deviation", truth(lambda t: re.sub(r'("a2": )(-?[0-9.e-]+)', r"\1NaN", t, count=1)), "deviations a2 must be finite"),
 ]
 
 
@@ -439,3 +470,21 @@ def test_an_excel_sep_line_is_honoured(tmp_path, separator):
         outcome = invoke(tmp_path, ["design", "ur5", "--n", "10", "--candidates", data, "--out", out])
         assert outcome.code == 0, outcome.output
     assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
+
+
+def cycles_as_text(base):
+    """An ISO 9283 campaign whose cycle column says "cycle 1", as a hand-kept log does."""
+    header, *body = campaign()(base).splitlines()
+    k = header.split(",").index("cycle")
+    return "\n".join([header] + [",".join(f"cycle {v}" if i == k else v for i, v in enumerate(r.split(",")))
+                                 for r in body]) + "\n"
+
+
+ISO_REFUSED = [
+    ("cycle-as-text", cycles_as_text, "column 'cycle': 'cycle 1' is not a number"),
+]
+
+
+@pytest.mark.parametrize("content, says", [r[1:] for r in ISO_REFUSED], ids=[r[0] for r in ISO_REFUSED])
+def test_broken_iso_campaign_is_refused(tmp_path, content, says):
+    refuse(tmp_path, ["iso9283", "f.csv"], {"f.csv": content}, says)

@@ -3,13 +3,16 @@
 Each is refused in one line before any work, and leaves no file or folder behind (nor a
 partial program in a filter's output folder)."""
 import os
+import re
 import stat
+from pathlib import Path
 
 import pytest
 
 from user_files import invoke, prepare, refuse
 
 # A program filter takes: a joint position first fixes the arm branch of the motion after it.
+KRL = Path(__file__).resolve().parent / "data" / "programs" / "krl" / "pallet_cell.src"
 URSCRIPT = "def prog():\n  movej([0,-1.57,1.57,-1.57,-1.57,0])\n  movel(p[0.4,0.1,0.3,3.14,0,0])\nend\n"
 REFUSED = [
     ("calibrate-into-missing-folder", ["calibrate", "ur5", "ur5.csv", "--out", "nodir/o.json"], None, "directory nodir does not exist"),
@@ -19,15 +22,19 @@ REFUSED = [
     ("compensate-out-ends-in-slash", ["compensate", "ur5_model.json", "targets.csv", "--out", "c/"], None, "c/ names a folder, not a file"),
     ("simulate-truth-ends-in-slash", ["simulate", "ur5", "--n", "10", "--out", "s.csv", "--truth", "t/"], None, "t/ names a folder, not a file"),
     ("iso-plan-out-ends-in-slash", ["iso9283", "plan", "ur5", "--out", "plans/"], None, "plans/ names a folder, not a file"),
+    ("calibrate-out-name-too-long", ["calibrate", "ur5", "ur5.csv", "--out", "x" * 300 + ".json"], None, "File name too long"),
+    ("calibrate-out-over-its-robot-file", ["calibrate", "ur5_cal.toml", "ur5.csv", "--out", "ur5_cal.toml"], None, "name it ur5_cal.json"),
     ("calibrate-out-named-csv", ["calibrate", "ur5", "ur5.csv", "--out", "o.csv"], None, "name it o.json"),
     ("calibrate-out-over-its-input", ["calibrate", "ur5", "ur5.csv", "--out", "ur5.csv"], None, "name it ur5.json"),
     ("simulate-truth-into-missing-folder", ["simulate", "ur5", "--n", "10", "--out", "s.csv", "--truth", "nodir/t.json"], None, "directory nodir does not exist"),
     ("simulate-truth-over-its-out", ["simulate", "ur5", "--n", "10", "--out", "s.csv", "--truth", "s.csv"], None, "name it s.json"),
+    ("simulate-out-over-its-fixture", ["simulate", "kr150-2", "--sampling", "sockets", "--fixture", "plate.toml", "--placements", "2", "--per-socket", "3", "--out", "plate.toml"], None, "--out writes CSV, but 'plate.toml'"),
     ("simulate-truth-named-csv", ["simulate", "ur5", "--n", "10", "--out", "s.csv", "--truth", "t.csv"], None, "name it t.json"),
     ("report-pdf-into-missing-folder", ["report", "ur5_model.json", "ur5.csv", "--out", "r.html", "--pdf", "nodir/r.pdf"], None, "directory nodir does not exist"),
     ("report-pdf-over-its-html", ["report", "ur5_model.json", "ur5.csv", "--out", "r.html", "--pdf", "r.html"], None, "name it r.pdf"),
     ("report-pdf-named-txt", ["report", "ur5_model.json", "ur5.csv", "--out", "r.html", "--pdf", "r.txt"], None, "--pdf needs a .pdf file name"),
     ("evaluate-per-pose-into-missing-folder", ["evaluate", "ur5_model.json", "ur5.csv", "--per-pose", "nodir/p.csv"], None, "directory nodir does not exist"),
+    ("evaluate-per-pose-over-its-model", ["evaluate", "ur5_model.json", "ur5.csv", "--per-pose", "ur5_model.json"], None, "names a JSON file: name it ur5_model.csv"),
     ("evaluate-per-pose-of-bad-measurements", ["evaluate", "ur5_model.json", "cmds.csv", "--per-pose", "p.csv"], None, "not a measurement file"),
     ("compensate-into-missing-folder", ["compensate", "ur5_model.json", "targets.csv", "--out", "nodir/o.csv"], None, "directory nodir does not exist"),
     ("compensate-nothing-reachable", ["compensate", "ur5_model.json", "tf.csv", "--out", "o.csv"], {"tf.csv": "x,y,z,rx,ry,rz\n5000,0,0,180,0,0\n"}, "nothing was written"),
@@ -36,16 +43,22 @@ REFUSED = [
     ("export-ur-yaml-of-a-kuka", ["export", "kr_model.json", "--format", "ur-yaml", "--out", "e.yaml"], None, "is not a UR arm"),
     ("design-into-missing-folder", ["design", "ur5", "--n", "12", "--pool", "200", "--out", "nodir/p.csv"], None, "directory nodir does not exist"),
     ("design-out-over-existing", ["design", "ur5", "--n", "12", "--pool", "200", "--existing", "ur5.csv", "--out", "ur5.csv"], None, "is also an input of this command"),
+    ("design-out-over-candidates", ["design", "ur5", "--n", "12", "--candidates", "plan.csv", "--out", "plan.csv"], None, "plan.csv is also an input of this command"),
     ("iso-plan-with-report", ["iso9283", "plan", "ur5", "--out", "i.csv", "--report", "nodir/r.html"], None, "not a plan"),
     ("iso-plan-without-out", ["iso9283", "plan", "ur5"], None, "iso9283 plan needs the robot and --out"),
     ("dataset-into-missing-folder", ["dataset", "ur5-tsinghua", "--out", "nodir/u"], None, "directory nodir does not exist"),
+    ("dataset-out-under-a-file", ["dataset", "ur5-tsinghua", "--out", "afile/u"], {"afile": "x"}, "afile is a file, not a directory"),
+    ("dataset-one-output-is-a-folder", ["dataset", "ur5-tsinghua", "--out", "ts", "--split", "0.5"], {"ts_test.csv/x": ""}, "ts_test.csv is a directory"),
     ("dataset-split-above-one", ["dataset", "ur5-tsinghua", "--out", "u", "--split", "1.5"], None, "--split must be a number between 0 and 1"),
     ("dataset-split-zero", ["dataset", "ur5-tsinghua", "--out", "u", "--split", "0"], None, "--split must be a number between 0 and 1"),
     ("dataset-unknown", ["dataset", "ur6-nowhere", "--out", "u"], None, "'ur6-nowhere' is not available"),
     ("filter-out-is-a-file", ["filter", "ur5_model.json", "p.script", "--out", "afile"], {"afile": "x", "p.script": URSCRIPT}, "--out afile is not a directory"),
     ("filter-out-missing", ["filter", "ur5_model.json", "p.script", "--out", "FO"], {"p.script": URSCRIPT}, "--out FO is not a directory"),
+    ("filter-folder-as-program", ["filter", "ur5_model.json", "prog", "--out", "FO"], {"prog/x": "", "FO/x": ""}, "prog is a directory: give the path of the program file"),
+    ("filter-krl-read-as-rapid", ["filter", "kr_model.json", "p.src", "--out", "FO", "--language", "rapid"], {"p.src": KRL.read_text(), "p.dat": KRL.with_suffix(".dat").read_text(), "FO/x": ""}, "no motion found in p.src: is it a ABB RAPID program?"),
     ("filter-over-its-program", ["filter", "ur5_model.json", "p.script", "--out", "."], {"p.script": URSCRIPT}, "is also an input of this command"),
     ("import-into-missing-folder", ["import", "--points", "pts.txt", "--joints", "j.csv", "--out", "nodir/i.csv"], {"pts.txt": "P1 1 2 3\n", "j.csv": "name,q1,q2,q3,q4,q5,q6\nP1,0,0,0,0,0,0\n"}, "directory nodir does not exist"),
+    ("import-out-over-its-joint-log", ["import", "--points", "pts.txt", "--joints", "j.csv", "--out", "j.csv"], {"pts.txt": "P1 500 100 300\nP2 400 -100 350\n", "j.csv": "name,q1,q2,q3,q4,q5,q6\nP1,0,-90,90,0,90,0\nP2,10,-80,80,0,90,0\n"}, "j.csv is also an input of this command"),
     ("validate-size-zero", ["validate", "ur5", "ur5.csv", "--folds", "3", "--sizes", "0,10"], None, "--sizes must be comma-separated whole numbers >= 1"),
 ]
 
@@ -64,6 +77,8 @@ PROGRAMS = [
     ("computed-at-run-time", {"p.script": "def prog():\n  a = p[0.4,0.1,0.3,3.14,0,0]\n  movel(pose_trans(a, p[0,0,0.1,0,0,0]))\nend\n"}, ["p.script"], "computed at run time"),
     ("urscript-in-mm", {"p.script": "def prog():\n  movel(p[400,100,300,180,0,0])\nend\n"}, ["p.script"], "more than a full turn: URScript poses take radians"),
     ("krl-without-dat", {"p.src": "DEF p()\nPTP XP1\nEND\n"}, ["p.src"], "its data list is missing: no p.dat"),
+    ("two-programs-one-name", {"a/p.script": URSCRIPT, "b/p.script": URSCRIPT}, ["a/p.script", "b/p.script"], "two programs are named p.script: they would be written to the same file"),
+    ("krl-position-without-c", {"p.src": KRL.read_text(), "p.dat": re.sub(r",C -?[0-9.]+", "", KRL.with_suffix(".dat").read_text(), count=1)}, ["p.src"], "PTP XP1: a partial position"),
     ("second-program-unreachable", {"a.script": URSCRIPT.replace("prog", "a"), "b.script": "def b():\n  movel(p[9.4,0.1,0.3,3.14,0,0])\nend\n"}, ["a.script", "b.script"], "b.script line 2"),
 ]
 

@@ -59,6 +59,8 @@ REFUSED = [
     ("validate-five-poses", ["validate", "ur5", "f.csv", "--folds", "5"], first(5), "give 12 equations for 35 parameters"),
     ("frames-two-poses", ["calibrate", "ur5_model.json", "f.csv", "--method", "frames", "--out", "o.json"], first(2), "re-registering 9 parameters needs at least 6 poses"),
     ("sockets-three-rows", ["calibrate", "kr150-2", "f.csv", "--method", "constraint", "--fixture", "plate.toml", "--out", "o.json"], first(3, "sockets.csv"), "no placement has the ball in two different sockets"),
+    ("frames-one-pose-six-times", ["calibrate", "ur5_model.json", "f.csv", "--method", "frames", "--out", "o.json"], lambda base: "\n".join((base / "ur5.csv").read_text().splitlines()[:1] + (base / "ur5.csv").read_text().splitlines()[1:2] * 6) + "\n", "holds 1 distinct pose(s): re-registering 9 parameters needs at least 6 poses"),
+    ("validate-fifty-folds-of-twenty", ["validate", "ur5", "f.csv", "--folds", "50"], first(20), "--folds 50 folds need at least 50 poses, got 20"),
     ("tight-cluster-one-position", CAL, tight_cluster, "the positions do not follow the robot"),
     ("cluster-half-degree", CAL, cluster(0.5), "its 40 poses are clustered (no joint moves more than"),
     ("cluster-half-degree-kriging", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json"], cluster(0.5), "poses are clustered"),

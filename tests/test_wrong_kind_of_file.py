@@ -68,6 +68,38 @@ PLACEMENTS = "fixture,x,y,z,rx,ry,rz\nA,1500,0,300,0,0,0\nB,1400,300,250,0,0,30\
 UR5_PLACEMENTS = ["design", "ur5", "--fixture", "plate.toml", "--placements", "p.csv", "--n", "12", "--per-socket", "2",
                   "--out", "plan2.csv"]
 
+def renamed(name, suffix):
+    """The base file ``name``'s joints and positions x{suffix}, y{suffix}, z{suffix} renamed
+    x, y, z (the rest dropped): planned positions passed off as measured."""
+    def make(base):
+        rows = _rows(base, name)
+        keep = [rows[0].index(c) for c in [f"q{k}" for k in range(1, 7)] + [a + suffix for a in "xyz"]]
+        return _text([["q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z"]] + [[row[k] for k in keep] for row in rows[1:]])
+    return make
+
+
+def joint_changed(column, change):
+    """ur5.csv with ``change`` applied to the joint ``column`` (degrees)."""
+    def make(base):
+        rows = _rows(base, "ur5.csv")
+        k = rows[0].index(column)
+        return _text([rows[0]] + [[repr(change(float(v))) if i == k else v for i, v in enumerate(row)] for row in rows[1:]])
+    return make
+
+
+def noisy(sigma):
+    """ur5.csv with Gaussian noise of ``sigma`` mm on every measured x, y, z (seeded)."""
+    def make(base):
+        import numpy as np
+
+        rows = _rows(base, "ur5.csv")
+        k = [rows[0].index(a) for a in "xyz"]
+        rng = np.random.default_rng(7)
+        return _text([rows[0]] + [[repr(float(v) + rng.normal(0.0, sigma)) if i in k else v for i, v in enumerate(row)]
+                                  for row in rows[1:]])
+    return make
+
+
 REFUSED = [
     # (id, args, extra files, what the error line says)
     # A user's files are told apart by their columns: joint columns beside positions are
@@ -137,6 +169,11 @@ REFUSED = [
     ("design-candidates-model", ["design", "ur5", "--n", "5", "--candidates", "ur5_model.json", "--out", "p.csv"], None, "is a robocal model file, written by 'robocal calibrate', not a CSV table"),
     ("design-fixture-model", ["design", "kr150-2", "--n", "6", "--fixture", "sock_model.json", "--region", "1000,1500,-300,300,0,200", "--out", "p.csv"], None, "written by 'robocal calibrate', not a fixture file"),
     ("design-placements-plan", ["design", "kr150-2", "--n", "6", "--fixture", "plate.toml", "--placements", "plan.csv", "--out", "p.csv"], None, "written by 'robocal design', not a placements file"),
+    ("show-model-as-robot", ["show", "ur5_model.json"], None, "is a robocal model file, written by 'robocal calibrate', not a robot file"),
+    ("design-model-as-robot", ["design", "ur5_model.json", "--n", "12", "--pool", "200", "--out", "p.csv"], None, "is a robocal model file, written by 'robocal calibrate', not a robot file"),
+    ("design-fixture-as-placements", ["design", "kr150-2", "--n", "12", "--fixture", "plate.toml", "--placements", "plate.toml", "--out", "p.csv"], None, "plate.toml is a fixture file (socket centres), not a CSV table"),
+    ("design-robot-file-as-fixture", ["design", "kr150-2", "--n", "12", "--fixture", "ur5_cal.toml", "--region", "1000,1500,-300,300,0,200", "--out", "p.csv"], None, "written by 'robocal export', not a fixture file"),
+    ("validate-example-targets", ["validate", "ur5", "targets.csv", "--folds", "3"], None, "is a targets file (desired poses"),
     ("fleet-plan", ["fleet", "plan.csv", "--out", "F"], None, "written by 'robocal design', not a fleet file"),
     ("fleet-model", ["fleet", "ur5_model.json", "--out", "F"], None, "written by 'robocal calibrate', not a fleet file"),
     ("fleet-fixture", ["fleet", "plate.toml", "--out", "F"], None, "is a fixture file (socket centres), not a fleet file"),
@@ -161,6 +198,9 @@ REFUSED = [
     ("ur5-data-as-ur10", ["calibrate", "ur10", "ur5.csv", "--out", "o.json"], None, "tolerances"),
     ("ur5-data-as-kr150", ["calibrate", "kr150-2", "ur5.csv", "--out", "o.json"], None, "lies beyond joint 2's limits"),
     ("kr150-data-as-ur5", ["calibrate", "ur5", "kr.csv", "--out", "o.json"], None, "explains 0% of the error"),
+    ("joint-2-counted-the-other-way", ["calibrate", "ur5", "f.csv", "--out", "o.json"], {"f.csv": joint_changed("q2", lambda v: -v)}, "explains 0% of the error"),
+    ("joint-2-zero-90-deg-off", ["calibrate", "ur5", "f.csv", "--out", "o.json"], {"f.csv": joint_changed("q2", lambda v: v + 90)}, "lies beyond joint 2's limits"),
+    ("positions-with-50-mm-noise", ["calibrate", "ur5", "f.csv", "--out", "o.json"], {"f.csv": noisy(50.0)}, "explains 0% of the error"),
     ("kr150-data-as-irb120", ["calibrate", "irb120", "kr.csv", "--out", "o.json"], None, "limits -110 to 70 deg of the robot 'ABB IRB 120'"),
     ("kr150-data-as-fanuc", ["calibrate", "fanuc-r2000ic-165f", "kr.csv", "--out", "o.json"], None, "of the robot 'FANUC R-2000iC/165F'"),
     ("ur5-data-as-panda", ["calibrate", "panda", "ur5.csv", "--out", "o.json"], None, "but the robot has 7 joints"),
@@ -178,6 +218,9 @@ REFUSED = [
     ("tracker-data-on-socket-model", ["evaluate", "sock_model.json", "kr.csv"], None, "calibrated on ball-in-socket data"),
     ("tracker-data-on-socket-model-report", ["report", "sock_model.json", "kr.csv", "--out", "r.html"], None, "calibrated on ball-in-socket data"),
     # targets given as measurements: the shipped example says what it is ...
+    # a plan's or ISO plan's nominal positions renamed x, y, z are no measurements either
+    ("calibrate-design-plan-renamed-measured", ["calibrate", "ur5", "fk.csv", "--out", "m.json"], {"fk.csv": renamed("plan.csv", "_nominal")}, "the nominal robot's own forward kinematics"),
+    ("evaluate-iso-plan-renamed-measured", ["evaluate", "ur5_model.json", "fk.csv"], {"fk.csv": renamed("iso.csv", "_cmd")}, "the nominal robot's own forward kinematics"),
     ("calibrate-example-targets", ["calibrate", "ur5", "targets.csv", "--out", "m.json"], None, "is a targets file (desired poses"),
     ("evaluate-example-targets", ["evaluate", "ur5_model.json", "targets.csv"], None, "is a targets file (desired poses"),
     ("design-existing-example-targets", ["design", "ur5", "--n", "5", "--pool", "200", "--existing", "targets.csv", "--out", "p.csv"], None, "is a targets file"),

@@ -121,6 +121,8 @@ REFUSED = [
     ("fixture-metres-with-unit-key", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "fm.toml", "--out", "o.json"], {"fm.toml": FIX_M.replace("[sockets]", 'unit = "m"\n[sockets]')}, "they look like metres"),
     ("fixture-inches", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "fi.toml", "--out", "o.json"], {"fi.toml": lambda b: (b / "plate.toml").read_text().replace("150.0", "5.9").replace("120.0", "4.72")}, "they look like inches"),
     ("robot-file-metres", ["calibrate", "r.toml", "ur5.csv", "--out", "o.json"], {"r.toml": robot_in_metres}, "its robot file looks like metres"),
+    ("design-targets-orientation-radians", ["design", "ur5", "--n", "8", "--pool", "300", "--targets", "t.csv", "--out", "p.csv"], {"t.csv": scaled("targets.csv", RPY, math.pi / 180, keep=XYZ + RPY)}, "the rx, ry, rz of t.csv look like radians"),
+    ("frames-measurements-metres", ["calibrate", "ur5_model.json", "m.csv", "--method", "frames", "--out", "o.json"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres; give x, y, z in mm"),
     ("robot-file-limits-radians", ["calibrate", "r.toml", "ur5.csv", "--out", "o.json"], {"r.toml": robot_limits_in_radians}, "lies beyond joint 1's limits -6.283 to 6.283"),
 ]
 
@@ -155,6 +157,7 @@ REFUSED_WITHOUT_ROBOT = [
     ("iso-campaign-measured-angles-radians", ["iso9283", "f.csv"], {"f.csv": campaign(angles=math.pi / 180)}, "the measured rx, ry, rz of f.csv look like radians"),
     ("iso-campaign-small-measured-angles-radians", ["iso9283", "f.csv"], {"f.csv": campaign(angles=math.pi / 180, rpy=(30, 20, 10))}, "the measured rx, ry, rz of f.csv look like radians: read so, they lie 0.0"),
     ("iso-campaign-angles-radians", ["iso9283", "f.csv"], {"f.csv": campaign(angles=math.pi / 180, angles_cmd=math.pi / 180)}, "the commanded rx_cmd, ry_cmd, rz_cmd of f.csv look like radians"),
+    ("report-iso-campaign-metres", ["report", "ur5_model.json", "ur5.csv", "--iso", "f.csv", "--out", "r.html"], {"f.csv": campaign(1e-3, 1e-3)}, "the commanded x_cmd, y_cmd, z_cmd of f.csv: largest"),
     ("import-points-metres-unstated", IMPORT, tracker_points(1e-3), "no unit stated, read as mm"),
     ("import-points-metres-unstated-names-fix", IMPORT, tracker_points(1e-3), "they look like metres; state the unit (--units m"),
 ]

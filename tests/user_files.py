@@ -122,7 +122,7 @@ def text(name):
 
 def prepare(folder, files=None):
     """Copy the base files into ``folder`` and write ``files`` (name -> str, bytes, or a
-    callable of the base folder giving either)."""
+    callable of the base folder giving either; a name with a folder makes the folder)."""
     folder = Path(folder)
     for path in base_files().iterdir():
         shutil.copy(path, folder / path.name)
@@ -130,6 +130,7 @@ def prepare(folder, files=None):
     for name, content in (files or {}).items():
         if callable(content):
             content = content(base_files())
+        (folder / name).parent.mkdir(parents=True, exist_ok=True)
         if isinstance(content, bytes):
             (folder / name).write_bytes(content)
         else:
