@@ -1,0 +1,98 @@
+"""The Kriging hyperparameter search reaches the likelihood's maximum in 12 dimensions.
+
+The UR10's residual after kinematic calibration, modelled over the sines and cosines of its six
+joints, has a likelihood with plateaus: the white-noise model (nugget at its upper bound, or θ
+so large that the correlation matrix is the identity) and inputs switched off (θ_k at its
+lower bound, where the gradient in log θ_k vanishes).  From θ = 0.5/d with a nugget of 1e-6,
+whose likelihood is below the white-noise model's, L-BFGS-B stepped onto them and stopped far
+below the maximum.  The same happens on Gaussian-process samples over 12 sines and cosines of
+random joint angles, the problems of these tests.
+"""
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+from robocal.estimation import Kriging
+from robocal.estimation.kriging.search import NUGGET_BOUNDS, SCALE_DECADES, HyperparameterSearch
+from robocal.estimation.kriging.training import _Training
+
+
+def joint_sine_sample(seed, n=200, noise=0.1):
+    """(X (n, 12), y (n,), θ (12,)): sines and cosines of six random joint angles and a sample
+    of a Gaussian process over them (standardised inputs; about half the inputs without
+    influence, the others with θ between 0.01 and 1) plus white noise."""
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(-np.pi, np.pi, (n, 6))
+    X = np.hstack([np.sin(q), np.cos(q)])
+    Xs = (X - X.mean(axis=0)) / X.std(axis=0)
+    theta = np.where(rng.random(12) < 0.5, 0.0, 10 ** rng.uniform(-2, 0, 12))
+    squared = ((Xs[:, None, :] - Xs[None, :, :]) ** 2 * theta).sum(axis=-1)
+    field = np.linalg.cholesky(np.exp(-squared) + 1e-10 * np.eye(n)) @ rng.standard_normal(n)
+    return X, field + noise * rng.standard_normal(n), theta
+
+
+def reference_maximum(X, y, theta, also):
+    """The best log-likelihood that long L-BFGS-B runs (tight tolerances, 30-step line
+    searches) reach from the true θ, from θ = 0.5/d, from 2 random points and from ``also``
+    ([log θ, log nugget] rows): what the search is measured against."""
+    data = _Training(X, y[:, None], "constant", "gaussian")
+    problem, Y = data.problem, data.Ys
+    n, d = X.shape
+
+    def objective(params):
+        state = problem.condition(np.exp(params[:d]), math.exp(params[d]), Y, gradient=True)
+        return -state.log_likelihood.sum(), -np.append(*state.gradient)
+
+    lower = np.append(np.full(d, math.log(1e-6)), math.log(NUGGET_BOUNDS[0]))
+    upper = np.append(np.full(d, math.log(1e2)), math.log(NUGGET_BOUNDS[1]))
+    rng = np.random.default_rng(1)
+    starts = [np.append(np.log(np.maximum(theta, 1e-6)), math.log(1e-2)),
+              np.append(np.full(d, math.log(0.5 / d)), math.log(1e-2))]
+    starts += list(rng.uniform(np.append(np.full(d, -5.0), -8.0), np.append(np.ones(d), 0.0), (2, d + 1)))
+    best = -np.inf
+    for start in starts + list(also):
+        result = minimize(objective, np.clip(start, lower, upper), jac=True, method="L-BFGS-B",
+                          bounds=list(zip(lower, upper)),
+                          options={"maxiter": 1000, "ftol": 1e-12, "gtol": 1e-8, "maxls": 30})
+        best = max(best, -result.fun)
+    return best
+
+
+# Seeds on which the search before this test (first run from θ = 0.5/d, nugget 1e-6, line
+# searches of 5 steps) ended 25 and 33 below the reference maximum.
+@pytest.mark.parametrize("seed", [2, 5])
+def test_one_start_reaches_the_maximum_over_twelve_joint_sines(seed):
+    X, y, theta = joint_sine_sample(seed)
+    model = Kriging(nugget="estimate", n_starts=1, random_state=0).fit(X, y)
+    found = np.append(np.log(model.theta_[0]), math.log(model.nugget_[0]))
+    best = reference_maximum(X, y, theta, [found])
+    assert model.log_likelihood_[0] >= best - 1.0
+
+
+def test_the_first_start_is_the_best_scaled_theta0():
+    """theta0 times 10^k (k in SCALE_DECADES) with each starting nugget, the best by the given
+    likelihood, within the bounds."""
+    search = HyperparameterSearch(theta0=None, theta_bounds=(1e-6, 1e2), nugget="estimate", n_starts=None)
+    d = 4
+    seen = []
+
+    def likelihood(point):  # largest at θ = 0.5/d · 10 and a nugget of 1e-2
+        seen.append(point)
+        return -np.sum((point[:d] - math.log(5.0 / d)) ** 2) - (point[d] - math.log(1e-2)) ** 2
+
+    first = search.first_start(d, likelihood)
+    np.testing.assert_allclose(first, np.append(np.full(d, math.log(5.0 / d)), math.log(1e-2)))
+    assert len(seen) == 3 * len(SCALE_DECADES)
+    assert max(np.exp(point[0]) for point in seen) <= 1e2
+    fixed = HyperparameterSearch(theta0=[0.01, 0.02], theta_bounds=(1e-6, 1e2), nugget=0.0, n_starts=None)
+    grid = []
+
+    def nearest_one(point):  # without a nugget the points are [log θ] alone
+        grid.append(point)
+        return -abs(point[0])
+
+    np.testing.assert_allclose(np.exp(fixed.first_start(2, nearest_one)), [1.0, 2.0])
+    assert len(grid) == len(SCALE_DECADES) and all(len(point) == 2 for point in grid)
+    np.testing.assert_allclose([np.exp(point[1] - point[0]) for point in grid], 2.0)  # theta0's shape is kept
