@@ -1,7 +1,9 @@
 """The hyperparameter search of a Kriging fit: θ (and an estimated nugget) maximising the
-concentrated likelihood (package docstring) with L-BFGS-B on log θ from theta0 and the best
-screened points of a Latin hypercube, on the problem a fit's likelihood chooses to search on
-(the exact likelihood, or a Vecchia fit's stand-ins, :mod:`.stand_ins`)."""
+concentrated likelihood (package docstring) with L-BFGS-B on log θ from the best of theta0
+scaled by powers of ten (with starting nuggets) and the best screened points of a Latin
+hypercube, runs that stop unconverged continued from their ends, on the problem a fit's
+likelihood chooses to search on (the exact likelihood, or a Vecchia fit's stand-ins,
+:mod:`.stand_ins`)."""
 import math
 
 import numpy as np
