@@ -1,4 +1,5 @@
-"""The Kriging hyperparameter search reaches the likelihood's maximum in 12 dimensions.
+"""The Kriging hyperparameter search reaches the likelihood's maximum in 12 dimensions, and
+still on smooth fields in 3.
 
 The UR10's residual after kinematic calibration, modelled over the sines and cosines of its six
 joints, has a likelihood with plateaus: the white-noise model (nugget at its upper bound, or θ
@@ -6,7 +7,8 @@ so large that the correlation matrix is the identity) and inputs switched off (�
 lower bound, where the gradient in log θ_k vanishes).  From θ = 0.5/d with a nugget of 1e-6,
 whose likelihood is below the white-noise model's, L-BFGS-B stepped onto them and stopped far
 below the maximum.  The same happens on Gaussian-process samples over 12 sines and cosines of
-random joint angles, the problems of these tests.
+random joint angles, the problems of these tests.  Smooth 3-D fields, the Cartesian error
+model's, have well-defined optima the search must keep reaching, from one start too.
 """
 import math
 
@@ -33,10 +35,10 @@ def joint_sine_sample(seed, n=200, noise=0.1):
     return X, field + noise * rng.standard_normal(n), theta
 
 
-def reference_maximum(X, y, theta, also):
+def reference_maximum(X, y, also):
     """The best log-likelihood that long L-BFGS-B runs (tight tolerances, 30-step line
-    searches) reach from the true θ, from θ = 0.5/d, from 2 random points and from ``also``
-    ([log θ, log nugget] rows): what the search is measured against."""
+    searches) reach from θ = 0.5/d, from 2 random points and from ``also`` ([log θ, log
+    nugget] rows): what the search is measured against."""
     data = _Training(X, y[:, None], "constant", "gaussian")
     problem, Y = data.problem, data.Ys
     n, d = X.shape
@@ -48,8 +50,7 @@ def reference_maximum(X, y, theta, also):
     lower = np.append(np.full(d, math.log(1e-6)), math.log(NUGGET_BOUNDS[0]))
     upper = np.append(np.full(d, math.log(1e2)), math.log(NUGGET_BOUNDS[1]))
     rng = np.random.default_rng(1)
-    starts = [np.append(np.log(np.maximum(theta, 1e-6)), math.log(1e-2)),
-              np.append(np.full(d, math.log(0.5 / d)), math.log(1e-2))]
+    starts = [np.append(np.full(d, math.log(0.5 / d)), math.log(1e-2))]
     starts += list(rng.uniform(np.append(np.full(d, -5.0), -8.0), np.append(np.ones(d), 0.0), (2, d + 1)))
     best = -np.inf
     for start in starts + list(also):
@@ -60,15 +61,45 @@ def reference_maximum(X, y, theta, also):
     return best
 
 
-# Seeds on which the search before this test (first run from θ = 0.5/d, nugget 1e-6, line
-# searches of 5 steps) ended 25 and 33 below the reference maximum.
-@pytest.mark.parametrize("seed", [2, 5])
+def found_parameters(model, output=0):
+    """[log θ, log nugget] of one output of a fitted Kriging."""
+    return np.append(np.log(model.theta_[output]), math.log(model.nugget_[output]))
+
+
+# Seeds 2 and 5: the search before this test (first run from θ = 0.5/d, nugget 1e-6, line
+# searches of 5 steps) ended 25 and 33 below the reference maximum.  Seed 7: the first run
+# stops after a failed line search 95 below it; only its continuation with longer line
+# searches (search.LONG_LINE_SEARCH) reaches it.
+@pytest.mark.parametrize("seed", [2, 5, 7])
 def test_one_start_reaches_the_maximum_over_twelve_joint_sines(seed):
     X, y, theta = joint_sine_sample(seed)
     model = Kriging(nugget="estimate", n_starts=1, random_state=0).fit(X, y)
-    found = np.append(np.log(model.theta_[0]), math.log(model.nugget_[0]))
-    best = reference_maximum(X, y, theta, [found])
+    truth = np.append(np.log(np.maximum(theta, 1e-6)), math.log(1e-2))
+    best = reference_maximum(X, y, [truth, found_parameters(model)])
     assert model.log_likelihood_[0] >= best - 1.0
+
+
+def smooth_field(kind, n, noise):
+    """(X (n, 3), y (n,)): a Latin hypercube in a 1 m box and a smooth field over it plus
+    white noise of ``noise`` (the field's amplitude is about 1): ``"sines"``, one wavelength
+    of several metres, nearly singular correlation matrices; ``"wavy"``, a few waves in the box."""
+    rng = np.random.default_rng(n)
+    X = (np.argsort(rng.random((n, 3)), axis=0) + rng.random((n, 3))) / n
+    x, y, z = X.T
+    field = np.sin(0.9 * x - 1.2 * z) + 0.5 * np.sin(y) if kind == "sines" else \
+        np.sin(6 * x) * np.cos(4 * y) + np.sin(5 * z)
+    return X, field + noise * rng.standard_normal(n)
+
+
+# The likelihood of the smooth field is computed with rounding noise of about 1e-5 of its
+# value (search.OPTIONS), some 0.01 here; the search reached the reference within 0.001 on
+# each case.  On ("sines", 50, 0.01) the search before the scaled starts ended 41 below it.
+@pytest.mark.parametrize("kind, n, noise", [("sines", 50, 0.01), ("sines", 200, 1e-4), ("wavy", 200, 0.01)])
+def test_one_start_reaches_the_maximum_on_smooth_fields(kind, n, noise):
+    X, y = smooth_field(kind, n, noise)
+    model = Kriging(nugget="estimate", n_starts=1, random_state=0).fit(X, y)
+    best = reference_maximum(X, y, [found_parameters(model)])
+    assert model.log_likelihood_[0] >= best - 0.05
 
 
 def test_the_first_start_is_the_best_scaled_theta0():
