@@ -1,9 +1,13 @@
-"""The hyperparameter search of a Kriging fit: θ (and an estimated nugget) maximising the
-concentrated likelihood (package docstring) with L-BFGS-B on log θ from the best of theta0
-scaled by powers of ten (with starting nuggets) and the best screened points of a Latin
-hypercube, runs that stop unconverged continued from their ends, on the problem a fit's
-likelihood chooses to search on (the exact likelihood, or a Vecchia fit's stand-ins,
-:mod:`.stand_ins`)."""
+"""The hyperparameter search of a Kriging fit: θ (standardised-input units: inputs scaled to
+unit standard deviation) and an estimated nugget (relative to σ²) maximising the concentrated
+log-likelihood (package docstring), summed over a group's outputs, by L-BFGS-B on log θ (and
+log nugget).  The first run starts from the best by likelihood of theta0 times 10⁻³ … 10²,
+each with a nugget of 1e-4, 1e-2 and 1 when the nugget is estimated (SCALE_DECADES,
+NUGGET_STARTS); the others from the best screened points of a Latin hypercube.  A run that
+stops unconverged is continued from its end (RESTARTS).  The search runs on the problem a
+fit's likelihood chooses to search on (the exact likelihood, or a Vecchia fit's stand-ins,
+:mod:`.stand_ins`); its objective is the log-likelihood per value (over n times the number
+of outputs), so that OPTIONS' tolerances and RESTART_GRADIENT do not depend on n."""
 import math
 
 import numpy as np
@@ -31,14 +35,18 @@ OPTIONS = {"maxiter": 200, "ftol": 1e-5, "gtol": 1e-4, "maxls": 5}
 #   steps can be mis-scaled by orders of magnitude (its first is one unit of log θ long, a
 #   later one follows curvature learnt on another scale).  On the hybrid's residuals over the
 #   12 joint sines and cosines of the UR5 and the UR10 (series A), 5 of 36 first runs stopped
-#   so after 7 evaluations, 130 to 240 log-units below where longer line searches took them;
+#   so after 7 evaluations, 130 to 240 log-units below where longer line searches took them.
+#   On the hybrid's residuals of the UR5 and UR10 A and B (400 to 600 poses, 15 components),
+#   continuations with line searches of 10, 20 or 40 steps reached the same optima; with 5
+#   steps two of the components stayed 237 and 336 below;
 # * after the relative-reduction test stopped it on a step that went nowhere.  On the UR10's
 #   error over the joints' sines and cosines this took runs from −427 to −0.3 and from −345
 #   to −192.
 # The noise is presumed where the correlation matrix needed jitter or its condition number
 # exceeds NOISY_CONDITION: there runs again only spend evaluations (smooth 3-D fields,
 # n = 500, four sets: 28 % more for the same optima; their runs end with jitter, the UR ones
-# above with condition numbers below 2e5).
+# above with condition numbers below 2e5).  On the UR residuals (400 to 750 poses, 36
+# components) no run needed more than two continuations.
 RESTARTS = 3
 RESTART_GRADIENT = 1e-3
 LONG_LINE_SEARCH = 20
@@ -53,6 +61,12 @@ SCREENED_CANDIDATES = 10
 # θ_k ∂ℓ/∂θ_k).  From a start whose likelihood is below the white-noise model's, as
 # theta0 = 0.5/d with a nugget of 1e-6 was on the UR10's residual over the 12 sines and
 # cosines of the joints, L-BFGS-B's first steps land on such a plateau and stop there.
+# The best grid point was 10⁻¹ or 10⁰ with a nugget of 1e-4 on smooth 3-D fields (n = 50
+# to 500, noise 0 to 0.01 of the field), 10⁰ to 10² with 1e-2 or 1 on the hybrid's residuals
+# over the joints' 12 sines and cosines (UR5, UR10 A and B, 400 to 750 poses); with 10³ added
+# it was never chosen and no optimum changed.  The two lowest decades are margin for fields
+# smoother than these.  The 18 values (without gradient) cost 14 to 17 % of a one-start fit
+# of those residuals.
 SCALE_DECADES = (-3, -2, -1, 0, 1, 2)
 NUGGET_STARTS = (1e-4, 1e-2, 1.0)
 
@@ -147,8 +161,9 @@ class HyperparameterSearch:
         return lower, upper
 
     def optimise(self, problem, Y, candidates):
-        """Maximise the summed concentrated likelihood of the columns of Y from theta0 and the
-        best of ``candidates`` (:meth:`candidates`): the best (θ, nugget)."""
+        """Maximise the summed concentrated likelihood of the columns of Y from the best scaled
+        theta0 (:meth:`first_start`) and the best of ``candidates`` (:meth:`candidates`): the
+        best (θ, nugget)."""
         n, d = problem.X.shape
         estimate_nugget = self.nugget == "estimate"
 
