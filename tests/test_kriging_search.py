@@ -17,7 +17,7 @@ import pytest
 from scipy.optimize import minimize
 
 from robocal.estimation import Kriging
-from robocal.estimation.kriging.search import NUGGET_BOUNDS, SCALE_DECADES, HyperparameterSearch
+from robocal.estimation.kriging.search import NUGGET_BOUNDS, NUGGET_STARTS, SCALE_DECADES, HyperparameterSearch
 from robocal.estimation.kriging.training import _Training
 
 
@@ -69,10 +69,12 @@ def found_parameters(model, output=0):
 # Seeds 2 and 5: the search before this test (first run from θ = 0.5/d, nugget 1e-6, line
 # searches of 5 steps) ended 25 and 33 below the reference maximum.  Seed 7: the first run
 # stops after a failed line search 95 below it; only its continuation with longer line
-# searches (search.LONG_LINE_SEARCH) reaches it.
-@pytest.mark.parametrize("seed", [2, 5, 7])
-def test_one_start_reaches_the_maximum_over_twelve_joint_sines(seed):
-    X, y, theta = joint_sine_sample(seed)
+# searches (search.LONG_LINE_SEARCH) reaches it.  Seed 3 with noise 0.3: from the grid's
+# best with a starting nugget of 1e-4 (on the plateau of large θ, where the nugget hardly
+# matters) the run ended 3.1 below it.
+@pytest.mark.parametrize("seed, noise", [(2, 0.1), (5, 0.1), (7, 0.1), (3, 0.3)])
+def test_one_start_reaches_the_maximum_over_twelve_joint_sines(seed, noise):
+    X, y, theta = joint_sine_sample(seed, noise=noise)
     model = Kriging(nugget="estimate", n_starts=1, random_state=0).fit(X, y)
     truth = np.append(np.log(np.maximum(theta, 1e-6)), math.log(1e-2))
     best = reference_maximum(X, y, [truth, found_parameters(model)])
@@ -115,7 +117,7 @@ def test_the_first_start_is_the_best_scaled_theta0():
 
     first = search.first_start(d, likelihood)
     np.testing.assert_allclose(first, np.append(np.full(d, math.log(5.0 / d)), math.log(1e-2)))
-    assert len(seen) == 3 * len(SCALE_DECADES)
+    assert len(seen) == len(NUGGET_STARTS) * len(SCALE_DECADES)
     assert max(np.exp(point[0]) for point in seen) <= 1e2
     fixed = HyperparameterSearch(theta0=[0.01, 0.02], theta_bounds=(1e-6, 1e2), nugget=0.0, n_starts=None)
     grid = []

@@ -52,7 +52,7 @@ class Kriging:
         Starting θ, in standardised-input units (inputs scaled to unit standard deviation).
         None is θ = 0.5 / d, a correlation of about e⁻¹ between typical point pairs.  The first
         run starts from the best (by likelihood) of theta0 times 10⁻³ … 10² (with an estimated
-        nugget, each of them with a nugget of 1e-4, 1e-2 and 1 relative to σ²; :mod:`.search`).
+        nugget, each of them with a nugget of 1e-2 and of 1 relative to σ²; :mod:`.search`).
         With ``n_starts=0`` it is used as is, without optimisation.
     theta_bounds : (lo, hi)
         Bounds on every θ_k in standardised-input units.  The default (1e-6, 1e2) admits
