@@ -50,7 +50,9 @@ class Kriging:
         Correlation family (see the module docstring); Gaussian is the DACE/paper choice.
     theta0 : float, sequence of d floats or None
         Starting θ, in standardised-input units (inputs scaled to unit standard deviation).
-        None starts at θ = 0.5 / d, a correlation of about e⁻¹ between typical point pairs.
+        None is θ = 0.5 / d, a correlation of about e⁻¹ between typical point pairs.  The first
+        run starts from the best (by likelihood) of theta0 times 10⁻³ … 10² (with an estimated
+        nugget, each of them with a nugget of 1e-2 and of 1 relative to σ²; :mod:`.search`).
         With ``n_starts=0`` it is used as is, without optimisation.
     theta_bounds : (lo, hi)
         Bounds on every θ_k in standardised-input units.  The default (1e-6, 1e2) admits
@@ -62,9 +64,10 @@ class Kriging:
         positive value smooths measurement noise, "estimate" fits it by maximum likelihood
         (within NUGGET_BOUNDS) together with θ.  Predictions are of the noise-free field.
     n_starts : int ≥ 0 or None
-        L-BFGS-B runs: one from theta0, the others from the best (by likelihood) of a Latin
-        hypercube of max(10, 2·n_starts) points in log θ (and log nugget).  0 fixes θ = theta0
-        (and needs a numeric nugget).  None picks 4 for n ≤ 400, 2 for n ≤ 1500, else 1:
+        L-BFGS-B runs: one from the scaled theta0, the others from the best (by likelihood)
+        of a Latin hypercube of max(10, 2·n_starts) points in log θ (and log nugget); a run
+        that stops unconverged is continued from its end.  0 fixes θ = theta0 (and needs a
+        numeric nugget).  None picks 4 for n ≤ 400, 2 for n ≤ 1500, else 1:
         small designs have several optima, large ones are cheap to screen but dear to
         optimise (a fit of 1000 points and 3 outputs takes 5 to 8 s on one core).  The
         Vecchia approximation's search between 1,000 and 2,000 points runs on a cheaper

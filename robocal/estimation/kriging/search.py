@@ -1,7 +1,13 @@
-"""The hyperparameter search of a Kriging fit: θ (and an estimated nugget) maximising the
-concentrated likelihood (package docstring) with L-BFGS-B on log θ from theta0 and the best
-screened points of a Latin hypercube, on the problem a fit's likelihood chooses to search on
-(the exact likelihood, or a Vecchia fit's stand-ins, :mod:`.stand_ins`)."""
+"""The hyperparameter search of a Kriging fit: θ (standardised-input units: inputs scaled to
+unit standard deviation) and an estimated nugget (relative to σ²) maximising the concentrated
+log-likelihood (package docstring), summed over a group's outputs, by L-BFGS-B on log θ (and
+log nugget).  The first run starts from the best by likelihood of theta0 times 10⁻³ … 10²,
+each with a nugget of 1e-2 and of 1 when the nugget is estimated (SCALE_DECADES,
+NUGGET_STARTS); the others from the best screened points of a Latin hypercube.  A run that
+stops unconverged is continued from its end (RESTARTS).  The search runs on the problem a
+fit's likelihood chooses to search on (the exact likelihood, or a Vecchia fit's stand-ins,
+:mod:`.stand_ins`); its objective is the log-likelihood per value (over n times the number
+of outputs), so that OPTIONS' tolerances and RESTART_GRADIENT do not depend on n."""
 import math
 
 import numpy as np
@@ -22,8 +28,52 @@ NUGGET_BOUNDS = (1e-12, 10.0)
 # on smooth 3-D fields (n = 50 to 1000): tighter settings cost up to 1.5 times the time
 # without changing the held-out error.
 OPTIONS = {"maxiter": 200, "ftol": 1e-5, "gtol": 1e-4, "maxls": 5}
-# Latin-hypercube points whose likelihood is evaluated to choose the starts after theta0.
+# A run that stops with its projected gradient above RESTART_GRADIENT (per value, as gtol)
+# where that noise cannot explain it is run again from its end, with a fresh curvature
+# estimate, at most RESTARTS times while the runs gain more than OPTIONS' ftol:
+# * after a failed line search, with line searches of LONG_LINE_SEARCH steps: L-BFGS-B's
+#   steps can be mis-scaled by orders of magnitude (its first is one unit of log θ long, a
+#   later one follows curvature learnt on another scale).  On the hybrid's residuals over the
+#   12 joint sines and cosines of the UR5 and the UR10 (series A), 5 of 36 first runs stopped
+#   so after 7 evaluations, 130 to 240 log-units below where longer line searches took them.
+#   On the hybrid's residuals of the UR5 and UR10 A and B (400 to 600 poses, 15 components),
+#   continuations with line searches of 10, 20 or 40 steps reached the same optima; with 5
+#   steps two of the components stayed 237 and 336 below;
+# * after the relative-reduction test stopped it on a step that went nowhere.  On the UR10's
+#   error over the joints' sines and cosines this took runs from −427 to −0.3 and from −345
+#   to −192.
+# The noise is presumed where the correlation matrix needed jitter or its condition number
+# exceeds NOISY_CONDITION: there runs again only spend evaluations (smooth 3-D fields,
+# n = 500, four sets: 28 % more for the same optima; their runs end with jitter, the UR ones
+# above with condition numbers below 2e5).  On the UR residuals (400 to 750 poses, 36
+# components) no run needed more than two continuations.
+RESTARTS = 3
+RESTART_GRADIENT = 1e-3
+LONG_LINE_SEARCH = 20
+NOISY_CONDITION = 1e10
+# Latin-hypercube points whose likelihood is evaluated to choose the starts after the first.
 SCREENED_CANDIDATES = 10
+# The first run starts from the best by likelihood of theta0 times 10^k for k in
+# SCALE_DECADES, each (with an estimated nugget) with every nugget of NUGGET_STARTS (relative
+# to σ²).  The likelihood has plateaus on which its gradient vanishes: the white-noise model
+# (the nugget at its upper bound, or every θ so large that the correlation matrix is the
+# identity) and inputs switched off (θ_k at its lower bound: the gradient in log θ_k is
+# θ_k ∂ℓ/∂θ_k).  From a start whose likelihood is below the white-noise model's, as
+# theta0 = 0.5/d with a nugget of 1e-6 was on the UR10's residual over the 12 sines and
+# cosines of the joints, L-BFGS-B's first steps land on such a plateau and stop there.
+# The best grid point was 10⁻¹ or 10⁰ on smooth 3-D fields (n = 50 to 500, noise 0 to 0.01
+# of the field), 10⁰ to 10² on the hybrid's residuals over the joints' 12 sines and cosines
+# (UR5, UR10 A and B, 400 to 750 poses); with 10³ added it was never chosen and no optimum
+# changed.  The two lowest decades are margin for fields smoother than these.  A starting
+# nugget of 1e-4 won on the smooth fields, which reach the same maxima from 1e-2 (one start,
+# 18 cases, within 0.013: their likelihoods' rounding noise), and on the plateau: with θ so large that the correlation matrix is
+# nearly the identity the nugget hardly changes the likelihood, and the smallest won by a
+# fraction of a unit; from there the UR5's hybrid residual (full+compliance+gains, a random
+# half) ran into a nearly interpolating optimum 44 below the maximum (held out 0.0686 mm
+# against 0.0647), and a Gaussian-process sample over 12 joint sines and cosines 3.1 below.
+# The 12 values (without gradient) cost 10 to 12 % of a one-start fit of those residuals.
+SCALE_DECADES = (-3, -2, -1, 0, 1, 2)
+NUGGET_STARTS = (1e-2, 1.0)
 
 
 def theta0_values(theta0):
@@ -81,19 +131,30 @@ class HyperparameterSearch:
         return latin_hypercube(max(SCREENED_CANDIDATES, 2 * n_starts), *self.log_bounds(d), rng)
 
     def starting_points(self, d, n, candidates, log_likelihood, least=1):
-        """Rows of [log θ (, log nugget)] to start L-BFGS-B from: theta0, then the best of the
-        Latin hypercube ``candidates`` by ``log_likelihood``.  A value without gradient costs a
-        third of one with it, and runs from good points converge in fewer steps: measured,
-        25 % less time at n = 1000 for the same optimum.  theta0 always gets a run: on small
-        designs (n = 50) the best optimum was often reached only from there."""
-        lower, upper = self.log_bounds(d)
-        first = np.log(theta0_of(self.theta0, d))
-        if self.nugget == "estimate":
-            first = np.append(first, math.log(1e-6))
+        """Rows of [log θ (, log nugget)] to start L-BFGS-B from: the first (:meth:`first_start`),
+        then the best of the Latin hypercube ``candidates`` by ``log_likelihood``.  A value
+        without gradient costs a third of one with it, and runs from good points converge in
+        fewer steps: measured, 25 % less time at n = 1000 for the same optimum."""
+        first = self.first_start(d, log_likelihood)
         if candidates is None:
-            return np.clip(first, lower, upper)[None, :]
+            return first[None, :]
         best = np.argsort([-log_likelihood(c) for c in candidates])[:self.starts(n, least) - 1]
-        return np.vstack([np.clip(first, lower, upper), candidates[best]])
+        return np.vstack([first, candidates[best]])
+
+    def first_start(self, d, log_likelihood):
+        """The [log θ (, log nugget)] of the first run: the best by ``log_likelihood`` of theta0
+        scaled by 10^k (k in SCALE_DECADES), with an estimated nugget each with every nugget
+        of NUGGET_STARTS (see there); within the bounds."""
+        lower, upper = self.log_bounds(d)
+        shape = np.log(theta0_of(self.theta0, d))
+        scales = [shape + k * math.log(10.0) for k in SCALE_DECADES]
+        if self.nugget == "estimate":
+            grid = [np.append(theta, math.log(nugget)) for theta in scales for nugget in NUGGET_STARTS]
+        else:
+            grid = scales
+        grid = np.unique(np.clip(grid, lower, upper), axis=0)
+        values = np.array([log_likelihood(point) for point in grid])
+        return grid[int(np.argmax(np.where(np.isfinite(values), values, -np.inf)))]
 
     def log_bounds(self, d):
         """(lower, upper) bounds of [log θ (, log nugget)], each (d,) or (d + 1,)."""
@@ -105,8 +166,9 @@ class HyperparameterSearch:
         return lower, upper
 
     def optimise(self, problem, Y, candidates):
-        """Maximise the summed concentrated likelihood of the columns of Y from theta0 and the
-        best of ``candidates`` (:meth:`candidates`): the best (θ, nugget)."""
+        """Maximise the summed concentrated likelihood of the columns of Y from the best scaled
+        theta0 (:meth:`first_start`) and the best of ``candidates`` (:meth:`candidates`): the
+        best (θ, nugget)."""
         n, d = problem.X.shape
         estimate_nugget = self.nugget == "estimate"
 
@@ -140,7 +202,7 @@ class HyperparameterSearch:
             return unpack(self._refine_quasi_newton(search, refine, Y, ends, unpack, options))
         best = ends[0][0] if len(ends) == 1 else max((end for end, _ in ends),
                                                      key=lambda end: _judged(refine, Y, unpack(end)))
-        return unpack(self.minimise(refine, Y, [best], unpack, options, rounds=1))
+        return unpack(self.minimise(refine, Y, [best], unpack, options, rounds=1, restarts=0))
 
     def _refine_quasi_newton(self, search, refine, Y, ends, unpack, options):
         """The parameters that maximise the likelihood of ``refine`` (the exact one: a few
@@ -173,9 +235,10 @@ class HyperparameterSearch:
 
         return objective
 
-    def minimise(self, problem, Y, starts, unpack, options, rounds=None, every=False):
+    def minimise(self, problem, Y, starts, unpack, options, rounds=None, every=False, restarts=RESTARTS):
         """L-BFGS-B from each start on the summed concentrated likelihood: the best parameters
         (with ``every``, [(end, value)] of each start's run instead, in the order of the starts).
+        A run that ends unconverged is run again from its end (:func:`_lbfgsb`, ``restarts``).
 
         A Vecchia problem conditions on neighbours in the metric of θ (``focus``): each run
         starts with the neighbours of its start, and runs again from its end with the
@@ -186,20 +249,31 @@ class HyperparameterSearch:
         estimate_nugget = self.nugget == "estimate"
         scale = 1.0 / (len(problem.X) * Y.shape[1])  # an objective per value keeps tolerances n-independent
 
+        last = {}
+
         def objective(params):
             state = problem.condition(*unpack(params), Y, gradient=True)
+            last.update(params=params.copy(), state=state)
             d_theta, d_nugget = state.gradient
             gradient = np.append(d_theta, d_nugget) if estimate_nugget else d_theta
             return -scale * state.log_likelihood.sum(), -scale * gradient
 
-        bounds = list(zip(*self.log_bounds(d)))
+        def noisy(params):
+            """Whether the likelihood at ``params`` is computed from a correlation matrix that
+            needed jitter or is conditioned beyond NOISY_CONDITION (unknown for the block
+            stand-in, whose states do not say: not noisy)."""
+            seen = last.get("params")
+            state = last["state"] if seen is not None and np.array_equal(seen, params) else \
+                problem.condition(*unpack(params), Y)
+            return getattr(state, "jitter", 0.0) > 0 or getattr(state, "condition", 0.0) > NOISY_CONDITION
+
+        bounds = self.log_bounds(d)
         best_value, best_params = np.inf, starts[0]
         ends = []
         for start in starts:
             for _ in range(rounds):
                 problem.focus(unpack(start)[0])
-                result = minimize(objective, start, jac=True, method="L-BFGS-B", bounds=bounds,
-                                  options=options)
+                result = _lbfgsb(objective, start, bounds, options, restarts, noisy)
                 start = result.x
             if rounds > 1:
                 problem.focus(unpack(result.x)[0])
@@ -221,6 +295,34 @@ class HyperparameterSearch:
         tasks = [{"settings": self.settings(), "problem": data.plain(), "Y": data.Ys[:, cols],
                   "candidates": candidates} for cols, candidates in zip(groups, drawn)]
         return [(np.asarray(theta), nugget) for theta, nugget in runner.map(search_task, tasks)]
+
+
+def _lbfgsb(objective, start, bounds, options, restarts, noisy):
+    """scipy's L-BFGS-B result of ``objective`` (params ↦ (value, gradient)) from ``start``
+    within ``bounds`` ((lower, upper)) with ``options``, run again from its end at most
+    ``restarts`` times while it stopped early where the likelihood is not ``noisy`` (params ↦
+    bool; see RESTARTS) and the runs gain."""
+    pairs = list(zip(*bounds))
+    result = minimize(objective, start, jac=True, method="L-BFGS-B", bounds=pairs, options=options)
+    for _ in range(restarts):
+        if (result.status not in (0, 2) or _projected_gradient(result.x, result.jac, bounds) <= RESTART_GRADIENT
+                or noisy(result.x)):
+            break
+        again_options = dict(options, maxls=LONG_LINE_SEARCH) if result.status == 2 else options
+        again = minimize(objective, result.x, jac=True, method="L-BFGS-B", bounds=pairs, options=again_options)
+        gained = result.fun - again.fun
+        if gained > 0:
+            result = again
+        if not gained > options["ftol"] * max(abs(result.fun), 1.0):
+            break
+    return result
+
+
+def _projected_gradient(x, gradient, bounds):
+    """The largest component of ``gradient`` at x that is not held by a bound it pushes against."""
+    lower, upper = bounds
+    held = ((x <= lower) & (gradient > 0)) | ((x >= upper) & (gradient < 0))
+    return float(np.abs(np.where(held, 0.0, gradient)).max())
 
 
 def _hessian(objective, x, lower, upper, step=1e-3):

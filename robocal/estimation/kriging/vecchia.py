@@ -102,7 +102,8 @@ REFINE_OPTIONS = {"maxiter": 15, "ftol": 1e-6, "gtol": 1e-4, "maxls": 5}
 # lengths of the UR10's residual are seen at the data's own density, and its likelihood is
 # exact, so a noisy smooth field's θ is not pulled off as by the Vecchia likelihood.  One
 # step on the exact likelihood costs what five on 500-point blocks do at n = 1,495.  The
-# stand-in's runs start from theta0 and the best screened candidates, BLOCK_STARTS of them
+# stand-in's runs start from the best scaled theta0 (search.SCALE_DECADES) and the best
+# screened candidates, BLOCK_STARTS of them
 # up to BLOCK_STARTS_UP_TO points and BLOCK_STARTS_ABOVE above; ends further apart than
 # EXACT_REFINE_OPTIONS["apart"] are judged by the exact likelihood, and the best is refined
 # on it by quasi-Newton steps (search._quasi_newton) that start from the stand-in's
@@ -121,7 +122,12 @@ REFINE_OPTIONS = {"maxiter": 15, "ftol": 1e-6, "gtol": 1e-4, "maxls": 5}
 # held out on the other 9,911: kriging mean/RMS/max 0.2591, 0.3745, 2.414 mm against 0.2592,
 # 0.3784, 2.578 before; hybrid 0.1855, 0.2366, 1.210 against 0.1856, 0.2366, 1.209 (before: 10.6
 # and 10.2 s of CPU; now 6.2 and 5.7).  Blocks of 250 or 350 points: 6.5 and 7.3 s (two
-# starts), the exact steps then need four steps per output.
+# starts), the exact steps then need four steps per output.  From the best scaled theta0
+# (search.SCALE_DECADES) instead of theta0: kriging 0.2553 mm, hybrid 0.1924 (one component
+# in another local optimum, 131 below on the exact likelihood; 5.4 and 5.1 s of CPU at a
+# load average of 3); on five more training sets of 1,196 to 2,000 poses (hybrid, 15
+# components) the exact log-likelihood 11 to 27 higher on three components, 57 and 2 lower
+# on two, the same on the other ten; held out 0.995 to 1.023 times the mean error before.
 # Before (L-BFGS-B refinement, two starts above 1,500 points), against the exact search on
 # all points, one core, CPU s (bench/kriging.py --search, load average 3.1 to 4.4):
 #   hybrid on all 1,495 UR10 B poses: 12.8 s against 29.3 s; the exact log-likelihood 20
