@@ -66,8 +66,9 @@ SCREENED_CANDIDATES = 10
 # (UR5, UR10 A and B, 400 to 750 poses); with 10³ added it was never chosen and no optimum
 # changed.  The two lowest decades are margin for fields smoother than these.  A starting
 # nugget of 1e-4 won on the smooth fields, which reach the same maxima from 1e-2 (one start,
-# 18 cases, within 0.013: their likelihoods' rounding noise), and on the plateau: with θ so large that the correlation matrix is
-# nearly the identity the nugget hardly changes the likelihood, and the smallest won by a
+# 18 cases, within 0.013: their likelihoods' rounding noise), and on the plateau: with θ so
+# large that the correlation matrix is nearly the identity the nugget hardly changes the
+# likelihood, and the smallest won by a
 # fraction of a unit; from there the UR5's hybrid residual (full+compliance+gains, a random
 # half) ran into a nearly interpolating optimum 44 below the maximum (held out 0.0686 mm
 # against 0.0647), and a Gaussian-process sample over 12 joint sines and cosines 3.1 below.
