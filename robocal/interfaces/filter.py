@@ -342,8 +342,10 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
     frames = None if config is None else krl.read_config(config)
     prepared = prepare(programs, model, config=frames)
     targets = prepared.targets
-    placed = np.array([base @ t.pose for t, (base, _) in zip(targets, prepared.frames)]).reshape(-1, 4, 4)
-    _check_lengths(prepared, placed[:, :3, 3], model.nominal)
+    # Each target in the robot's base, B·P, in one batched product (as prepare's poses).
+    bases = np.array([base for base, _ in prepared.frames]).reshape(-1, 4, 4)
+    placed = (bases @ np.array([t.pose for t in targets]).reshape(-1, 4, 4))[:, :3, 3]
+    _check_lengths(prepared, placed, model.nominal)
     if prepared.unknown:
         target = targets[prepared.unknown[0]]
         raise InputError(f"{target.file} line {target.line} ({target.name}): no joint position comes before this "
@@ -358,7 +360,7 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
         reached = result.success & reachable
         if not reached.all():
             bad = [f"{t.file} line {t.line} ({t.name})" for t, ok in zip(targets, reached) if not ok]
-            why = _beyond_reach(prepared, placed[:, :3, 3], reached, model.nominal)
+            why = _beyond_reach(prepared, placed, reached, model.nominal)
             raise InputError(f"{len(bad)} target(s) cannot be reached by the calibrated robot: {', '.join(bad[:10])}"
                              f"{' ...' if len(bad) > 10 else ''}{why}; nothing was written")
         inside = np.ones(len(targets), dtype=bool)
