@@ -27,6 +27,15 @@ shoulder side the error grew sevenfold.  What grows is what the model did not mo
   series A elbow, series B elbow), where the error grew 7, 1.6 and 2.3 times: σ_o says where
   the model carries what it absorbed, not how much that weighs on a given robot, which the
   regions left out calibrate (κ below: 0.39, 0.15 and 0 on those three);
+* **what a model over the TCP position cannot tell apart.**  A Kriging over the position
+  learns the error where the training poses were, as a function of where the TCP was, so it
+  absorbs the omitted parameters' error M(q_t) θ of the training configuration q_t at each
+  position: at a configuration q reaching the same position with another arm branch it
+  commands a correction made for q_t.  Its σ_o is that of M(q) − M(q_a), q_a the training
+  configuration (of the anchors kept) whose TCP lies nearest q's: small where the training
+  poses reached the position as q does, large across a branch flip.  Against M(q) alone,
+  which Kriging absorbs on the training side too, the bound on UR10 series B's other elbow
+  side covered 0.28 of its poses (``bench/bound_coverage.py``);
 * **the model's own scale** s(x) = sqrt(σ(x)² + r²) of the bound inside (its posterior or
   Kriging σ, and the held-out residual scale).
 
@@ -43,6 +52,7 @@ same configuration would have inside, q · s(x).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -54,6 +64,12 @@ from ..errors import InputError
 # The omitted parameters' Jacobian is built on at most this many training poses (evenly
 # spread), as the posterior is (robocal.methods.model_sigma.POSTERIOR_POSES).
 OMITTED_POSES = 2000
+# The 95 % quantile of a chi of three degrees of freedom over sqrt(3): the bound's factor on
+# a spread no held-out pose checks (the norm of an error whose coordinates have variance v/3).
+CHI3_95 = math.sqrt(7.814727903251178 / 3.0)
+# A model over the TCP position keeps at most this many training configurations (evenly
+# spread) as the anchors its σ_o is taken against; stored in the model file (6 numbers each).
+ANCHOR_POSES = 1000
 # The likelihood's variance never falls below this share of the largest (a degenerate
 # calibration pose with s = σ_o = 0 would otherwise make it infinite).
 VARIANCE_FLOOR = 1e-12
@@ -84,6 +100,13 @@ class Omitted:
         with the default mass model and ``payload``).
     payload : float or None
         kg at the TCP of that mass model (None: the robot's own).
+    anchors : (K, n) array or None
+        For a model over the TCP position: training configurations (rad), σ_o being taken
+        of M(q) − M(q_a), q_a the anchor whose nominal TCP lies nearest q's.
+    scale : float or None
+        For a model over the nominal robot: κ as its training poses give it (the registered
+        nominal robot's residuals there are the omitted parameters' error M(q) θ), used
+        where the regions left out do not identify κ.
     """
 
     fitted: tuple = field(repr=False)
@@ -92,6 +115,8 @@ class Omitted:
     response: np.ndarray = field(repr=False)
     compliant: bool = False
     payload: float | None = None
+    anchors: np.ndarray | None = field(default=None, repr=False)
+    scale: float | None = None
     _compliant: dict = field(default_factory=dict, repr=False, compare=False)
 
     def _chain(self, chain):
@@ -115,17 +140,34 @@ class Omitted:
         out = np.full(len(joints), np.nan)
         known = np.all(np.isfinite(joints), axis=1)
         if known.any():
-            jac = self._chain(chain).identification_jacobian(joints[known], list(self.fitted) + list(self.names))
-            jac = jac[:, :3, :]
-            missed = jac[:, :, len(self.fitted):]
-            if len(self.fitted):
-                missed = missed - np.einsum("mcp,pe->mce", jac[:, :, :len(self.fitted)], self.response)
+            missed = self._missed(chain, joints[known])
+            if self.anchors is not None:
+                missed = missed - self._missed(chain, self.anchors[self._nearest_anchor(chain, joints[known])])
             out[known] = np.sqrt(np.einsum("mce,e->m", missed ** 2, self.prior_std ** 2))
         return out
 
+    def _missed(self, chain, joints):
+        """(M, 3, E) M(q): the omitted parameters' position rows less the fitted ones' response."""
+        jac = self._chain(chain).identification_jacobian(joints, list(self.fitted) + list(self.names))[:, :3, :]
+        missed = jac[:, :, len(self.fitted):]
+        if len(self.fitted):
+            missed = missed - np.einsum("mcp,pe->mce", jac[:, :, :len(self.fitted)], self.response)
+        return missed
+
+    def _nearest_anchor(self, chain, joints):
+        """(M,) the index of the anchor whose nominal TCP lies nearest each configuration's."""
+        cached = self._compliant.get("anchors")
+        if cached is None or cached[0] is not chain:
+            from scipy.spatial import cKDTree
+
+            cached = (chain, cKDTree(chain.fk_positions(self.anchors)))
+            self._compliant["anchors"] = cached
+        return cached[1].query(chain.fk_positions(joints))[1]
+
     def to_dict(self):
         return {"fitted": list(self.fitted), "names": list(self.names), "prior_std": self.prior_std.tolist(),
-                "response": self.response.tolist(), "compliant": self.compliant, "payload": self.payload}
+                "response": self.response.tolist(), "compliant": self.compliant, "payload": self.payload,
+                "anchors": None if self.anchors is None else self.anchors.tolist(), "scale": self.scale}
 
     @classmethod
     def from_dict(cls, document):
@@ -136,10 +178,17 @@ class Omitted:
         response = np.asarray(document["response"], dtype=float).reshape(len(fitted), len(names))
         if len(prior_std) != len(names) or not (np.all(np.isfinite(prior_std)) and np.all(np.isfinite(response))):
             raise ValueError("the omitted parameters' prior and response must be finite, one per parameter")
-        payload = document.get("payload")
+        payload, anchors, scale = document.get("payload"), document.get("anchors"), document.get("scale")
+        if scale is not None and not (math.isfinite(float(scale)) and float(scale) >= 0):
+            raise ValueError("the omitted parameters' scale must be finite and >= 0")
+        if anchors is not None:
+            anchors = np.asarray(anchors, dtype=float)
+            if anchors.ndim != 2 or not len(anchors) or not np.all(np.isfinite(anchors)):
+                raise ValueError("the omitted parameters' anchors must be finite configurations, one per row")
         return cls(fitted=fitted, names=names, prior_std=prior_std, response=response,
                    compliant=bool(document.get("compliant", False)),
-                   payload=None if payload is None else float(payload))
+                   payload=None if payload is None else float(payload), anchors=anchors,
+                   scale=None if scale is None else float(scale))
 
 
 def omitted_of(method, chain_used, observations, calibration=None, posterior=None):
@@ -197,8 +246,29 @@ def omitted_of(method, chain_used, observations, calibration=None, posterior=Non
         response = np.linalg.pinv(jac[:, :len(fitted)]) @ jac[:, len(fitted):]
     else:
         fitted, response = [], np.zeros((0, len(names)))
-    return Omitted(fitted=tuple(fitted), names=tuple(names), prior_std=np.asarray(prior_std, dtype=float),
-                   response=response, compliant=compliant, payload=payload)
+    # A model over the TCP position (the Kriging's default inputs): σ_o against the training
+    # configuration reaching the nearest position (module docstring).
+    over_position = calibration is None and getattr(method, "inputs", None) == "position"
+    anchors = q[np.linspace(0, len(q) - 1, min(len(q), ANCHOR_POSES)).astype(int)] if over_position else None
+    omitted = Omitted(fitted=tuple(fitted), names=tuple(names), prior_std=np.asarray(prior_std, dtype=float),
+                      response=response, compliant=compliant, payload=payload)
+    if calibration is None:
+        omitted = _with_training_scale(omitted, chain_used, pick, observations)
+    return dataclasses.replace(omitted, anchors=anchors) if anchors is not None else omitted
+
+
+def _with_training_scale(omitted, chain, pick, observations):
+    """``omitted`` with its ``scale``: κ by maximum likelihood on the registered nominal
+    robot's residuals at the training poses (each norm sqrt(κ² σ_o² / 3) times a chi of three
+    degrees of freedom, σ_o there without anchors: κ² = mean(e² / σ_o²))."""
+    q = np.asarray(observations.joints, dtype=float)
+    index = np.linspace(0, len(q) - 1, len(pick)).astype(int)
+    residual = np.linalg.norm(np.asarray(observations.positions, dtype=float)[index] - chain.fk_positions(pick), axis=1)
+    spread = omitted.sigma(chain, pick)
+    usable = np.isfinite(spread) & (spread > VARIANCE_FLOOR ** 0.5 * max(float(np.nanmax(spread)), 1e-300))
+    if not usable.any():
+        return omitted
+    return dataclasses.replace(omitted, scale=float(np.sqrt(np.mean(residual[usable] ** 2 / spread[usable] ** 2))))
 
 
 def _rows(chain, joints, names):
@@ -210,7 +280,7 @@ def _rows(chain, joints, names):
 # ------------------------------------------------------------------ the bound outside
 @dataclass(frozen=True)
 class OutsideScale:
-    """The bound outside the domain: q_o · sqrt(a² s(x)² + κ² σ_o(x)²) (module docstring).
+    """The bound outside the domain: sqrt((q_o a s(x))² + (f_o κ σ_o(x))²) (module docstring).
 
     factor : float
         q_o, the split-conformal quantile of the calibration poses' normalised errors.
@@ -220,38 +290,53 @@ class OutsideScale:
         κ (dimensionless; 0 when nothing is omitted).
     omitted : Omitted or None
         What σ_o is computed from.
+    omitted_factor : float or None
+        f_o: q_o (None) where the regions left out fitted κ; where κ is the training poses'
+        (:attr:`Omitted.scale`), no held-out pose checks that part of the bound, and it
+        takes the 95 % quantile of its own likelihood, CHI3_95.
     """
 
     factor: float
     residual_growth: float
     omitted_scale: float
     omitted: Omitted | None = None
+    omitted_factor: float | None = None
+
+    @property
+    def _omitted_factor(self):
+        return self.factor if self.omitted_factor is None else self.omitted_factor
 
     def bound(self, scale, omitted_sigma, inside_factor):
         """(N,) mm from s(x) and σ_o(x) (N,) mm (σ_o ignored when nothing is omitted), never
         below the bound inside the domain, ``inside_factor`` · s(x)."""
         scale = np.asarray(scale, dtype=float)
-        spread = self.omitted_scale * np.asarray(omitted_sigma, dtype=float) if self.omitted is not None else 0.0
-        return np.maximum(self.factor * np.sqrt((self.residual_growth * scale) ** 2 + spread ** 2),
+        spread = (self._omitted_factor * self.omitted_scale * np.asarray(omitted_sigma, dtype=float)
+                  if self.omitted is not None else 0.0)
+        return np.maximum(np.sqrt((self.factor * self.residual_growth * scale) ** 2 + spread ** 2),
                           inside_factor * scale)
 
     def bound_one(self, scale, omitted_sigma, inside_factor):
         """:meth:`bound` of one configuration, on floats."""
-        spread = self.omitted_scale * omitted_sigma if self.omitted is not None else 0.0
-        grown = self.residual_growth * scale
-        return max(self.factor * math.sqrt(grown * grown + spread * spread), inside_factor * scale)
+        spread = self._omitted_factor * self.omitted_scale * omitted_sigma if self.omitted is not None else 0.0
+        grown = self.factor * self.residual_growth * scale
+        return max(math.sqrt(grown * grown + spread * spread), inside_factor * scale)
 
     def to_dict(self):
         return {"factor": self.factor, "residual_growth": self.residual_growth, "omitted_scale": self.omitted_scale,
-                "omitted": None if self.omitted is None else self.omitted.to_dict()}
+                "omitted": None if self.omitted is None else self.omitted.to_dict(),
+                "omitted_factor": self.omitted_factor}
 
     @classmethod
     def from_dict(cls, document):
         numbers = [float(document[k]) for k in ("factor", "residual_growth", "omitted_scale")]
-        if not all(math.isfinite(v) and v >= 0 for v in numbers):
+        omitted_factor = document.get("omitted_factor")
+        if omitted_factor is not None:
+            omitted_factor = float(omitted_factor)
+        if not all(math.isfinite(v) and v >= 0 for v in numbers + [omitted_factor or 0.0]):
             raise ValueError("the outside factor and scales must be finite and >= 0")
         omitted = document.get("omitted")
-        return cls(*numbers, omitted=None if omitted is None else Omitted.from_dict(omitted))
+        return cls(*numbers, omitted=None if omitted is None else Omitted.from_dict(omitted),
+                   omitted_factor=omitted_factor)
 
 
 def fit_outside(error, scale, omitted_sigma, omitted, quantile):
@@ -272,7 +357,7 @@ def fit_outside(error, scale, omitted_sigma, omitted, quantile):
         return float(np.sum(1.5 * np.log(variance) + error ** 2 / (2.0 * variance)))
 
     # Without the omitted parameters (κ = 0) the likelihood's a has a closed form.
-    growth, kappa = float(np.sqrt(np.mean(error ** 2 / np.maximum(scale ** 2, floor)))), 0.0
+    growth, kappa, omitted_factor = float(np.sqrt(np.mean(error ** 2 / np.maximum(scale ** 2, floor)))), 0.0, None
     if np.any(spread > 0):
         starts = ([0.0, -2.0], [0.0, 0.0], [1.0, -4.0])
         best = min((minimize(negative_log_likelihood, start, method="Nelder-Mead",
@@ -281,8 +366,17 @@ def fit_outside(error, scale, omitted_sigma, omitted, quantile):
         # κ only where the regions left out support it (likelihood ratio against κ = 0).
         if 2.0 * (negative_log_likelihood(np.log([growth ** 2, 1e-300])) - best.fun) > LIKELIHOOD_RATIO:
             growth, kappa = (float(v) for v in np.sqrt(np.exp(best.x)))
+    if kappa == 0.0 and omitted is not None and omitted.scale:
+        # The training poses' κ (a model over the nominal robot) where the regions left out
+        # do not identify it: those of a model over the position reach their positions as
+        # the training did, and so may barely exercise its σ_o.
+        kappa, omitted_factor = omitted.scale, CHI3_95
+        fixed = minimize(lambda log_a2: negative_log_likelihood([log_a2[0], 2.0 * math.log(kappa)]), [0.0],
+                         method="Nelder-Mead", options={"xatol": 1e-6, "fatol": 1e-9})
+        growth = float(np.sqrt(np.exp(fixed.x[0])))
     normaliser = np.sqrt(np.maximum((growth * scale) ** 2 + (kappa * spread) ** 2, floor))
     factor = quantile(error / normaliser)
     if not math.isfinite(factor):
         return None
-    return OutsideScale(factor=float(factor), residual_growth=growth, omitted_scale=kappa, omitted=omitted)
+    return OutsideScale(factor=float(factor), residual_growth=growth, omitted_scale=kappa, omitted=omitted,
+                        omitted_factor=omitted_factor)
