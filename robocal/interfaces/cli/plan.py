@@ -155,7 +155,7 @@ def simulate(robot: str = ROBOT, out_file: str = out_option("Measurement CSV to 
     result = simulate_job(robot, out_file, n=n, sampling=sampling, errors=errors, noise=noise, seed=seed,
                           truth=truth, orientation=orientation, box=box, rpy=rpy, hint=hint, root=root, tip=tip,
                           fixture=fixture, placements=placements, per_socket=per_socket, joint_noise=joint_noise)
-    print_result(result, as_json, f"simulated {result['poses']} poses -> {out_file}")
+    print_result(result.to_dict(), as_json, f"simulated {result.poses} poses -> {out_file}")
 
 
 @verb()
