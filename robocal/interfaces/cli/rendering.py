@@ -206,10 +206,12 @@ def print_compensated(result, out_file, as_json):
 
 
 def print_filtered(result, out_dir, as_json):
-    """filter: a warning per motion left as it was, then the summary."""
-    for item in result["unfiltered"]:
+    """filter (a :class:`~robocal.interfaces.results.Filtered`): a warning per motion left as
+    it was, then the summary."""
+    for item in result.unfiltered:
         say("warning", "yellow", f"not filtered (computed at run time): {item}")
-    print_scored(result if as_json else {k: v for k, v in result.items() if k != "unfiltered"}, as_json,
+    shown = result.to_dict()
+    print_scored(shown if as_json else {k: v for k, v in shown.items() if k != "unfiltered"}, as_json,
                  f"filtered programs -> {out_dir}")
 
 
