@@ -515,18 +515,19 @@ def print_design(result, out_file):
 
 # --------------------------------------------------------------------------- fleet, listings
 def print_fleet(result, columns, ok):
-    """The fleet's summary: a row per robot (failed ones in red), their notes, the files."""
-    table = Table(title=f"fleet of {len(result['robots'])} robots on {result['ran_on']} (mm)")
+    """The fleet's summary (a :class:`~robocal.interfaces.results.FleetRun`): a row per robot
+    (failed ones in red), their notes, the files."""
+    table = Table(title=f"fleet of {len(result.robots)} robots on {result.ran_on} (mm)")
     for column in columns:
         table.add_column(column, justify="right" if column.endswith(("_mm", "train", "test")) else "left")
-    for row in result["robots"]:
+    for row in result.robots:
         table.add_row(*[cell(row[c]) if row[c] is not None else "" for c in columns],
                       style=None if row["status"] == ok else "red")
     out.print(table)
-    for row in result["robots"]:
+    for row in result.robots:
         if row["message"]:
             out.print(Text(f"{row['name']}: {row['message']}", style="" if row["status"] == ok else "red"))
-    out.print(f"-> {result['summary_csv']}, {result['summary_html']}")
+    out.print(f"-> {result.summary_csv}, {result.summary_html}")
 
 
 def print_rows(columns, rows):
