@@ -544,22 +544,24 @@ def print_all(renderables):
         out.print(renderable)
 
 
-def print_iso9283(result):
+def print_iso9283(figures, label=None):
     """iso9283: a row per pose of the position figures (mm), of the orientation figures (deg)
-    when the campaign has them, then the distance figures."""
-    tables = [("mm", ("AP", "APx", "APy", "APz", "RP"), "_mm")]
-    if any(p.get("APa_deg") is not None for p in result["poses"]):
-        tables.append(("deg", ("APa", "APb", "APc", "RPa", "RPb", "RPc"), "_deg"))
-    for unit, names, suffix in tables:
-        table = Table(title=f"ISO 9283 pose characteristics, {unit} ({result['file']}; visits matched by "
-                            f"{result['matched_by']})")
+    when the campaign has them, then the distance figures (``figures``: an
+    :class:`~robocal.acceptance.iso9283.Iso9283Result`; ``label`` names them in the titles,
+    by default its file)."""
+    tables = [("mm", ("AP", "APx", "APy", "APz", "RP"))]
+    if any(p.APa is not None for p in figures.poses):
+        tables.append(("deg", ("APa", "APb", "APc", "RPa", "RPb", "RPc")))
+    for unit, names in tables:
+        table = Table(title=f"ISO 9283 pose characteristics, {unit} ({label or figures.path}; visits matched by "
+                            f"{figures.matched_by})")
         for column in ("pose", "n") + names + (("command spread",) if unit == "mm" else ()):
             table.add_column(column, justify="right")
-        for pose in result["poses"]:
-            cells = [pose["pose"], str(pose["n"])] + [f"{pose[name + suffix]:.4f}" for name in names]
-            table.add_row(*cells, *([f"{pose['command_spread_mm']:.4f}"] if unit == "mm" else []))
+        for pose in figures.poses:
+            cells = [pose.pose, str(pose.n)] + [f"{getattr(pose, name):.4f}" for name in names]
+            table.add_row(*cells, *([f"{pose.command_spread_mm:.4f}"] if unit == "mm" else []))
         out.print(table)
-    distance = result["distance"]
+    distance = figures.distance
     if distance is not None:
-        out.print(f"distance {'-'.join(distance['between'])} ({distance['commanded_mm']:.3f} mm commanded, "
-                  f"{distance['n']} cycles): AD {distance['AD_mm']:.4f} mm, RD {distance['RD_mm']:.4f} mm")
+        out.print(f"distance {'-'.join(distance.between)} ({distance.commanded_mm:.3f} mm commanded, "
+                  f"{distance.n} cycles): AD {distance.AD:.4f} mm, RD {distance.RD:.4f} mm")
