@@ -221,7 +221,7 @@ def design(robot: str = ROBOT, *, n: int,
                                 volume=WorkingVolume(parse_floor(floor), walls),
                                 progress=lambda **info: advance(steps=0, **info))
     if as_json:
-        print_json(result)
+        print_json(result.to_dict())
     elif fixture is not None:
         print_socket_design(result, out_file)
     else:

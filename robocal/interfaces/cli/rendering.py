@@ -457,59 +457,61 @@ def print_validation(result, method, by_placement, as_json):
 
 # --------------------------------------------------------------------------- design
 def print_socket_design(result, out_file):
-    """design --fixture: the placements and configurations chosen, and what they predict."""
-    predicted = result["predicted"]
-    versus = predicted["random_model_rms_mm"]
-    table = Table(title=f"{result['configurations']} configurations in {len(result['placements'])} placements of "
-                        f"fixture {result['fixture']} ({result['criterion']}) -> {out_file}", show_header=False)
-    for key, value in (("robot", result["robot"]), ("candidate placements", result["placements_from"]),
-                       ("reachable placements", result["reachable_placements"]),
-                       ("chosen placements", ", ".join(result["placements"])),
-                       ("configurations per socket", result["per_socket"]),
-                       ("candidate configurations", result["candidates"]),
-                       ("ball-centre error after calibration", f"{predicted['model_rms_mm']:.4f} mm RMS predicted"
+    """design --fixture (a :class:`~robocal.planning.job.SocketsDesigned`): the placements and
+    configurations chosen, and what they predict."""
+    design = result.design
+    versus = design.random_model_rms
+    table = Table(title=f"{len(design.joints)} configurations in {len(design.poses)} placements of "
+                        f"fixture {result.fixture} ({design.criterion}) -> {out_file}", show_header=False)
+    for key, value in (("robot", result.robot), ("candidate placements", result.placements_from),
+                       ("reachable placements", result.reachable_placements),
+                       ("chosen placements", ", ".join(design.poses)),
+                       ("configurations per socket", design.per_socket),
+                       ("candidate configurations", design.n_candidates),
+                       ("ball-centre error after calibration", f"{design.model_rms:.4f} mm RMS predicted"
                         + ("" if versus is None else f" (random choices of the same number: {versus:.4f} mm)")),
-                       ("identifiable parameters", len(result["identifiable"])),
-                       ("exchanges", result["exchanges"])):
+                       ("identifiable parameters", len(design.names)),
+                       ("exchanges", design.exchanges)):
         table.add_row(key, str(value))
     out.print(table)
 
 
 def print_design(result, out_file):
-    """design: the poses chosen, the noise assumed, the predicted error beside random poses,
-    and the predicted standard error of every identifiable parameter."""
-    predicted = result["predicted"]
-    versus = predicted["random_model_rms_mm"]
-    table = Table(title=f"{result['poses']} poses of {result['candidates']} candidates ({result['criterion']}) "
+    """design (a :class:`~robocal.planning.job.Designed`): the poses chosen, the noise assumed,
+    the predicted error beside random poses, and the predicted standard error of every
+    identifiable parameter."""
+    design = result.design
+    versus = design.random_model_rms
+    table = Table(title=f"{len(design.joints)} poses of {design.n_candidates} candidates ({design.criterion}) "
                         f"-> {out_file}", show_header=False)
-    for key, value in (("robot", result["robot"]), ("candidates", result["candidates_from"]),
-                       ("working volume", result["working_volume"]), ("targets", result["targets"]),
-                       ("measured before", result["existing"]),
-                       ("noise", f"{result['noise_mm']:.4f} mm ({result['noise_from']})"
-                        + (f", {result['joint_noise_deg']:g} deg at every joint" if result["joint_noise_deg"] else "")
-                        + (f", sag {result['sag_deg']:g} deg left out" if result["sag_deg"] else "")),
-                       ("calibrated TCP error at the targets", f"{predicted['model_rms_mm']:.4f} mm RMS predicted"
+    for key, value in (("robot", result.robot), ("candidates", result.candidates_from),
+                       ("working volume", result.working_volume), ("targets", result.targets),
+                       ("measured before", design.n_existing),
+                       ("noise", f"{design.noise:.4f} mm ({result.noise_from})"
+                        + (f", {design.joint_noise_deg:g} deg at every joint" if design.joint_noise_deg else "")
+                        + (f", sag {design.sag_deg:g} deg left out" if design.sag_deg else "")),
+                       ("calibrated TCP error at the targets", f"{design.model_rms:.4f} mm RMS predicted"
                         + ("" if versus is None else f" (random poses of the same number: {versus:.4f} mm)")),
                        ("held-out error with a reading's noise",
-                        f"mean {predicted['held_out_mean_mm']:.4f} mm, RMS {predicted['held_out_rms_mm']:.4f} mm "
-                        "predicted"),
-                       ("O1, noise amplification", f"{result['o1']:.4g}, {result['noise_amplification']:.4g}"),
-                       ("condition number", f"{result['condition_number']:.4g}"),
-                       ("motion", f"{result['tour_deg']:.0f} deg of the largest joint's motion "
-                                f"({result['order_of_choice_deg']:.0f} in the order of choice)"),
-                       ("exchanges after the greedy selection", str(result["exchanges"]))):
+                        f"mean {design.held_out_mean:.4f} mm, RMS {design.held_out_rms:.4f} mm predicted"),
+                       ("O1, noise amplification", f"{design.o1:.4g}, {design.noise_amplification:.4g}"),
+                       ("condition number", f"{design.condition_number:.4g}"),
+                       ("motion", f"{design.tour_length:.0f} deg of the largest joint's motion "
+                                f"({design.given_length:.0f} in the order of choice)"),
+                       ("exchanges after the greedy selection", str(design.exchanges))):
         table.add_row(key, str(value))
-    if "variance" in result:
-        table.add_row("largest predictive variance left", f"{result['variance']['max_relative']:.3g} of the prior's "
-                                                            f"({result['variance']['prior']})")
+    if design.max_variance is not None:
+        table.add_row("largest predictive variance left", f"{design.max_variance:.3g} of the prior's "
+                                                            f"({design.variance_prior})")
     out.print(table)
-    parameters_table = Table(title=f"predicted standard errors ({len(result['std_errors'])} identifiable parameters)")
+    std_errors = design.std_errors_as_files_show()
+    parameters_table = Table(title=f"predicted standard errors ({len(std_errors)} identifiable parameters)")
     for column in ("parameter", "std. error", "unit"):
         parameters_table.add_column(column, justify="right")
-    for name, entry in result["std_errors"].items():
+    for name, entry in std_errors.items():
         parameters_table.add_row(name, f"{entry['std_error']:.3g}", entry["unit"])
     out.print(parameters_table)
-    for name, reason in result["fixed"].items():
+    for name, reason in design.fixed.items():
         out.print(f"not identifiable from these candidates, {name}: {reason}")
 
 
