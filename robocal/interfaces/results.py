@@ -1,11 +1,13 @@
 """What the commands' jobs return: one frozen result type per command, in the manner of
 SciPy's ``OptimizeResult`` (every field documented, set once at the job's single exit), and
 its ``to_dict()``: the JSON object ``--json`` prints, key for key and in the same order as
-before the types existed.  Rendering them is :mod:`robocal.interfaces.cli.rendering`'s.
+before the types existed.  Rendering them is :mod:`robocal.interfaces.cli.rendering`'s (the
+demo's tables, :mod:`robocal.interfaces.demo`'s).
 
-``compare`` returns its :class:`~robocal.methods.selection.Comparison`.  The results still
-JSON-ready dicts are simulate's (rendered in ``cli/plan.py``), report's, filter's, demo's and
-those of the planning and acceptance jobs (design, iso9283).
+``compare`` returns its :class:`~robocal.methods.selection.Comparison`; ``design`` a
+:class:`~robocal.planning.job.Designed` (``--fixture``: a
+:class:`~robocal.planning.job.SocketsDesigned`), defined beside its job in the planning layer,
+which may not import this one.  Still JSON-ready dicts: ``import``'s and ``iso9283 plan``'s.
 """
 from __future__ import annotations
 
