@@ -7,22 +7,70 @@ compensated (command P - ê(P) through the nominal IK) and measured on the simul
 Every figure is computed in this run; the published ones are printed beside them.
 """
 import time
+from dataclasses import dataclass
 
 import numpy as np
 from rich.table import Table
 
-from ..estimation.metrics import error_stats
+from ..estimation.metrics import ErrorStats, error_stats
 from ..io.library import builtin
 from ..io.observations import Observations
 from ..methods import KrigingMethod
 from ..simulation import liu2022_plan, make_true_robot
-from .results import Demonstrated
 
 PUBLISHED = {
     "before_mean_mm": 1.6778,
     "after_mean_mm": 0.0018,
     "after_max_mm": 0.0084,
 }
+
+
+@dataclass(frozen=True)
+class Demonstrated:
+    """What ``demo`` measured: the experiment of Liu et al. (2022) (:func:`run_demo`).
+
+    Attributes
+    ----------
+    robot, experiment : str
+        The robot's name, and the experiment in a sentence.
+    training_points, test_points : int
+        The targets the Kriging model is fitted on, and those compensated.
+    before_all, before : ErrorStats
+        The true robot's position error at every target, and at the test targets (mm).
+    predicted_compensation, prediction_deviation : ErrorStats
+        The model's predicted error at the test targets, and that less the true one (mm).
+    after, after_iterated : ErrorStats
+        The error left after compensation at the reachable test targets, with one
+        correction and iterated to a fixed point (mm).
+    reachable : int
+        How many compensated test targets the robot reaches.
+    kriging : dict
+        The fitted model's ``theta``, ``nugget`` and ``diagnostics``, and ``fit_seconds``
+        and ``compensate_seconds`` (s).
+    published : dict
+        The paper's figures (mm): ``before_mean_mm``, ``after_mean_mm``, ``after_max_mm``.
+    """
+
+    robot: str
+    experiment: str
+    training_points: int
+    test_points: int
+    before_all: ErrorStats
+    before: ErrorStats
+    predicted_compensation: ErrorStats
+    prediction_deviation: ErrorStats
+    after: ErrorStats
+    after_iterated: ErrorStats
+    reachable: int
+    kriging: dict
+    published: dict
+
+    def to_dict(self):
+        statistics = ("before_all", "before", "predicted_compensation", "prediction_deviation", "after",
+                      "after_iterated")
+        return {"robot": self.robot, "experiment": self.experiment, "training_points": self.training_points,
+                "test_points": self.test_points, **{name: getattr(self, name).to_dict() for name in statistics},
+                "reachable": self.reachable, "kriging": self.kriging, "published": self.published}
 
 
 def _compensated(truth, compensator, targets, hint, iterate):
@@ -32,7 +80,7 @@ def _compensated(truth, compensator, targets, hint, iterate):
 
 
 def run_demo():
-    """Run the experiment; returns a :class:`.results.Demonstrated`."""
+    """Run the experiment; returns a :class:`Demonstrated`."""
     chain = builtin("kr150-2")
     truth = make_true_robot(chain, "liu2022")
     q, targets, train, test = liu2022_plan(chain)

@@ -7,7 +7,9 @@ demo's tables, :mod:`robocal.interfaces.demo`'s).
 ``compare`` returns its :class:`~robocal.methods.selection.Comparison`; ``design`` a
 :class:`~robocal.planning.job.Designed` (``--fixture``: a
 :class:`~robocal.planning.job.SocketsDesigned`), defined beside its job in the planning layer,
-which may not import this one.  Still JSON-ready dicts: ``import``'s and ``iso9283 plan``'s.
+which may not import this one; ``demo`` a :class:`~robocal.interfaces.demo.Demonstrated`,
+beside its experiment (the one module of ``interfaces/`` that names a method).  Still
+JSON-ready dicts: ``import``'s and ``iso9283 plan``'s.
 """
 from __future__ import annotations
 
@@ -401,54 +403,6 @@ class Reported:
         extra = {} if self.iso9283 is None else {"iso9283": self.iso9283}
         return {"out": self.out, "pdf": self.pdf, "figures": list(self.figures), "held_out": self.held_out, **extra,
                 "model": self.model, "method": self.method, "file": self.file, **self.scores}
-
-
-@dataclass(frozen=True)
-class Demonstrated:
-    """What ``demo`` measured: the experiment of Liu et al. (2022) (:mod:`robocal.interfaces.demo`).
-
-    Attributes
-    ----------
-    robot, experiment : str
-        The robot's name, and the experiment in a sentence.
-    training_points, test_points : int
-        The targets the Kriging model is fitted on, and those compensated.
-    before_all, before : ErrorStats
-        The true robot's position error at every target, and at the test targets (mm).
-    predicted_compensation, prediction_deviation : ErrorStats
-        The model's predicted error at the test targets, and that less the true one (mm).
-    after, after_iterated : ErrorStats
-        The error left after compensation at the reachable test targets, with one
-        correction and iterated to a fixed point (mm).
-    reachable : int
-        How many compensated test targets the robot reaches.
-    kriging : dict
-        The fitted model's ``theta``, ``nugget`` and ``diagnostics``, and ``fit_seconds``
-        and ``compensate_seconds`` (s).
-    published : dict
-        The paper's figures (mm): ``before_mean_mm``, ``after_mean_mm``, ``after_max_mm``.
-    """
-
-    robot: str
-    experiment: str
-    training_points: int
-    test_points: int
-    before_all: ErrorStats
-    before: ErrorStats
-    predicted_compensation: ErrorStats
-    prediction_deviation: ErrorStats
-    after: ErrorStats
-    after_iterated: ErrorStats
-    reachable: int
-    kriging: dict
-    published: dict
-
-    def to_dict(self):
-        statistics = ("before_all", "before", "predicted_compensation", "prediction_deviation", "after",
-                      "after_iterated")
-        return {"robot": self.robot, "experiment": self.experiment, "training_points": self.training_points,
-                "test_points": self.test_points, **{name: getattr(self, name).to_dict() for name in statistics},
-                "reachable": self.reachable, "kriging": self.kriging, "published": self.published}
 
 
 @dataclass(frozen=True)
