@@ -114,9 +114,9 @@ def run(language, n):
         wall, cpu = time.perf_counter(), time.process_time()
         compensate_targets(model, prepared.poses, prepared.hints, folder)
         compensate_wall, compensate_cpu = time.perf_counter() - wall, time.process_time() - cpu
-        print(f"{language:9s} {result['targets']:6d} points: filter {filter_wall:.2f} s ({filter_cpu:.2f} s CPU), "
+        print(f"{language:9s} {result.targets:6d} points: filter {filter_wall:.2f} s ({filter_cpu:.2f} s CPU), "
               f"compensate on the same points {compensate_wall:.2f} s ({compensate_cpu:.2f} s CPU); "
-              f"{result['outside_domain']} outside the domain; largest move {result['max_moved_mm']:.3f} mm")
+              f"{result.outside_domain} outside the domain; largest move {result.max_moved_mm:.3f} mm")
 
 
 def main(argv):

@@ -42,7 +42,7 @@ def models(tmp_path_factory):
 def test_every_target_is_what_compensate_gives(models, tmp_path):
     (tmp_path / "out").mkdir()
     before, after, expected, q, result = filter_and_compensate(models["true"], SRC, tmp_path / "out", tmp_path)
-    assert result["targets"] == len(before) == 14
+    assert result.targets == len(before) == 14
     assert_same_poses(after, expected)
     moved = np.linalg.norm(np.array([a.pose[:3, 3] - b.pose[:3, 3] for a, b in zip(after, before)]), axis=1)
     assert 0.3 < moved.mean() < 3.0  # the simulated robot misses by about 1 mm
@@ -145,7 +145,7 @@ def test_targets_outside_the_domain_are_refused_unless_accepted(tmp_path):
         filter_job(model, [SRC], tmp_path / "out", allow_unfiltered=True)
     assert not list((tmp_path / "out").iterdir())
     result = filter_job(model, [SRC], tmp_path / "out", allow_unfiltered=True, accept_extrapolation=True)
-    assert result["outside_domain"] >= 3
+    assert result.outside_domain >= 3
     summary = (tmp_path / "out" / "filter-summary.csv").read_text().splitlines()[1:]
     rows = {r.split(",")[2]: r.split(",")[6] for r in summary}
     assert rows["XP8"] == "0" and rows["XP3"] == "1"
@@ -211,5 +211,5 @@ def test_a_data_list_named_in_another_case_is_found(models, tmp_path):
     shutil.copy(KRL / "pallet_cell.dat", tmp_path / "CELL.DAT")
     (tmp_path / "fo").mkdir()
     result = filter_job(models["true"], [tmp_path / "cell.src"], tmp_path / "fo", allow_unfiltered=True)
-    assert result["targets"] == 14
+    assert result.targets == 14
     assert_only_targets_changed(tmp_path / "CELL.DAT", tmp_path / "fo" / "CELL.DAT", ";")

@@ -52,7 +52,7 @@ def test_every_robtarget_is_what_compensate_gives(models, tmp_path):
     (tmp_path / "out").mkdir()
     before, after, expected, q, result = filter_and_compensate(models["true"], MODULE, tmp_path / "out", tmp_path,
                                                                frames=frames)
-    assert result["targets"] == len(before) == 11
+    assert result.targets == len(before) == 11
     assert_same_poses(after, expected)
     moved = np.linalg.norm(np.array([a.pose[:3, 3] - b.pose[:3, 3] for a, b in zip(after, before)]), axis=1)
     assert 0.2 < moved.mean() < 3.0
@@ -91,7 +91,7 @@ def test_run_time_motions_are_refused_then_listed(models, tmp_path):
         assert f"PickPlace.mod line {line}: " in message and what in message
     assert not list(tmp_path.iterdir())
     result = filter_job(models["true"], [MODULE], tmp_path, allow_unfiltered=True)
-    assert len(result["unfiltered"]) == 4
+    assert len(result.unfiltered) == 4
 
 
 def test_a_filtered_module_is_refused(models, tmp_path):

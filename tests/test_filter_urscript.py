@@ -27,7 +27,7 @@ def models(tmp_path_factory):
 def test_every_pose_is_what_compensate_gives(models, tmp_path):
     (tmp_path / "out").mkdir()
     before, after, expected, q, result = filter_and_compensate(models["true"], SCRIPT, tmp_path / "out", tmp_path)
-    assert result["targets"] == len(before) == 7
+    assert result.targets == len(before) == 7
     assert [t.name for t in before[:3]] == ["above_feeder", "at_feeder", "drop"]
     assert_same_poses(after, expected)
     # The controller takes the solution nearest where it stands: the branch of the joint
@@ -58,7 +58,7 @@ def test_run_time_poses_are_refused_then_listed(models, tmp_path):
     assert not list(tmp_path.iterdir())
     (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
     result = filter_job(models["true"], [SCRIPT], tmp_path / "a", allow_unfiltered=True)
-    assert sorted(int(item.split(" line ")[1].split(":")[0]) for item in result["unfiltered"]) == [17, 23, 24]
+    assert sorted(int(item.split(" line ")[1].split(":")[0]) for item in result.unfiltered) == [17, 23, 24]
     assert (tmp_path / "a" / "filter-summary.csv").read_text().count("unfiltered (run time)") == 3
     with pytest.raises(InputError, match="written by robocal filter already"):
         filter_job(models["true"], [tmp_path / "a" / SCRIPT.name], tmp_path / "b", allow_unfiltered=True)
@@ -116,4 +116,4 @@ def test_scripts_that_cannot_be_filtered_are_refused(models, tmp_path, monkeypat
 def test_a_joint_position_first_fixes_the_branch(models, tmp_path):
     (tmp_path / "fo").mkdir()
     (tmp_path / "p.script").write_text(_script(HOME, f"movel({ABOVE}, a=0.5, v=0.1)")["p.script"])
-    assert filter_job(models["true"], [tmp_path / "p.script"], tmp_path / "fo")["targets"] == 1
+    assert filter_job(models["true"], [tmp_path / "p.script"], tmp_path / "fo").targets == 1

@@ -135,7 +135,7 @@ def test_paths_are_relative_to_the_fleet_file_and_options_reach_the_method(tmp_p
     assert robots[1].settings == {"parameters": "full", "loss": "huber"}
     monkeypatch.chdir(data)  # the fleet file given from another folder: its paths still resolve from its own
     result = fleet_job(os.path.relpath(fleet, data), tmp_path / "out")
-    assert result["failed"] == 0
+    assert result.failed == 0
     model = json.loads((tmp_path / "out" / "cell2-irb" / "model.json").read_text())
     assert model["training"]["file"] == str(data / "irb_train.csv")
     assert model["options"]["loss"] == "huber"
@@ -168,7 +168,7 @@ def serial_run(data, tmp_path_factory):
 def test_a_robot_with_a_damaged_file_fails_alone(serial_run, data):
     out, result, seen = serial_run
     assert seen == [(1, 3), (2, 3), (3, 3)]
-    assert (result["ok"], result["failed"]) == (2, 1)
+    assert (result.ok, result.failed) == (2, 1)
     rows = {row["name"]: row for row in summary(out)}
     assert list(summary(out)[0]) == [*SUMMARY_COLUMNS, KIND_COLUMN]
     assert rows["cell3-bad"]["status"] == "failed" and "twelve degrees" in rows["cell3-bad"]["message"]

@@ -55,6 +55,7 @@ from ..io.programs.core import (
 from ..kinematics.ik.solve import ik_all
 from ..spatial.transforms import invert
 from .jobs import NO_DOMAIN, load_fitted
+from .results import Filtered
 
 SUMMARY = "filter-summary.csv"
 # RAPID's tool0: the flange itself.
@@ -316,7 +317,7 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
     first motion whose posture nothing fixes, targets the model cannot reach, and targets
     outside its domain of validity without ``accept_extrapolation`` (and, as it reads them,
     a KRL .src without its .dat and a RAPID quaternion that is not unit).  Returns a
-    JSON-ready dict.
+    :class:`.results.Filtered`.
     """
     out_dir = Path(out_dir)
     if not out_dir.is_dir():
@@ -401,10 +402,10 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
         text = rewrite(program, edits[program.path], program.module.comment_offset(program.text), comment)
         texts.append((target_path, text))
     _write_all(texts + [(outputs[-1], _summary(rows))])
-    return {"files": [str(p) for p, _ in texts], "summary": str(outputs[-1]), "targets": len(targets),
-            "unfiltered": [f"{r.file} line {r.line}: {r.what}" for r in run_time],
-            "outside_domain": int((~inside).sum()), "domain_summary": domain_summary,
-            "max_moved_mm": float(moved.max()) if len(moved) else 0.0}
+    return Filtered(files=[str(p) for p, _ in texts], summary=str(outputs[-1]), targets=len(targets),
+                    unfiltered=[f"{r.file} line {r.line}: {r.what}" for r in run_time],
+                    outside_domain=int((~inside).sum()), domain_summary=domain_summary,
+                    max_moved_mm=float(moved.max()) if len(moved) else 0.0)
 
 
 def _module_of(prepared, target):

@@ -50,6 +50,7 @@ from ..methods.base import option_of
 from ..methods.reregistration import PARAMETER_CHOICES as FRAME_PARAMETERS
 from ..settings import Choice, Flag, Refusal, merged_constraint
 from .jobs import AUTO, calibrate_job, evaluate_job
+from .results import FleetRun
 
 MODEL_FILE = "model.json"
 REPORT_FILE = "report.html"
@@ -309,7 +310,8 @@ def fleet_job(fleet_file, out_dir, *, jobs=None, scheduler=None, on_robot=None):
     of ``jobs`` workers, on the cluster at ``scheduler``, or (neither) on the active
     :func:`robocal.parallel.executor`, serially outside one.  Writes DIR/<name>/model.json and
     report.html, DIR/summary.csv and DIR/summary.html; ``on_robot(row, finished, total)`` is
-    called as each robot finishes.  Returns the rows and what was written; ``failed`` counts the failures."""
+    called as each robot finishes.  Returns a :class:`.results.FleetRun`: the rows and what was
+    written; ``failed`` counts the failures."""
     # One unit: a fleet that fails as a whole (no scheduler, Ctrl-C) leaves no folder or file
     # it made; one that runs keeps every robot's, failed robots included.
     with outputs_together():
@@ -360,9 +362,9 @@ def _run_fleet(fleet_file, out_dir, jobs, scheduler, on_robot):
         reasons = [f"{row['name']}: {row['message']}" for row in rows]
         more = f"; and {len(reasons) - 2} more" if len(reasons) > 2 else ""
         raise InputError(f"every robot of the fleet failed, nothing written ({'; '.join(reasons[:2])}{more})")
-    written = write_summary(out, rows, fleet_file)
-    return {"fleet": str(fleet_file), "out": str(out), "ran_on": where, "workers": workers,
-            "robots": rows, "ok": len(rows) - failed, "failed": failed, **written}
+    summary_csv, summary_html = write_summary(out, rows, fleet_file)
+    return FleetRun(fleet=str(fleet_file), out=str(out), ran_on=where, workers=workers, robots=rows,
+                    ok=len(rows) - failed, failed=failed, summary_csv=summary_csv, summary_html=summary_html)
 
 
 
@@ -390,13 +392,13 @@ def _check_inputs_are_not_outputs(robots, folders, out, fleet_file):
 
 
 def write_summary(out, rows, fleet_file):
-    """DIR/summary.csv (SUMMARY_COLUMNS) and DIR/summary.html; returns their paths."""
+    """DIR/summary.csv (SUMMARY_COLUMNS) and DIR/summary.html; returns their paths (str)."""
     text = csv_text(SUMMARY_COLUMNS, ([_cell(row[column]) for column in SUMMARY_COLUMNS] for row in rows),
                     "fleet-summary")
     csv_path, html_path = out / SUMMARY_CSV, out / SUMMARY_HTML
     write_text_atomic(csv_path, text)
     write_text_atomic(html_path, summary_html(rows, fleet_file))
-    return {"summary_csv": str(csv_path), "summary_html": str(html_path)}
+    return str(csv_path), str(html_path)
 
 
 def _cell(value):

@@ -1,5 +1,5 @@
 """What each command does, as plain functions of parsed arguments that return the command's
-result (a type of :mod:`.results` with ``to_dict()``, or a JSON-ready dict where noted): read
+result (a type of :mod:`.results` with ``to_dict()``): read
 the files, call the method registry, write the files.  ``cli/`` only parses, renders
 (``cli/rendering.py``) and maps errors to exit codes."""
 import os
@@ -27,7 +27,7 @@ from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
 from ..methods.reregistration import FRAMES  # noqa: F401  (the command line and fleet files name it here)
 from ..methods.selection import AUTO, choose, compare
 from ..methods.validation import cross_validate
-from .results import Calibrated, Compensated, DatasetWritten, Evaluated, Exported, Validated
+from .results import Calibrated, Compensated, DatasetWritten, Evaluated, Exported, Simulated, Validated
 
 
 def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=None, fixture=None, progress=None,
@@ -341,7 +341,8 @@ def export_job(model_path, out, *, fmt="toml", convention=None, original=None):
 
 
 def _simulate_sockets(true_robot, out, fixture_path, placements, per_socket, noise, joint_noise, rng):
-    """Ball-in-socket readings of a true robot; ``noise`` is the seating error (mm)."""
+    """Ball-in-socket readings of a true robot; ``noise`` is the seating error (mm).  Returns
+    the :class:`.results.Simulated` fields they fill."""
     from ..estimation.constraint import socket_errors
     from ..io.fixtures import read_fixture
     from ..simulation.sampling import socket_plan
@@ -396,7 +397,8 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
 
     ``--sampling sockets`` seats a ball (the tool) in the sockets of ``fixture`` at
     ``placements`` random fixture poses, ``per_socket`` configurations each, and records
-    joint angles only (``noise`` is then the seating error, ``joint_noise`` in deg)."""
+    joint angles only (``noise`` is then the seating error, ``joint_noise`` in deg).  Returns a
+    :class:`.results.Simulated`."""
     from ..simulation import grid, latin_hypercube_box, liu2022_plan, uniform_joints, write_truth
     from ..spatial import rpy_to_matrix
 
@@ -419,8 +421,7 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
         result = _simulate_sockets(true_robot, out, fixture, placements, per_socket, noise, joint_noise, rng)
         if truth:
             write_truth(truth, true_robot)
-        return {"robot": chain.name, "sampling": sampling, "errors": errors, "out": str(out),
-                "truth": str(truth) if truth else None, **result}
+        return Simulated(chain.name, sampling, errors, str(out), str(truth) if truth else None, **result)
     if sampling == "joint":
         q = uniform_joints(chain, n or 200, rng)
     elif sampling in ("lhs", "grid"):
@@ -445,9 +446,8 @@ def simulate_job(robot, out, *, n=None, sampling="joint", errors="typical", nois
     write_measurements(out, data)
     if truth:
         write_truth(truth, true_robot)
-    return {"robot": chain.name, "poses": int(len(q)), "sampling": sampling, "errors": errors,
-            "out": str(out), "truth": str(truth) if truth else None,
-            "true_error": error_stats(true_robot.error(q)).to_dict()}
+    return Simulated(chain.name, sampling, errors, str(out), str(truth) if truth else None, int(len(q)),
+                     true_error=error_stats(true_robot.error(q)))
 
 
 DATASETS = {

@@ -14,6 +14,8 @@ The campaign's positions are taken to be in the robot base frame as the model re
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..acceptance.iso9283 import DEFAULT_MATCH_MM, PREDICTED_NOTE, characteristics, predicted_compensated
@@ -23,6 +25,7 @@ from ..io.atomic import check_outputs
 from ..estimation.plausibility import check_model_data
 from ..io.iso_campaign import campaign_measurements, read_iso_campaign
 from ..io.observations import observations
+from .results import CompensatedFigures, Iso9283Figures
 
 
 def systematic_error(model, fitted, joints_file):
@@ -43,29 +46,28 @@ def systematic_error(model, fitted, joints_file):
 
 def iso9283_job(measurements, *, match_mm=DEFAULT_MATCH_MM, model=None, report=None, instrument=None,
                 conditions=None):
-    """The ISO 9283 figures of the campaign file ``measurements`` (JSON-ready); with ``model``
-    (a model file) the predicted figures of the compensated robot under ``"compensated"``
-    (marked ``"predicted": true``); with ``report`` the ISO page written there (HTML,
+    """The ISO 9283 figures of the campaign file ``measurements``, an
+    :class:`.results.Iso9283Figures`; with ``model`` (a model file) the predicted figures of
+    the compensated robot (``compensated``); with ``report`` the ISO page written there (HTML,
     atomically), naming the ``instrument`` and the test ``conditions`` given."""
     check_match_mm(match_mm)
     if report is not None and not str(report).lower().endswith((".html", ".htm")):
         raise InputError(f"the ISO page is HTML: give --report a .html file name, got {report}")
     check_outputs([report], [measurements, model])
     campaign = read_iso_campaign(measurements)
-    result = characteristics(campaign, match_mm=match_mm).to_dict()
-    if model is not None:
-        result["compensated"] = _compensated(campaign, model, match_mm)
+    result = Iso9283Figures(characteristics(campaign, match_mm=match_mm),
+                            None if model is None else _compensated(campaign, model, match_mm))
     if report is not None:
         from .report_iso import write_iso_page
 
         write_iso_page(report, campaign, result, instrument=instrument, conditions=conditions)
-        result["report"] = str(report)
+        result = replace(result, report=str(report))
     return result
 
 
 def _compensated(campaign, model_path, match_mm):
-    """The ``"compensated"`` entry: the predicted figures, the model they come from and what
-    they mean."""
+    """The :class:`.results.CompensatedFigures`: the predicted figures, the model they come
+    from and what they mean."""
     from .jobs import load_fitted
 
     model, fitted = load_fitted(model_path)
@@ -81,8 +83,7 @@ def _compensated(campaign, model_path, match_mm):
     check_model_data(model, observations(model.kinematics, campaign_measurements(campaign)), model_path)
     _check_commands_are_the_models(campaign, model, model_path)
     predicted = predicted_compensated(campaign, systematic_error(model, fitted, campaign.joints), match_mm=match_mm)
-    return {"predicted": True, "model": str(model_path), "method": model.method, "note": PREDICTED_NOTE,
-            **{k: v for k, v in predicted.to_dict().items() if k != "file"}}
+    return CompensatedFigures(str(model_path), model.method, PREDICTED_NOTE, predicted)
 
 
 def _check_commands_are_the_models(campaign, model, model_path):

@@ -22,6 +22,7 @@ from . import plots
 from .html_style import STYLE
 from ..methods.evaluation import position_scores, socket_residuals, socket_scores, with_fixture
 from .jobs import load_fitted, read_model_data
+from .results import Reported
 from .tables import parameter_notes, parameter_rows
 
 # How each kind of method diagnostic (robocal.methods.ReportFigure) is drawn.
@@ -217,7 +218,8 @@ def _calibration_section(calibration, chain):
 class Scores:
     """What the report shows of a model on a file: per-pose ``before`` / ``after`` (N, 3) mm
     (errors, or deviations from the socket group's mean), the ``positions`` (N, 3) mm they are
-    drawn at, the statistics ``stats`` (as ``evaluate --json`` prints them), the ISO 9283
+    drawn at, the statistics ``stats`` (as ``evaluate --json`` prints them after its model,
+    method and file), the ISO 9283
     figures (position data), and a sentence on the ``metric``."""
 
     before: np.ndarray
@@ -229,18 +231,17 @@ class Scores:
 
 
 def _scores(model, fitted, data, model_path):
-    head = {"model": str(model_path), "method": model.method, "file": data.path}
     if data.positions is None:
         data = with_fixture(fitted, data, model_path)
         before, after, centres = socket_residuals(fitted, data)
-        return Scores(before, after, centres, {**head, **socket_scores(fitted, data)}, None,
+        return Scores(before, after, centres, socket_scores(fitted, data), None,
                       "Socket consistency: distance of each computed ball centre from the mean of its socket "
                       "group, in mm (no instrument: the data are joint angles only)")
     before, after, scores = position_scores(fitted, data, model.nominal.name)
     file_joints = model.kinematics.joints_to_file(data.joints)
     iso = {"nominal": iso9283_position(file_joints, data.positions, fitted.reference_.fk_positions(data.joints)),
            "calibrated": iso9283_position(file_joints, data.positions, fitted.predict(data.joints))}
-    return Scores(before, after, data.positions, {**head, **scores}, iso,
+    return Scores(before, after, data.positions, scores, iso,
                   "Single-point error |e| = |measured − model| in mm; 'nominal' is the uncalibrated robot "
                   "(registered in the measurement frame when the model was).")
 
@@ -304,7 +305,8 @@ def _accuracy_rows(record, stats, held_out):
 
 def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyond_limits=False, iso=None):
     """Write the HTML report (and the PDF when ``pdf`` is a path), with the ISO page of the
-    campaign file ``iso`` when given; returns what was written and the numbers it shows."""
+    campaign file ``iso`` when given; returns what was written and the numbers it shows (a
+    :class:`.results.Reported`)."""
     if not str(out).lower().endswith((".html", ".htm")):
         raise InputError(f"the report is HTML: give --out a .html file name, got {out}")
     if pdf is not None and not str(pdf).lower().endswith(".pdf"):
@@ -345,9 +347,9 @@ def report_job(model_path, measurements, out, *, validation=None, pdf=None, beyo
 
     for _, _, fig in figures:
         plt.close(fig)
-    extra = {} if scores.iso is None else {"iso9283": scores.iso}
-    return {"out": str(out), "pdf": None if pdf is None else str(pdf), "figures": [t for t, _, _ in figures],
-            "held_out": held_out, **extra, **scores.stats}
+    return Reported(out=str(out), pdf=None if pdf is None else str(pdf), figures=[t for t, _, _ in figures],
+                    held_out=held_out, model=str(model_path), method=model.method, file=data.path,
+                    scores=scores.stats, iso9283=scores.iso)
 
 
 def _write_pdf(path, summary, accuracy_rows, figures):

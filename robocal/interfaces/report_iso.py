@@ -13,9 +13,9 @@ from .. import __version__
 from ..io.atomic import write_text_atomic
 from .html_style import STYLE
 
-POSITION = (("AP", "AP_mm"), ("APx", "APx_mm"), ("APy", "APy_mm"), ("APz", "APz_mm"), ("RP", "RP_mm"))
-ORIENTATION = (("APa", "APa_deg"), ("APb", "APb_deg"), ("APc", "APc_deg"), ("RPa", "RPa_deg"), ("RPb", "RPb_deg"),
-               ("RPc", "RPc_deg"))
+# The figures of a pose (robocal.acceptance.iso9283.PoseCharacteristics) in the tables' order.
+POSITION = ("AP", "APx", "APy", "APz", "RP")
+ORIENTATION = ("APa", "APb", "APc", "RPa", "RPb", "RPc")
 
 
 def _table(header, rows):
@@ -31,18 +31,19 @@ def _number(value, digits=4):
 
 
 def test_conditions(campaign, result):
-    """(label, value) rows: what the campaign file says of how the test was run."""
-    poses = result["poses"]
-    cycles = max(p["n"] for p in poses)
+    """(label, value) rows: what the campaign file says of how the test was run (``result``:
+    an :class:`~robocal.interfaces.results.Iso9283Figures`)."""
+    poses = result.figures.poses
+    cycles = max(p.n for p in poses)
     low, high = campaign.commanded.min(axis=0), campaign.commanded.max(axis=0)
     rows = [("campaign file", campaign.path), ("visits", str(len(campaign.attained))),
-            ("commanded poses", f"{len(poses)} ({', '.join(p['pose'] for p in poses)})"),
+            ("commanded poses", f"{len(poses)} ({', '.join(p.pose for p in poses)})"),
             ("cycles (visits per pose)", str(cycles) + ("" if cycles >= 30 else " (the standard asks for 30)")),
-            ("visits matched by", result["matched_by"]),
-            ("poses visited once (no repeatability: left out)", str(len(result.get("visited_once", ())))),
+            ("visits matched by", result.figures.matched_by),
+            ("poses visited once (no repeatability: left out)", str(len(result.figures.visited_once))),
             ("commanded positions span (mm)", " x ".join(f"{v:.1f}" for v in high - low)),
             ("largest spread of one pose's commands (mm)",
-             f"{max(p['command_spread_mm'] for p in poses):.4f}")]
+             f"{max(p.command_spread_mm for p in poses):.4f}")]
     if campaign.commanded_angles is not None:
         first = campaign.commanded_angles[0]
         rows.append(("commanded orientation of the first visit rx, ry, rz (deg)",
@@ -55,36 +56,37 @@ def test_conditions(campaign, result):
 
 
 def _figures_tables(figures, label):
-    """The pose tables (mm, and deg when present) and the distance line of one set of figures."""
-    poses = figures["poses"]
-    parts = [_table(["pose", "n"] + [f"{name} (mm)" for name, _ in POSITION],
-                    [[p["pose"], p["n"]] + [_number(p[key]) for _, key in POSITION] for p in poses])]
-    if any(p.get("APa_deg") is not None for p in poses):
-        parts.append(_table(["pose"] + [f"{name} (deg)" for name, _ in ORIENTATION],
-                            [[p["pose"]] + [_number(p[key]) for _, key in ORIENTATION] for p in poses]))
-    distance = figures["distance"]
+    """The pose tables (mm, and deg when present) and the distance line of one set of figures
+    (an :class:`~robocal.acceptance.iso9283.Iso9283Result`)."""
+    poses = figures.poses
+    parts = [_table(["pose", "n"] + [f"{name} (mm)" for name in POSITION],
+                    [[p.pose, p.n] + [_number(getattr(p, name)) for name in POSITION] for p in poses])]
+    if any(p.APa is not None for p in poses):
+        parts.append(_table(["pose"] + [f"{name} (deg)" for name in ORIENTATION],
+                            [[p.pose] + [_number(getattr(p, name)) for name in ORIENTATION] for p in poses]))
+    distance = figures.distance
     if distance is not None:
-        parts.append(f"<p>{html.escape(label)}: distance {'-'.join(distance['between'])} "
-                     f"({distance['commanded_mm']:.3f} mm commanded, {distance['n']} cycles): AD "
-                     f"{distance['AD_mm']:.4f} mm, RD {distance['RD_mm']:.4f} mm</p>")
+        parts.append(f"<p>{html.escape(label)}: distance {'-'.join(distance.between)} "
+                     f"({distance.commanded_mm:.3f} mm commanded, {distance.n} cycles): AD "
+                     f"{distance.AD:.4f} mm, RD {distance.RD:.4f} mm</p>")
     return "".join(parts)
 
 
 def _before_after(result):
     """Per pose, AP and RP (mm) measured beside the compensated robot's predicted ones."""
-    after = {p["pose"]: p for p in result["compensated"]["poses"]}
+    after = {p.pose: p for p in result.compensated.figures.poses}
     rows = []
-    for pose in result["poses"]:
-        other = after[pose["pose"]]
-        rows.append([pose["pose"], _number(pose["AP_mm"]), _number(other["AP_mm"]), _number(pose["RP_mm"]),
-                     _number(other["RP_mm"])])
+    for pose in result.figures.poses:
+        other = after[pose.pose]
+        rows.append([pose.pose, _number(pose.AP), _number(other.AP), _number(pose.RP), _number(other.RP)])
     return _table(["pose", "AP measured (mm)", "AP compensated, predicted (mm)", "RP measured (mm)",
                    "RP compensated, predicted (mm)"], rows)
 
 
 def iso_section(campaign, result, *, instrument=None, conditions=None):
     """The ISO page's HTML (no document around it): test conditions, instrument, the
-    measured figures and, when ``result`` has them, the compensated robot's predicted ones."""
+    measured figures and, when ``result`` (an :class:`~robocal.interfaces.results.Iso9283Figures`)
+    has them, the compensated robot's predicted ones."""
     if instrument is None and campaign.instrument:
         instrument = "; ".join(campaign.instrument) + " (the campaign's instrument column)"
     stated = [("instrument", instrument or "not stated (give --instrument, or an instrument column)"),
@@ -96,13 +98,13 @@ def iso_section(campaign, result, *, instrument=None, conditions=None):
              "distance between two poses (ISO 9283:1998, 7.2, 7.3 and 7.5).</p>",
              "<h3>Test conditions and instrument</h3>",
              _table(["", ""], stated + test_conditions(campaign, result)),
-             "<h3>Before: measured</h3>", _figures_tables(result, "measured")]
-    compensated = result.get("compensated")
+             "<h3>Before: measured</h3>", _figures_tables(result.figures, "measured")]
+    compensated = result.compensated
     if compensated is not None:
-        parts += [f"<h3>After: compensated by {html.escape(compensated['model'])} "
-                  f"({html.escape(compensated['method'])}), predicted</h3>",
-                  f"<p class=note>{html.escape(compensated['note'])}.</p>",
-                  _before_after(result), _figures_tables(compensated, "compensated, predicted")]
+        parts += [f"<h3>After: compensated by {html.escape(compensated.model)} "
+                  f"({html.escape(compensated.method)}), predicted</h3>",
+                  f"<p class=note>{html.escape(compensated.note)}.</p>",
+                  _before_after(result), _figures_tables(compensated.figures, "compensated, predicted")]
     else:
         parts.append("<p class=note>No compensated figures: give --model MODEL.json to predict them.</p>")
     return "".join(parts)
@@ -117,7 +119,8 @@ def write_iso_page(path, campaign, result, *, instrument=None, conditions=None):
                                    f"</title><style>{STYLE}</style></head><body>{body}</body></html>\n")
 
 
-def largest(figures, key):
-    """The largest value of ``key`` over a figures dict's poses (mm), NaN without poses."""
-    values = [p[key] for p in figures["poses"] if p.get(key) is not None]
+def largest(figures, name):
+    """The largest figure ``name`` (``AP``, ``RP``, mm) over the poses of an
+    :class:`~robocal.acceptance.iso9283.Iso9283Result`, NaN without poses."""
+    values = [getattr(p, name) for p in figures.poses if getattr(p, name) is not None]
     return float(np.max(values)) if values else float("nan")

@@ -1,16 +1,21 @@
 """What the commands' jobs return: one frozen result type per command, in the manner of
 SciPy's ``OptimizeResult`` (every field documented, set once at the job's single exit), and
 its ``to_dict()``: the JSON object ``--json`` prints, key for key and in the same order as
-before the types existed.  Rendering them is :mod:`robocal.interfaces.cli.rendering`'s.
+before the types existed.  Rendering them is :mod:`robocal.interfaces.cli.rendering`'s (the
+demo's tables, :mod:`robocal.interfaces.demo`'s).
 
-``compare`` returns its :class:`~robocal.methods.selection.Comparison`.  The results still
-JSON-ready dicts are simulate's (rendered in ``cli/plan.py``), report's, filter's, demo's and
-those of the planning and acceptance jobs (design, iso9283).
+``compare`` returns its :class:`~robocal.methods.selection.Comparison`; ``design`` a
+:class:`~robocal.planning.job.Designed` (``--fixture``: a
+:class:`~robocal.planning.job.SocketsDesigned`), defined beside its job in the planning layer,
+which may not import this one; ``demo`` a :class:`~robocal.interfaces.demo.Demonstrated`,
+beside its experiment (the one module of ``interfaces/`` that names a method).  Still
+JSON-ready dicts: ``import``'s and ``iso9283 plan``'s.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..acceptance.iso9283 import Iso9283Result
 from ..estimation.metrics import ErrorStats
 
 
@@ -279,4 +284,213 @@ class DatasetWritten:
         if self.train_placements is not None:
             out["train_placements"] = self.train_placements
         out.update(train=self.train, test=self.test, train_poses=self.train_poses, test_poses=self.test_poses)
+        return out
+
+
+@dataclass(frozen=True)
+class Simulated:
+    """What ``simulate`` wrote.
+
+    Attributes
+    ----------
+    robot, sampling, errors, out : str
+        The robot's name, the sampling plan (joint, lhs, grid, sockets), the error preset or
+        truth file the true robot came from, the measurement file written.
+    truth : str or None
+        The truth file written (``--truth``).
+    poses : int
+        How many poses (ball-in-socket: configurations) were measured.
+    true_error : ErrorStats or None
+        The true robot's position error from the nominal's at the poses (mm); None with
+        ``--sampling sockets``, which records joint angles only.
+    placements, per_socket : int or None
+        ``--sampling sockets``: the fixture placements, and the configurations per socket.
+    nominal_socket_consistency : dict or None
+        ``--sampling sockets``: the nominal robot's socket consistency on the readings
+        (ErrorStats keys and ``socket_distance``, mm).
+    """
+
+    robot: str
+    sampling: str
+    errors: str
+    out: str
+    truth: str | None
+    poses: int
+    true_error: ErrorStats | None = None
+    placements: int | None = None
+    per_socket: int | None = None
+    nominal_socket_consistency: dict | None = None
+
+    def to_dict(self):
+        if self.true_error is None:
+            return {"robot": self.robot, "sampling": self.sampling, "errors": self.errors, "out": self.out,
+                    "truth": self.truth, "poses": self.poses, "placements": self.placements,
+                    "per_socket": self.per_socket, "nominal_socket_consistency": self.nominal_socket_consistency}
+        return {"robot": self.robot, "poses": self.poses, "sampling": self.sampling, "errors": self.errors,
+                "out": self.out, "truth": self.truth, "true_error": self.true_error.to_dict()}
+
+
+@dataclass(frozen=True)
+class Filtered:
+    """What ``filter`` wrote.
+
+    Attributes
+    ----------
+    files : list of str
+        The filtered programs written (same names as the originals).
+    summary : str
+        filter-summary.csv, a line per motion.
+    targets : int
+        How many Cartesian targets were compensated.
+    unfiltered : list of str
+        The motions computed at run time and left as they were (``file line N: what``).
+    outside_domain : int
+        Targets outside the model's domain of validity.
+    domain_summary : str
+        The domain check in one line.
+    max_moved_mm : float
+        The largest distance a target moved (mm; 0 without targets).
+    """
+
+    files: list
+    summary: str
+    targets: int
+    unfiltered: list
+    outside_domain: int
+    domain_summary: str
+    max_moved_mm: float
+
+    def to_dict(self):
+        return {"files": list(self.files), "summary": self.summary, "targets": self.targets,
+                "unfiltered": list(self.unfiltered), "outside_domain": self.outside_domain,
+                "domain_summary": self.domain_summary, "max_moved_mm": self.max_moved_mm}
+
+
+@dataclass(frozen=True)
+class Reported:
+    """What ``report`` wrote, and the numbers it shows.
+
+    Attributes
+    ----------
+    out : str
+        The HTML report; ``pdf`` the PDF (None without ``--pdf``).
+    figures : list of str
+        The figures' titles, in the report's order.
+    held_out : bool
+        Whether no pose scored is one the model was fitted to.
+    model, method, file : str
+        The model file, its method, the measurement file scored.
+    scores : dict
+        The statistics as ``evaluate --json`` prints them (:class:`Evaluated`'s ``scores``,
+        mm): the nominal robot's under ``nominal``; on ball-in-socket data the socket
+        consistency, with ``metric`` saying so.
+    iso9283 : dict or None
+        Position data: the ISO 9283-style AP and RP of the ``nominal`` and the
+        ``calibrated`` model (mm, :func:`robocal.estimation.metrics.iso9283_position`).
+    """
+
+    out: str
+    pdf: str | None
+    figures: list
+    held_out: bool
+    model: str
+    method: str
+    file: str
+    scores: dict
+    iso9283: dict | None = None
+
+    def to_dict(self):
+        extra = {} if self.iso9283 is None else {"iso9283": self.iso9283}
+        return {"out": self.out, "pdf": self.pdf, "figures": list(self.figures), "held_out": self.held_out, **extra,
+                "model": self.model, "method": self.method, "file": self.file, **self.scores}
+
+
+@dataclass(frozen=True)
+class FleetRun:
+    """What ``fleet`` did (:mod:`robocal.interfaces.fleet`).
+
+    Attributes
+    ----------
+    fleet, out : str
+        The fleet file, and the folder written.
+    ran_on : str
+        Where the robots ran (a local cluster, a scheduler's, or in this process); on
+        ``workers`` workers.
+    workers : int
+    robots : list of dict
+        A summary row per robot, in the fleet file's order: the columns of summary.csv
+        (``name``, ``status``, ``method``, ``n_train``, ``n_test``, ``mean_mm``, ``max_mm``,
+        ``message``) and ``seconds``.
+    ok, failed : int
+        How many robots succeeded, and failed.
+    summary_csv, summary_html : str
+        The summary files written.
+    """
+
+    fleet: str
+    out: str
+    ran_on: str
+    workers: int
+    robots: list
+    ok: int
+    failed: int
+    summary_csv: str
+    summary_html: str
+
+    def to_dict(self):
+        return {"fleet": self.fleet, "out": self.out, "ran_on": self.ran_on, "workers": self.workers,
+                "robots": list(self.robots), "ok": self.ok, "failed": self.failed, "summary_csv": self.summary_csv,
+                "summary_html": self.summary_html}
+
+
+@dataclass(frozen=True)
+class CompensatedFigures:
+    """The ISO 9283 figures the robot compensated by a model is predicted to reach on a
+    campaign (``iso9283 --model``; :mod:`robocal.interfaces.metrology_jobs`).
+
+    Attributes
+    ----------
+    model, method : str
+        The model file and its method.
+    note : str
+        What the figures mean: predicted from the model's systematic error, not measured.
+    figures : Iso9283Result
+        The predicted figures (:class:`robocal.acceptance.iso9283.Iso9283Result`; mm, deg).
+    """
+
+    model: str
+    method: str
+    note: str
+    figures: Iso9283Result
+
+    def to_dict(self):
+        return {"predicted": True, "model": self.model, "method": self.method, "note": self.note,
+                **{key: value for key, value in self.figures.to_dict().items() if key != "file"}}
+
+
+@dataclass(frozen=True)
+class Iso9283Figures:
+    """What ``iso9283 CAMPAIGN.csv`` measured.
+
+    Attributes
+    ----------
+    figures : Iso9283Result
+        The campaign's measured figures (:class:`robocal.acceptance.iso9283.Iso9283Result`:
+        AP, RP per pose, AD, RD; mm, deg).
+    compensated : CompensatedFigures or None
+        With ``--model``: the compensated robot's predicted figures.
+    report : str or None
+        With ``--report``: the ISO page written.
+    """
+
+    figures: Iso9283Result
+    compensated: CompensatedFigures | None = None
+    report: str | None = None
+
+    def to_dict(self):
+        out = self.figures.to_dict()
+        if self.compensated is not None:
+            out["compensated"] = self.compensated.to_dict()
+        if self.report is not None:
+            out["report"] = self.report
         return out

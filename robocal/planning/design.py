@@ -105,6 +105,12 @@ class Design:
     joint_noise_deg: float = 0.0
     sag_deg: float = 0.0
 
+    def std_errors_as_files_show(self):
+        """{name: {"std_error", "unit"}}: each identifiable parameter's predicted standard error
+        in the unit files show it in (deg, mm, ...)."""
+        return {n: {"std_error": float(s * f), "unit": u}
+                for n, s, f, u in zip(self.names, self.std_errors, self.file_units, self.units)}
+
     def to_dict(self):
         return {
             "poses": int(len(self.joints)), "candidates": self.n_candidates, "existing": self.n_existing,
@@ -114,8 +120,7 @@ class Design:
                           "held_out_mean_mm": self.held_out_mean, "random_model_rms_mm": self.random_model_rms},
             "o1": self.o1, "noise_amplification": self.noise_amplification,
             "condition_number": self.condition_number,
-            "std_errors": {n: {"std_error": float(s * f), "unit": u}
-                           for n, s, f, u in zip(self.names, self.std_errors, self.file_units, self.units)},
+            "std_errors": self.std_errors_as_files_show(),
             "fixed": dict(self.fixed),
             "tour_deg": self.tour_length, "order_of_choice_deg": self.given_length,
             **({} if self.max_variance is None else {

@@ -16,6 +16,11 @@ in the robot base frame (mm; deg, roll-pitch-yaw as every robocal pose), and opt
 ``fixture`` column naming each placement (default P1, P2, …); or from a region (a box of the
 base frame, mm) where the fixture may stand level.
 """
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import InputError
@@ -28,12 +33,87 @@ from ..kinematics.ik import solve_ik
 from ..spatial import compose_pose, rpy_to_matrix
 from .candidates import DEFAULT_COUNT, MARGIN_DEG, box_candidates, joint_candidates
 from .criteria import DEFAULT_CRITERION, VarianceKernel
-from .design import design_poses
+from .design import Design, design_poses
 from .workspace import WorkingVolume
+
+if TYPE_CHECKING:  # imported by socket_job, when a ball-in-socket design is asked for
+    from .sockets import SocketDesign
 
 # An existing measurement file fitted for its residual needs this many times as many
 # equations as parameters.
 NOISE_FIT_RATIO = 1.5
+
+
+@dataclass(frozen=True)
+class Designed:
+    """What ``design`` chose and wrote: its command's result, in the manner of
+    :mod:`robocal.interfaces.results` (here, in the layer of the job that returns it).
+
+    Attributes
+    ----------
+    robot, out : str
+        The robot's name, and the poses CSV written.
+    candidates_from, noise_from : str
+        Where the candidates came from (drawn, or a file), and the reading noise assumed.
+    working_volume : str
+        The volume drawn candidates keep to (:class:`~.workspace.WorkingVolume`).
+    targets : str
+        Where the robot will work, the design's targets.
+    design : Design
+        The chosen poses and what they predict (:class:`~.design.Design`: mm, deg).
+    """
+
+    robot: str
+    out: str
+    candidates_from: str
+    noise_from: str
+    working_volume: str
+    targets: str
+    design: Design
+
+    def to_dict(self):
+        return {"robot": self.robot, "out": self.out, "candidates_from": self.candidates_from,
+                "noise_from": self.noise_from, "working_volume": self.working_volume, "targets": self.targets,
+                **self.design.to_dict()}
+
+
+@dataclass(frozen=True)
+class SocketsDesigned:
+    """What ``design --fixture`` chose and wrote: a ball-in-socket campaign.
+
+    Attributes
+    ----------
+    robot, out : str
+        The robot's name, and the poses CSV written (with fixture and socket columns).
+    fixture : str
+        The fixture's name.
+    placements_from : str
+        Where the candidate placements came from (a file, or drawn in a region).
+    reachable_placements : int
+        How many candidate placements the robot reaches.
+    placement_poses : dict
+        {placement id: {"xyz_mm": [x, y, z]}}: where each chosen placement stands (mm, robot
+        base frame).
+    noise_from : str
+        The reading noise assumed.
+    design : SocketDesign
+        The chosen placements and configurations and what they predict
+        (:class:`~.sockets.SocketDesign`, mm).
+    """
+
+    robot: str
+    out: str
+    fixture: str
+    placements_from: str
+    reachable_placements: int
+    placement_poses: dict
+    noise_from: str
+    design: SocketDesign
+
+    def to_dict(self):
+        return {"robot": self.robot, "out": self.out, "fixture": self.fixture, "placements_from": self.placements_from,
+                "reachable_placements": self.reachable_placements, "placement_poses": self.placement_poses,
+                "noise_from": self.noise_from, **self.design.to_dict()}
 
 
 def _targets(path, chain, volume):
@@ -118,9 +198,9 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
                pool=DEFAULT_COUNT, sampling="uniform", box=None, rpy=None, hint=None, tool=None,
                margin=MARGIN_DEG, existing=None, targets=None, noise=None, tracker=None, payload=None,
                order="tour", root=None, tip=None, joint_noise_deg=0.0, sag_deg=0.0, volume=None, progress=None):
-    """Design ``n`` poses for ``robot`` and write them to ``out`` (module notes); returns the
-    JSON-ready result: the design's :meth:`~robocal.planning.Design.to_dict` and where the
-    candidates, the noise and the poses came from and went.  ``volume``: the
+    """Design ``n`` poses for ``robot`` and write them to ``out`` (module notes); returns a
+    :class:`Designed`: the design and where the candidates, the noise and the poses came from
+    and went.  ``volume``: the
     :class:`~robocal.planning.workspace.WorkingVolume` drawn candidates keep to (default:
     above the mounting plane); the candidates and targets a user gives are held to it too.  ``progress``:
     called as ``progress(stage=...)`` as each stage begins."""
@@ -176,10 +256,8 @@ def design_job(robot, out, *, n, seed=0, criterion=DEFAULT_CRITERION, parameters
                           existing=before, payload=payload, seed=seed, order=order, kernel=kernel,
                           joint_noise_deg=joint_noise_deg, sag_deg=sag_deg, progress=progress)
     write_poses(out, chain, design.joints)
-    return {"robot": chain.name, "out": str(out), "candidates_from": source, "noise_from": noise_note,
-            "working_volume": volume.describe(),
-            "targets": "the candidates" if targets is None else f"{len(target_q)} configurations of {targets}",
-            **design.to_dict()}
+    return Designed(chain.name, str(out), source, noise_note, volume.describe(),
+                    "the candidates" if targets is None else f"{len(target_q)} configurations of {targets}", design)
 
 
 def _refuse_below_mounting_plane(rig, poses, where):
@@ -200,8 +278,8 @@ def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_sock
     tool: the ball centre) and ``fixture`` (a fixture TOML file), from candidate
     ``placements`` (a placements CSV) or a ``region`` (xmin, xmax, ymin, ymax, zmin, zmax mm);
     ``per_socket`` configurations per socket (default: spread over every candidate placement
-    reached).  Writes the poses CSV with fixture and socket columns to ``out`` and returns the
-    JSON-ready result."""
+    reached).  Writes the poses CSV with fixture and socket columns to ``out`` and returns a
+    :class:`SocketsDesigned`."""
     from ..io.fixtures import read_fixture
     from .sockets import MAX_TILT_DEG, design_sockets, region_placements, socket_candidates
 
@@ -253,8 +331,7 @@ def socket_job(robot, out, *, fixture, n, placements=None, region=None, per_sock
     design = design_sockets(chain, candidates, per_socket, count, criterion=criterion,
                             noise=0.02 if noise is None else noise, seed=seed)
     write_poses(out, chain, design.joints, {"fixture": list(design.placement), "socket": list(design.socket)})
-    return {"robot": chain.name, "out": str(out), "fixture": rig.name, "placements_from": source,
-            "reachable_placements": places,
-            "placement_poses": {k: {"xyz_mm": [round(float(v), 3) for v in pose[:3, 3]]} for k, pose in
-                                design.poses.items()},
-            "noise_from": "as stated (--noise)" if noise is not None else "the default 0.02 mm", **design.to_dict()}
+    return SocketsDesigned(chain.name, str(out), rig.name, source, places,
+                           {k: {"xyz_mm": [round(float(v), 3) for v in pose[:3, 3]]}
+                            for k, pose in design.poses.items()},
+                           "as stated (--noise)" if noise is not None else "the default 0.02 mm", design)

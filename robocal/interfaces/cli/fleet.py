@@ -38,10 +38,10 @@ def fleet(
                            on_robot=lambda row, done, total: advance(robots=f"{done} of {total}",
                                                                      last=f"{row['name']} {row['status']}"))
     if as_json:
-        print_json(result)
+        print_json(result.to_dict())
     else:
         print_fleet(result, [c for c in SUMMARY_COLUMNS if c != "message"], OK)
-    if result["failed"]:
-        say("error", "red", f"{result['failed']} of {len(result['robots'])} robots failed: the message column of "
-                            f"{result['summary_csv']} says why")
+    if result.failed:
+        say("error", "red", f"{result.failed} of {len(result.robots)} robots failed: the message column of "
+                            f"{result.summary_csv} says why")
         raise typer.Exit(1)

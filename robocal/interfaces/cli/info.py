@@ -88,6 +88,6 @@ def demo(as_json: bool = JSON):
 
     result = run_demo()
     if as_json:
-        print_json(result)
+        print_json(result.to_dict())
     else:
         print_all(demo_tables(result))

@@ -104,21 +104,22 @@ def iso9283(target: str = typer.Argument(..., help="A campaign CSV to compute th
     result = iso9283_job(target, match_mm=match_mm, model=model, report=report, instrument=instrument,
                          conditions=conditions)
     if as_json:
-        print_json(result)
+        print_json(result.to_dict())
         return
-    print_iso9283(result)
-    if result["visited_once"]:
-        once = result["visited_once"]
+    print_iso9283(result.figures)
+    once = list(result.figures.visited_once)
+    if once:
         say("note", "cyan", f"{len(once)} commanded pose{'s' if len(once) > 1 else ''} visited once (no repeatability) "
                             f"left out: {', '.join(once[:10])}{' ...' if len(once) > 10 else ''}")
-    compensated = result.get("compensated")
+    compensated = result.compensated
     if compensated is not None:
-        say("note", "cyan", f"compensated by {model}: {compensated['note']}")
-        print_iso9283({**compensated, "file": f"compensated, predicted by {model}"})
+        say("note", "cyan", f"compensated by {model}: {compensated.note}")
+        print_iso9283(compensated.figures, f"compensated, predicted by {model}")
         from ..report_iso import largest
 
-        say("note", "cyan", f"largest AP {largest(result, 'AP_mm'):.4f} mm measured -> "
-                            f"{largest(compensated, 'AP_mm'):.4f} mm compensated (predicted); largest RP "
-                            f"{largest(result, 'RP_mm'):.4f} -> {largest(compensated, 'RP_mm'):.4f} mm")
+        measured, predicted = result.figures, compensated.figures
+        say("note", "cyan", f"largest AP {largest(measured, 'AP'):.4f} mm measured -> "
+                            f"{largest(predicted, 'AP'):.4f} mm compensated (predicted); largest RP "
+                            f"{largest(measured, 'RP'):.4f} -> {largest(predicted, 'RP'):.4f} mm")
     if report is not None:
         say("note", "cyan", f"ISO page -> {report}")

@@ -155,7 +155,7 @@ def simulate(robot: str = ROBOT, out_file: str = out_option("Measurement CSV to 
     result = simulate_job(robot, out_file, n=n, sampling=sampling, errors=errors, noise=noise, seed=seed,
                           truth=truth, orientation=orientation, box=box, rpy=rpy, hint=hint, root=root, tip=tip,
                           fixture=fixture, placements=placements, per_socket=per_socket, joint_noise=joint_noise)
-    print_result(result, as_json, f"simulated {result['poses']} poses -> {out_file}")
+    print_result(result.to_dict(), as_json, f"simulated {result.poses} poses -> {out_file}")
 
 
 @verb()
@@ -221,7 +221,7 @@ def design(robot: str = ROBOT, *, n: int,
                                 volume=WorkingVolume(parse_floor(floor), walls),
                                 progress=lambda **info: advance(steps=0, **info))
     if as_json:
-        print_json(result)
+        print_json(result.to_dict())
     elif fixture is not None:
         print_socket_design(result, out_file)
     else:

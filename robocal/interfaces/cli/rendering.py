@@ -206,10 +206,12 @@ def print_compensated(result, out_file, as_json):
 
 
 def print_filtered(result, out_dir, as_json):
-    """filter: a warning per motion left as it was, then the summary."""
-    for item in result["unfiltered"]:
+    """filter (a :class:`~robocal.interfaces.results.Filtered`): a warning per motion left as
+    it was, then the summary."""
+    for item in result.unfiltered:
         say("warning", "yellow", f"not filtered (computed at run time): {item}")
-    print_scored(result if as_json else {k: v for k, v in result.items() if k != "unfiltered"}, as_json,
+    shown = result.to_dict()
+    print_scored(shown if as_json else {k: v for k, v in shown.items() if k != "unfiltered"}, as_json,
                  f"filtered programs -> {out_dir}")
 
 
@@ -455,76 +457,79 @@ def print_validation(result, method, by_placement, as_json):
 
 # --------------------------------------------------------------------------- design
 def print_socket_design(result, out_file):
-    """design --fixture: the placements and configurations chosen, and what they predict."""
-    predicted = result["predicted"]
-    versus = predicted["random_model_rms_mm"]
-    table = Table(title=f"{result['configurations']} configurations in {len(result['placements'])} placements of "
-                        f"fixture {result['fixture']} ({result['criterion']}) -> {out_file}", show_header=False)
-    for key, value in (("robot", result["robot"]), ("candidate placements", result["placements_from"]),
-                       ("reachable placements", result["reachable_placements"]),
-                       ("chosen placements", ", ".join(result["placements"])),
-                       ("configurations per socket", result["per_socket"]),
-                       ("candidate configurations", result["candidates"]),
-                       ("ball-centre error after calibration", f"{predicted['model_rms_mm']:.4f} mm RMS predicted"
+    """design --fixture (a :class:`~robocal.planning.job.SocketsDesigned`): the placements and
+    configurations chosen, and what they predict."""
+    design = result.design
+    versus = design.random_model_rms
+    table = Table(title=f"{len(design.joints)} configurations in {len(design.poses)} placements of "
+                        f"fixture {result.fixture} ({design.criterion}) -> {out_file}", show_header=False)
+    for key, value in (("robot", result.robot), ("candidate placements", result.placements_from),
+                       ("reachable placements", result.reachable_placements),
+                       ("chosen placements", ", ".join(design.poses)),
+                       ("configurations per socket", design.per_socket),
+                       ("candidate configurations", design.n_candidates),
+                       ("ball-centre error after calibration", f"{design.model_rms:.4f} mm RMS predicted"
                         + ("" if versus is None else f" (random choices of the same number: {versus:.4f} mm)")),
-                       ("identifiable parameters", len(result["identifiable"])),
-                       ("exchanges", result["exchanges"])):
+                       ("identifiable parameters", len(design.names)),
+                       ("exchanges", design.exchanges)):
         table.add_row(key, str(value))
     out.print(table)
 
 
 def print_design(result, out_file):
-    """design: the poses chosen, the noise assumed, the predicted error beside random poses,
-    and the predicted standard error of every identifiable parameter."""
-    predicted = result["predicted"]
-    versus = predicted["random_model_rms_mm"]
-    table = Table(title=f"{result['poses']} poses of {result['candidates']} candidates ({result['criterion']}) "
+    """design (a :class:`~robocal.planning.job.Designed`): the poses chosen, the noise assumed,
+    the predicted error beside random poses, and the predicted standard error of every
+    identifiable parameter."""
+    design = result.design
+    versus = design.random_model_rms
+    table = Table(title=f"{len(design.joints)} poses of {design.n_candidates} candidates ({design.criterion}) "
                         f"-> {out_file}", show_header=False)
-    for key, value in (("robot", result["robot"]), ("candidates", result["candidates_from"]),
-                       ("working volume", result["working_volume"]), ("targets", result["targets"]),
-                       ("measured before", result["existing"]),
-                       ("noise", f"{result['noise_mm']:.4f} mm ({result['noise_from']})"
-                        + (f", {result['joint_noise_deg']:g} deg at every joint" if result["joint_noise_deg"] else "")
-                        + (f", sag {result['sag_deg']:g} deg left out" if result["sag_deg"] else "")),
-                       ("calibrated TCP error at the targets", f"{predicted['model_rms_mm']:.4f} mm RMS predicted"
+    for key, value in (("robot", result.robot), ("candidates", result.candidates_from),
+                       ("working volume", result.working_volume), ("targets", result.targets),
+                       ("measured before", design.n_existing),
+                       ("noise", f"{design.noise:.4f} mm ({result.noise_from})"
+                        + (f", {design.joint_noise_deg:g} deg at every joint" if design.joint_noise_deg else "")
+                        + (f", sag {design.sag_deg:g} deg left out" if design.sag_deg else "")),
+                       ("calibrated TCP error at the targets", f"{design.model_rms:.4f} mm RMS predicted"
                         + ("" if versus is None else f" (random poses of the same number: {versus:.4f} mm)")),
                        ("held-out error with a reading's noise",
-                        f"mean {predicted['held_out_mean_mm']:.4f} mm, RMS {predicted['held_out_rms_mm']:.4f} mm "
-                        "predicted"),
-                       ("O1, noise amplification", f"{result['o1']:.4g}, {result['noise_amplification']:.4g}"),
-                       ("condition number", f"{result['condition_number']:.4g}"),
-                       ("motion", f"{result['tour_deg']:.0f} deg of the largest joint's motion "
-                                f"({result['order_of_choice_deg']:.0f} in the order of choice)"),
-                       ("exchanges after the greedy selection", str(result["exchanges"]))):
+                        f"mean {design.held_out_mean:.4f} mm, RMS {design.held_out_rms:.4f} mm predicted"),
+                       ("O1, noise amplification", f"{design.o1:.4g}, {design.noise_amplification:.4g}"),
+                       ("condition number", f"{design.condition_number:.4g}"),
+                       ("motion", f"{design.tour_length:.0f} deg of the largest joint's motion "
+                                f"({design.given_length:.0f} in the order of choice)"),
+                       ("exchanges after the greedy selection", str(design.exchanges))):
         table.add_row(key, str(value))
-    if "variance" in result:
-        table.add_row("largest predictive variance left", f"{result['variance']['max_relative']:.3g} of the prior's "
-                                                            f"({result['variance']['prior']})")
+    if design.max_variance is not None:
+        table.add_row("largest predictive variance left", f"{design.max_variance:.3g} of the prior's "
+                                                            f"({design.variance_prior})")
     out.print(table)
-    parameters_table = Table(title=f"predicted standard errors ({len(result['std_errors'])} identifiable parameters)")
+    std_errors = design.std_errors_as_files_show()
+    parameters_table = Table(title=f"predicted standard errors ({len(std_errors)} identifiable parameters)")
     for column in ("parameter", "std. error", "unit"):
         parameters_table.add_column(column, justify="right")
-    for name, entry in result["std_errors"].items():
+    for name, entry in std_errors.items():
         parameters_table.add_row(name, f"{entry['std_error']:.3g}", entry["unit"])
     out.print(parameters_table)
-    for name, reason in result["fixed"].items():
+    for name, reason in design.fixed.items():
         out.print(f"not identifiable from these candidates, {name}: {reason}")
 
 
 # --------------------------------------------------------------------------- fleet, listings
 def print_fleet(result, columns, ok):
-    """The fleet's summary: a row per robot (failed ones in red), their notes, the files."""
-    table = Table(title=f"fleet of {len(result['robots'])} robots on {result['ran_on']} (mm)")
+    """The fleet's summary (a :class:`~robocal.interfaces.results.FleetRun`): a row per robot
+    (failed ones in red), their notes, the files."""
+    table = Table(title=f"fleet of {len(result.robots)} robots on {result.ran_on} (mm)")
     for column in columns:
         table.add_column(column, justify="right" if column.endswith(("_mm", "train", "test")) else "left")
-    for row in result["robots"]:
+    for row in result.robots:
         table.add_row(*[cell(row[c]) if row[c] is not None else "" for c in columns],
                       style=None if row["status"] == ok else "red")
     out.print(table)
-    for row in result["robots"]:
+    for row in result.robots:
         if row["message"]:
             out.print(Text(f"{row['name']}: {row['message']}", style="" if row["status"] == ok else "red"))
-    out.print(f"-> {result['summary_csv']}, {result['summary_html']}")
+    out.print(f"-> {result.summary_csv}, {result.summary_html}")
 
 
 def print_rows(columns, rows):
@@ -541,22 +546,24 @@ def print_all(renderables):
         out.print(renderable)
 
 
-def print_iso9283(result):
+def print_iso9283(figures, label=None):
     """iso9283: a row per pose of the position figures (mm), of the orientation figures (deg)
-    when the campaign has them, then the distance figures."""
-    tables = [("mm", ("AP", "APx", "APy", "APz", "RP"), "_mm")]
-    if any(p.get("APa_deg") is not None for p in result["poses"]):
-        tables.append(("deg", ("APa", "APb", "APc", "RPa", "RPb", "RPc"), "_deg"))
-    for unit, names, suffix in tables:
-        table = Table(title=f"ISO 9283 pose characteristics, {unit} ({result['file']}; visits matched by "
-                            f"{result['matched_by']})")
+    when the campaign has them, then the distance figures (``figures``: an
+    :class:`~robocal.acceptance.iso9283.Iso9283Result`; ``label`` names them in the titles,
+    by default its file)."""
+    tables = [("mm", ("AP", "APx", "APy", "APz", "RP"))]
+    if any(p.APa is not None for p in figures.poses):
+        tables.append(("deg", ("APa", "APb", "APc", "RPa", "RPb", "RPc")))
+    for unit, names in tables:
+        table = Table(title=f"ISO 9283 pose characteristics, {unit} ({label or figures.path}; visits matched by "
+                            f"{figures.matched_by})")
         for column in ("pose", "n") + names + (("command spread",) if unit == "mm" else ()):
             table.add_column(column, justify="right")
-        for pose in result["poses"]:
-            cells = [pose["pose"], str(pose["n"])] + [f"{pose[name + suffix]:.4f}" for name in names]
-            table.add_row(*cells, *([f"{pose['command_spread_mm']:.4f}"] if unit == "mm" else []))
+        for pose in figures.poses:
+            cells = [pose.pose, str(pose.n)] + [f"{getattr(pose, name):.4f}" for name in names]
+            table.add_row(*cells, *([f"{pose.command_spread_mm:.4f}"] if unit == "mm" else []))
         out.print(table)
-    distance = result["distance"]
+    distance = figures.distance
     if distance is not None:
-        out.print(f"distance {'-'.join(distance['between'])} ({distance['commanded_mm']:.3f} mm commanded, "
-                  f"{distance['n']} cycles): AD {distance['AD_mm']:.4f} mm, RD {distance['RD_mm']:.4f} mm")
+        out.print(f"distance {'-'.join(distance.between)} ({distance.commanded_mm:.3f} mm commanded, "
+                  f"{distance.n} cycles): AD {distance.AD:.4f} mm, RD {distance.RD:.4f} mm")

@@ -138,7 +138,7 @@ def report(
 
     result = report_job(model, measurements, out_file, validation=validation, pdf=pdf, beyond_limits=beyond_limits,
                         iso=iso)
-    print_result(result, as_json, f"report -> {out_file}")
+    print_result(result.to_dict(), as_json, f"report -> {out_file}")
 
 
 @verb()
