@@ -148,7 +148,12 @@ def test_kriging_on_poses_along_a_line_says_what_to_measure_once(tmp_path):
     prepare(tmp_path)
     assert invoke(tmp_path, ["simulate", "ur5", "--sampling", "lhs", "--box", "200,600,-100,-99.5,300,300.5",
                              "--n", "40", "--seed", "21", "--out", "f.csv"]).code == 0
-    outcome = invoke(tmp_path, ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json"])
+    # Beyond the line the model adds its extrapolated trend: predicted some 10 mm against the
+    # registered nominal robot's 9.7 over the working range, it is refused unless accepted.
+    refused = invoke(tmp_path, ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json"])
+    assert refused.code != 0 and "predicted to miss" in refused.output, refused.output
+    outcome = invoke(tmp_path, ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json",
+                                "--accept-extrapolation"])
     assert outcome.code == 0, outcome.output
     text = " ".join(re.sub(r"[│┃┌┐└┘├┤─]", " ", outcome.output).split())
     assert text.count("hit its lower bound") == 1 and "outputs 1, 2: theta hit its lower bound" in text, text

@@ -142,13 +142,19 @@ def error_draws(jacobian, cov, noise, count, seed):
 
 def error_norms(jacobian, cov, noise, count, seed):
     """(count * DRAWS,) norms of errors drawn from N(0, J Σ Jᵀ + noise I) per configuration."""
-    return np.linalg.norm(error_draws(jacobian, cov, noise, count, seed), axis=1).reshape(-1)
+    return error_norms_per_pose(jacobian, cov, noise, count, seed).reshape(-1)
+
+
+def error_norms_per_pose(jacobian, cov, noise, count, seed):
+    """(count, DRAWS) norms of errors drawn from N(0, J Σ Jᵀ + noise I) per configuration."""
+    return np.linalg.norm(error_draws(jacobian, cov, noise, count, seed), axis=1)
 
 
 def predicted_draws(chain, train_joints, residual, names, prior_std, *, identified, scale=1.0, frame_names=(),
-                    work_joints=None, seed=0):
+                    work_joints=None, seed=0, vectors=False):
     """Drawn error norms over the working range: ((M, DRAWS) mm of the calibrated model, the
-    same of the registered nominal robot, the :class:`WorkingRange`).
+    same of the registered nominal robot, the :class:`WorkingRange`); with ``vectors`` the
+    drawn errors themselves, (M, 3, DRAWS) mm.
 
     chain: the calibrated chain; train_joints: (N, n) rad; residual: (N, 3) mm its training
     residual; names: every parameter with a tolerance or identified; prior_std: (P,) their
@@ -168,12 +174,13 @@ def predicted_draws(chain, train_joints, residual, names, prior_std, *, identifi
     cov = _posterior(information.copy(), prior_std * scale, noise)
     where = working_range(chain, work_joints)
     work_jac = _rows(chain, where.joints, names)
-    calibrated = error_norms(work_jac, cov, noise, len(where.joints), seed)
+    draws = error_draws if vectors else error_norms_per_pose
+    calibrated = draws(work_jac, cov, noise, len(where.joints), seed)
     # The registered nominal robot: only base and tool fitted, every other parameter at its prior.
     frame = np.array([n in frame_names for n in names])
     nominal_info = np.where(np.outer(frame, frame), information, 0.0)
     nominal_cov = _posterior(nominal_info, np.where(frame, np.inf, prior_std * scale), noise)
-    nominal = error_norms(work_jac, nominal_cov, noise, len(where.joints), seed)
+    nominal = draws(work_jac, nominal_cov, noise, len(where.joints), seed)
     return calibrated, nominal, where
 
 
@@ -191,7 +198,7 @@ def _posterior_names(calibration, joints):
     return [n for n, k in zip(names, keep) if k], prior_std[keep]
 
 
-def prediction_draws(calibration, joints, positions, work_joints=None, seed=0):
+def prediction_draws(calibration, joints, positions, work_joints=None, seed=0, vectors=False):
     """:func:`predicted_draws` of a fitted
     :class:`~robocal.estimation.calibration.KinematicCalibration` on its training data
     ``joints`` (N, n) rad and ``positions`` (N, 3) mm: its identified parameters and, at
@@ -203,7 +210,8 @@ def prediction_draws(calibration, joints, positions, work_joints=None, seed=0):
     frames = [n for n in names if start.parameters[n].group in ("base", "tool")]
     residual = np.asarray(positions, dtype=float) - calibration.chain_.fk_positions(joints)
     return predicted_draws(calibration.chain_, joints, residual, names, prior_std, identified=len(result.names),
-                           scale=result.tolerance_scale, frame_names=frames, work_joints=work_joints, seed=seed)
+                           scale=result.tolerance_scale, frame_names=frames, work_joints=work_joints, seed=seed,
+                           vectors=vectors)
 
 
 def calibration_prediction(calibration, joints, positions, work_joints=None, seed=0):

@@ -7,14 +7,20 @@ made (:mod:`robocal.estimation.plausibility`).  Its posterior, propagated to the
 (:mod:`robocal.estimation.prediction`), predicts the error of the calibrated and of the
 registered nominal robot at each configuration there.  A method with an error model is
 judged inside its training domain by its own held-out errors (k folds, the Kriging's
-hyperparameters kept), and outside it by what it falls back to there: the anchor's
-calibrated model if it has one, else the nominal robot, since an error model knows nothing
-beyond its data.
+hyperparameters kept), and outside it against the anchor's posterior: the robot is drawn
+from it there, and the model's error is the distance to what the model predicts, its
+fallback (the anchor's calibrated model if it has one, else the nominal robot) plus what the
+error model still adds there, a Kriging's extrapolated trend or a network's output.  Taken
+as its fallback alone, a Kriging from 40 UR5 poses where only joint 1 moved was predicted as
+good as the nominal robot (3.1 mm) and missed by 17.9 mm; from 40 poses moving three joints
+by ±40 deg, 2.6 mm predicted against 8.9 mm missed (now 17.2 and 8.5 mm).
 """
+
+import warnings
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, RobocalWarning
 from ..estimation.prediction import PredictedError, error_norms, prediction_draws, working_range
 
 # Folds of the held-out estimate inside the training domain (methods that refit at fixed
@@ -45,17 +51,33 @@ def expected_error(method, chain, observations, work_joints=None, seed=0):
     if anchor is None:
         return None  # too few poses to judge anything
     calibrated, nominal, where = prediction_draws(anchor, observations.joints, observations.positions, work_joints,
-                                                  seed=seed)
+                                                  seed=seed, vectors=True)
     if method.compensator_.error_model is not None:
         work = where.joints
         inside = method.domain_.check(work).inside if getattr(method, "domain_", None) is not None \
             else np.zeros(len(work), dtype=bool)
         errors = held_out_errors(method, chain, observations, seed=seed)
-        rng = np.random.default_rng(seed)
-        drawn = rng.choice(errors, size=calibrated.shape)
-        outside = calibrated if own else nominal
-        calibrated = np.where(inside[:, None], drawn, outside)
-    return PredictedError.of_draws(calibrated, nominal, where, getattr(anchor.result_, "tolerance_scale", 1.0))
+        drawn = np.random.default_rng(seed).choice(errors, size=(len(work), calibrated.shape[-1]))
+        drawn[~inside] = _errors_outside(method, anchor, work[~inside], calibrated[~inside])
+        calibrated = drawn
+    else:
+        calibrated = np.linalg.norm(calibrated, axis=1)
+    return PredictedError.of_draws(calibrated, np.linalg.norm(nominal, axis=1), where,
+                                   getattr(anchor.result_, "tolerance_scale", 1.0))
+
+
+def _errors_outside(method, anchor, joints, deviations):
+    """(M, DRAWS) mm: the model's error at ``joints`` (M, n) rad outside its domain, the
+    robot being drawn from the anchor's posterior there (its calibrated chain plus
+    ``deviations`` (M, 3, DRAWS) mm drawn from it) and the model's positions being what it
+    predicts: its fallback's, plus what the error model still adds there."""
+    if not len(joints):
+        return np.zeros(deviations.shape[::2])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RobocalWarning)  # its own extrapolation warning: the fit shows it once
+        predicted = np.nan_to_num(np.asarray(method.predict(joints), dtype=float))
+    robot = anchor.chain_.fk_positions(joints)[:, :, None] + deviations
+    return np.linalg.norm(robot - predicted[:, :, None], axis=1)
 
 
 def _socket_error(method, observations, work_joints, seed):
