@@ -12,8 +12,9 @@ from it there, and the model's error is the distance to what the model predicts,
 fallback (the anchor's calibrated model if it has one, else the nominal robot) plus what the
 error model still adds there, a Kriging's extrapolated trend or a network's output.  Taken
 as its fallback alone, a Kriging from 40 UR5 poses where only joint 1 moved was predicted as
-good as the nominal robot (3.1 mm) and missed by 17.9 mm; from 40 poses moving three joints
-by ±40 deg, 2.6 mm predicted against 8.9 mm missed (now 17.2 and 8.5 mm).
+good as the registered nominal robot (3.08 mm) and missed by 61.0 mm; from 40 poses moving
+three joints by ±40 deg, 0.18 mm against 8.86 mm (now 60.9 and 8.50 mm predicted;
+tests/test_predicted_error.py).
 """
 
 import warnings
