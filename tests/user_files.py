@@ -22,6 +22,7 @@ from pathlib import Path
 
 from typer.testing import CliRunner
 
+import once_per_run
 from robocal.interfaces.cli import app
 
 REPO = Path(__file__).resolve().parents[1]
@@ -40,9 +41,17 @@ def _ok(*args):
 @functools.cache
 def base_files():
     """A folder of the files a user has after the README's first steps (read-only for the
-    tables: each row runs in a copy)."""
+    tables: each row runs in a copy), made once per run (:mod:`once_per_run`)."""
+    return once_per_run.made_once("user-files", _make_base_files, _new_folder)
+
+
+def _new_folder():
     root = Path(tempfile.mkdtemp(prefix="robocal-user-files-"))
     atexit.register(shutil.rmtree, root, True)
+    return root
+
+
+def _make_base_files(root):
     old = os.getcwd()
     os.chdir(root)
     try:
@@ -68,7 +77,6 @@ def base_files():
         os.chdir(old)
     for path in root.iterdir():
         path.chmod(0o444)
-    return root
 
 
 def nominal_fk(base, form="{!r}", noise_mm=0.0):
