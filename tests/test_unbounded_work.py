@@ -120,3 +120,30 @@ def test_ctrl_c_while_the_command_line_starts_ends_in_one_line(loaded, tmp_path)
     assert process.returncode == 130 and "Traceback" not in err, err
     assert err.strip().splitlines()[-1].endswith("interrupted")
     assert not (tmp_path / "big.csv").exists()
+
+
+def test_joining_many_points_takes_linear_time(tmp_path):
+    # 200,000 points, 10 of them logged: the join looked up each name's first line with a
+    # scan of all the names (quadratic: 3 million points ran for minutes); now whole arrays.
+    import time
+
+    import numpy as np
+
+    from robocal.io.point_join import join
+    from robocal.io.tracker_points import TrackerPoints
+
+    n = 200_000
+    names = np.array([f"Q{k}" for k in range(n)] + ["Q5"])  # Q5 measured twice, 2 mm apart
+    positions = np.tile([400.0, 100.0, 400.0], (n + 1, 1))
+    positions[-1, 0] += 2.0
+    points = TrackerPoints(path="p.txt", names=names, positions=positions, uncertainty=None, temperature=None,
+                           time=None, unit="mm", lines=np.arange(2, n + 3))
+    (tmp_path / "j.csv").write_text("name,q1,q2,q3,q4,q5,q6\n"
+                                    + "".join(f"Q{k},{k},-80,90,-100,-90,0\n" for k in range(10)))
+    start = time.perf_counter()
+    data, report = join(points, tmp_path / "j.csv")
+    assert time.perf_counter() - start < 5.0
+    assert report.matched == 10 and len(report.points_without_joints) == n - 10
+    assert report.duplicates == (("Q5", 2, 1.0),)
+    assert data.positions[5].tolist() == [401.0, 100.0, 400.0]
+    assert report.points_without_joints[0] == (12, "Q10")  # the first line of each unused name
