@@ -122,6 +122,31 @@ def test_ctrl_c_while_the_command_line_starts_ends_in_one_line(loaded, tmp_path)
     assert not (tmp_path / "big.csv").exists()
 
 
+# Files over their kind's size limit, refused from their size alone before a byte is read
+# (sparse files: no test writes megabytes).  A tracker's point export has its own, smaller
+# limit: its lines are split in Python.
+OVERSIZE = [
+    ("import-points-of-a-hundred-megabytes", ["import", "--points", "pts.txt", "--joints", "j.csv", "--out", "m.csv"], "pts.txt", 100 << 20, "pts.txt is 100 MiB, more than any point file robocal reads (32 MiB)"),
+    ("import-joint-log-of-three-gigabytes", ["import", "--points", "p.txt", "--joints", "big.csv", "--out", "m.csv"], "big.csv", 3 << 30, "big.csv is 3,072 MiB, more than any"),
+    ("report-validation-of-twenty-megabytes", ["report", "ur5_model.json", "ur5.csv", "--validation", "v.json", "--out", "r.html"], "v.json", 20 << 20, "v.json is 20 MiB, more than any validation file robocal reads (16 MiB)"),
+]
+
+
+@pytest.mark.parametrize("args, name, size, says", [row[1:] for row in OVERSIZE], ids=[row[0] for row in OVERSIZE])
+def test_a_file_over_its_size_limit_is_refused_unread(tmp_path, args, name, size, says):
+    prepare(tmp_path)
+    (tmp_path / "p.txt").write_text("// units: mm\nQ0 400 100 400\n")
+    (tmp_path / "j.csv").write_text("name,q1,q2,q3,q4,q5,q6\nQ0,0,-80,90,-100,-90,0\n")
+    with open(tmp_path / name, "w") as stream:
+        stream.write("name,q1,q2,q3,q4,q5,q6\n")
+        stream.truncate(size)  # sparse: nothing is written
+    before = set(os.listdir(tmp_path))
+    done = run_process(tmp_path, args, timeout=60)
+    lines = [line for line in (done.stdout + done.stderr).splitlines() if line.strip()]
+    assert done.returncode == 2 and len(lines) == 1 and says in lines[0], lines
+    assert set(os.listdir(tmp_path)) == before
+
+
 def test_joining_many_points_takes_linear_time(tmp_path):
     # 200,000 points, 10 of them logged: the join looked up each name's first line with a
     # scan of all the names (quadratic: 3 million points ran for minutes); now whole arrays.
