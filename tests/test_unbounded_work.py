@@ -63,6 +63,13 @@ ENDLESS = [
     ("evaluate-fifo-model", ["evaluate", "f.json", "ur5.csv"], "f.json", "f.json is not a regular file"),
     ("calibrate-fifo-measurements", ["calibrate", "ur5", "f.csv", "--out", "o.json"], "f.csv", "f.csv is not a regular file"),
     ("calibrate-fifo-fixture", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "f.toml", "--out", "o.json"], "f.toml", "f.toml is not a regular file"),
+    # the JSON and TOML readers of other files: each names the device, none says "does not exist"
+    ("report-dev-urandom-validation", ["report", "ur5_model.json", "ur5.csv", "--validation", "/dev/urandom", "--out", "r.html"], None, "/dev/urandom is not a regular file"),
+    ("report-fifo-validation", ["report", "ur5_model.json", "ur5.csv", "--validation", "v.json", "--out", "r.html"], "v.json", "v.json is not a regular file"),
+    ("report-folder-validation", ["report", "ur5_model.json", "ur5.csv", "--validation", ".", "--out", "r.html"], None, ". is a directory"),
+    ("simulate-fifo-truth", ["simulate", "ur5", "--errors", "t.json", "--n", "5", "--out", "s.csv"], "t.json", "t.json is not a regular file"),
+    ("fleet-dev-zero", ["fleet", "/dev/zero", "--out", "res"], None, "/dev/zero is not a regular file"),
+    ("import-dev-zero-points", ["import", "--points", "/dev/zero", "--joints", "ur5.csv", "--out", "m.csv"], None, "/dev/zero is not a regular file"),
 ]
 
 
