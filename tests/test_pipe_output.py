@@ -246,3 +246,41 @@ def test_help_in_80_columns_shows_every_option_name_whole(verb, names):
     cut = [name for name in names if name not in shown]
     assert cut == [], cut
     assert "…" not in _help(verb, 80)
+
+
+# Tables wider than the line: every number printed whole (rich cut them to "-424…"), the
+# table within the line: without its borders, or in parts that each repeat the row's label.
+TABLES = [
+    ("show-exported-robot", ["show", "ur5_cal.toml"]),  # export's calibrated UR5: 4 decimals everywhere
+    ("show-dataset-b-robot", ["show", "b.toml"]),
+    ("show-builtin-panda", ["show", "panda"]),
+    ("calibrate-parameters", ["calibrate", "ur5", "ur5.csv", "--out", "o.json"]),
+    ("design-standard-errors", ["design", "ur5", "--n", "12", "--pool", "200", "--out", "p.csv"]),
+    ("evaluate", ["evaluate", "ur5_model.json", "ur5.csv"]),
+]
+NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+
+
+def _printed(tmp_path, args, columns, monkeypatch):
+    from robocal.interfaces.cli import rendering
+
+    monkeypatch.setattr(rendering.out, "_width", columns)  # the console's width, read at import
+    outcome = invoke(tmp_path, args)
+    assert outcome.code == 0, outcome.output
+    return [line for line in outcome.result.stdout.splitlines() if line.strip()]
+
+
+@pytest.mark.parametrize("columns", [80, 60])
+@pytest.mark.parametrize("args", [r[1] for r in TABLES], ids=[r[0] for r in TABLES])
+def test_a_table_wider_than_the_line_prints_every_number_whole(tmp_path, monkeypatch, args, columns):
+    prepare(tmp_path)
+    if "b.toml" in args:
+        assert invoke(tmp_path, ["dataset", "ipa-ur10-b", "--out", "b"]).code == 0
+    wide = _printed(tmp_path, args, 1000, monkeypatch)
+    narrow = _printed(tmp_path, args, columns, monkeypatch)
+    assert not [line for line in narrow if "…" in line], narrow
+    assert [line for line in narrow if len(line.rstrip()) > columns] == [], narrow
+    numbers = lambda lines: collections.Counter(NUMBER.findall("\n".join(lines)))  # noqa: E731
+    missing = numbers(wide) - numbers(narrow)  # a table in parts repeats its labels: more, never fewer
+    assert not missing, (sorted(missing), narrow)
+
