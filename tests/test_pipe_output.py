@@ -284,3 +284,26 @@ def test_a_table_wider_than_the_line_prints_every_number_whole(tmp_path, monkeyp
     missing = numbers(wide) - numbers(narrow)  # a table in parts repeats its labels: more, never fewer
     assert not missing, (sorted(missing), narrow)
 
+
+# A summary's vectors print every component: the messages' "said once" joining dropped a
+# repeated 0.0, so rpy (180, 0, 0) printed as "180.0, 0.0".
+VECTORS = [
+    ("iso-plan-default-rpy", ["iso9283", "plan", "ur10", "--cycles", "2", "--out", "i.csv"], "rpy deg", "180.0, 0.0, 0.0"),
+    ("iso-plan-rpy-one-zero", ["iso9283", "plan", "ur10", "--cycles", "2", "--rpy", "180,0,30", "--out", "i.csv"], "rpy deg", "180.0, 0.0, 30.0"),
+]
+
+
+@pytest.mark.parametrize("args, row, says", [r[1:] for r in VECTORS], ids=[r[0] for r in VECTORS])
+def test_a_vector_in_a_summary_prints_every_component(tmp_path, args, row, says):
+    outcome = invoke(tmp_path, args)
+    assert outcome.code == 0, outcome.output
+    printed = [line for line in outcome.lines if row in line]
+    assert len(printed) == 1 and says in printed[0], outcome.lines
+
+
+def test_messages_saying_the_same_are_still_joined_but_numbers_are_not():
+    from robocal.interfaces.cli.rendering import cell
+
+    assert cell(["output 1: s", "output 2: s"]) == "outputs 1, 2: s"
+    assert cell([0.0, 0.0, 0.0]) == "0.0, 0.0, 0.0"
+    assert cell([400, 0, 0]) == "400, 0, 0"

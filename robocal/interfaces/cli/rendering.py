@@ -203,15 +203,23 @@ def cell(value):
                 f"max {value['max_mm']:.4f} mm (n = {value['n']})")
     if isinstance(value, float):
         return f"{value:.4f}"
+    if isinstance(value, (list, tuple)) and value and all(_is_number(v) for v in value):
+        # A vector (a centre, rpy angles): every component, a repeated 0.0 too.
+        return ", ".join(map(str, value))
     if isinstance(value, (list, tuple)):
         return ", ".join(said_once(value)) or "none"
     return "-" if value is None else str(value)
 
 
+def _is_number(value):
+    return isinstance(value, (int, float, np.number)) and not isinstance(value, bool)
+
+
 def said_once(items):
     """The texts of ``items``, each thing said once: ``"who: what"`` texts that say the same
     ``what`` become one (``output 1: s``, ``output 2: s`` -> ``outputs 1, 2: s``), in the order
-    they came."""
+    they came.  For messages only: the components of a vector are not things said
+    (:func:`cell` joins them all)."""
     said = {}
     for item in map(str, items):
         who, colon, what = item.partition(": ")
