@@ -78,11 +78,16 @@ def test_endless_input_is_refused_without_reading_it(tmp_path, args, fifo, says)
     prepare(tmp_path)
     if fifo:
         _fifo(tmp_path, fifo)
-    before = set(os.listdir(tmp_path))
-    done = run_process(tmp_path, args, timeout=30)
+    _refused_in_one_line(tmp_path, args, says)
+
+
+def _refused_in_one_line(folder, args, says):
+    """``robocal ARGS`` in ``folder``: status 2, one line saying ``says``, no file made."""
+    before = set(os.listdir(folder))
+    done = run_process(folder, args, timeout=60)
     lines = [line for line in (done.stdout + done.stderr).splitlines() if line.strip()]
     assert done.returncode == 2 and len(lines) == 1 and says in lines[0], lines
-    assert set(os.listdir(tmp_path)) == before
+    assert set(os.listdir(folder)) == before
 
 
 def test_stdin_of_zeros_is_refused(tmp_path):
@@ -147,11 +152,7 @@ def test_a_file_over_its_size_limit_is_refused_unread(tmp_path, args, name, size
     with open(tmp_path / name, "w") as stream:
         stream.write("name,q1,q2,q3,q4,q5,q6\n")
         stream.truncate(size)  # sparse: nothing is written
-    before = set(os.listdir(tmp_path))
-    done = run_process(tmp_path, args, timeout=60)
-    lines = [line for line in (done.stdout + done.stderr).splitlines() if line.strip()]
-    assert done.returncode == 2 and len(lines) == 1 and says in lines[0], lines
-    assert set(os.listdir(tmp_path)) == before
+    _refused_in_one_line(tmp_path, args, says)
 
 
 def test_joining_many_points_takes_linear_time(tmp_path):
