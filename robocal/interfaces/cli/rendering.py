@@ -88,6 +88,8 @@ def _fitted_table(table, console):
                     group = [0]
                 group.append(k)
             parts.append(_part(table, group, least, most, width, box.SIMPLE_HEAD, fold=True))
+            if len(parts) == 1:  # no part fits: the table as it is, its widest words folded
+                parts = [_part(table, every, least, most, width, fold=True)]
             for k, part in enumerate(parts[1:], start=2):
                 part.title = f"({k}/{len(parts)}) {table.title}" if isinstance(table.title, str) else None
         parts = [_titled(part, width) for part in parts]
@@ -104,12 +106,23 @@ def _part(table, columns, least, most, width, style=None, fold=False):
     part.columns = [dataclasses.replace(table.columns[k], _index=n) for n, k in enumerate(columns)]
     if style is not None:
         part.box, part.show_edge, part.padding, part.pad_edge = style, False, (0, 0, 0, 0), False
-    spare = width - part._extra_width - sum(least[k] + part._get_padding_width(n) for n, k in enumerate(columns))
+    widths = [least[k] for k in columns]
+    spare = width - part._extra_width - sum(w + part._get_padding_width(n) for n, w in enumerate(widths))
     if spare < 0 and not fold:
         return None
-    for n, k in sorted(enumerate(columns), key=lambda nk: most[nk[1]] - least[nk[1]]):
-        grow = min(max(spare, 0), most[k] - least[k])
-        part.columns[n].width, part.columns[n].overflow = least[k] + grow, "fold"
+    if spare < 0:  # a word wider than the line: its column folds, the others whole if they can be
+        wide = widths.index(max(widths))
+        others = sum(most[k] for n, k in enumerate(columns) if n != wide) - (sum(widths) - widths[wide])
+        if widths[wide] + spare - others >= 10:
+            widths = [widths[n] + spare - others if n == wide else most[k] for n, k in enumerate(columns)]
+            spare = 0
+    while spare < 0 and max(widths) > 1:
+        n = widths.index(max(widths))
+        narrower = min(-spare, widths[n] - 1)
+        widths[n], spare = widths[n] - narrower, spare + narrower
+    for n in sorted(range(len(columns)), key=lambda n: most[columns[n]] - widths[n]):
+        grow = min(spare, most[columns[n]] - widths[n])
+        part.columns[n].width, part.columns[n].overflow = widths[n] + grow, "fold"
         spare -= grow
     return part
 
