@@ -246,3 +246,67 @@ def test_help_in_80_columns_shows_every_option_name_whole(verb, names):
     cut = [name for name in names if name not in shown]
     assert cut == [], cut
     assert "…" not in _help(verb, 80)
+
+
+# Tables wider than the line: every number printed whole (rich cut them to "-424…"), the
+# table within the line: without its borders, or in parts that each repeat the row's label.
+TABLES = [
+    ("show-exported-robot", ["show", "ur5_cal.toml"]),  # export's calibrated UR5: 4 decimals everywhere
+    ("show-dataset-b-robot", ["show", "b.toml"]),
+    ("show-builtin-panda", ["show", "panda"]),
+    ("calibrate-parameters", ["calibrate", "ur5", "ur5.csv", "--out", "o.json"]),
+    ("design-standard-errors", ["design", "ur5", "--n", "12", "--pool", "200", "--out", "p.csv"]),
+    ("evaluate", ["evaluate", "ur5_model.json", "ur5.csv"]),
+    # a word wider than the line (a file name of 90 characters): folded, never cut to "…"
+    ("compensate-long-file-name", ["compensate", "ur5_model.json", "targets.csv", "--out", "commands-for-cell-4-" + "x" * 66 + ".csv"]),
+]
+NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+
+
+def _printed(tmp_path, args, columns, monkeypatch):
+    from robocal.interfaces.cli import rendering
+
+    monkeypatch.setattr(rendering.out, "_width", columns)  # the console's width, read at import
+    outcome = invoke(tmp_path, args)
+    assert outcome.code == 0, outcome.output
+    return [line for line in outcome.result.stdout.splitlines() if line.strip()]
+
+
+@pytest.mark.parametrize("columns", [80, 60])
+@pytest.mark.parametrize("args", [r[1] for r in TABLES], ids=[r[0] for r in TABLES])
+def test_a_table_wider_than_the_line_prints_every_number_whole(tmp_path, monkeypatch, args, columns):
+    prepare(tmp_path)
+    if "b.toml" in args:
+        assert invoke(tmp_path, ["dataset", "ipa-ur10-b", "--out", "b"]).code == 0
+    wide = _printed(tmp_path, args, 1000, monkeypatch)
+    narrow = _printed(tmp_path, args, columns, monkeypatch)
+    assert not [line for line in narrow if "…" in line], narrow
+    # (a note keeps a file name whole on a line of its own, however long)
+    assert [line for line in narrow if len(line.rstrip()) > columns and " " in line.strip()] == [], narrow
+    numbers = lambda lines: collections.Counter(NUMBER.findall("\n".join(lines)))  # noqa: E731
+    missing = numbers(wide) - numbers(narrow)  # a table in parts repeats its labels: more, never fewer
+    assert not missing, (sorted(missing), narrow)
+
+
+# A summary's vectors print every component: the messages' "said once" joining dropped a
+# repeated 0.0, so rpy (180, 0, 0) printed as "180.0, 0.0".
+VECTORS = [
+    ("iso-plan-default-rpy", ["iso9283", "plan", "ur10", "--cycles", "2", "--out", "i.csv"], "rpy deg", "180.0, 0.0, 0.0"),
+    ("iso-plan-rpy-one-zero", ["iso9283", "plan", "ur10", "--cycles", "2", "--rpy", "180,0,30", "--out", "i.csv"], "rpy deg", "180.0, 0.0, 30.0"),
+]
+
+
+@pytest.mark.parametrize("args, row, says", [r[1:] for r in VECTORS], ids=[r[0] for r in VECTORS])
+def test_a_vector_in_a_summary_prints_every_component(tmp_path, args, row, says):
+    outcome = invoke(tmp_path, args)
+    assert outcome.code == 0, outcome.output
+    printed = [line for line in outcome.lines if row in line]
+    assert len(printed) == 1 and says in printed[0], outcome.lines
+
+
+def test_messages_saying_the_same_are_still_joined_but_numbers_are_not():
+    from robocal.interfaces.cli.rendering import cell
+
+    assert cell(["output 1: s", "output 2: s"]) == "outputs 1, 2: s"
+    assert cell([0.0, 0.0, 0.0]) == "0.0, 0.0, 0.0"
+    assert cell([400, 0, 0]) == "400, 0, 0"

@@ -63,6 +63,13 @@ ENDLESS = [
     ("evaluate-fifo-model", ["evaluate", "f.json", "ur5.csv"], "f.json", "f.json is not a regular file"),
     ("calibrate-fifo-measurements", ["calibrate", "ur5", "f.csv", "--out", "o.json"], "f.csv", "f.csv is not a regular file"),
     ("calibrate-fifo-fixture", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "f.toml", "--out", "o.json"], "f.toml", "f.toml is not a regular file"),
+    # the JSON and TOML readers of other files: each names the device, none says "does not exist"
+    ("report-dev-urandom-validation", ["report", "ur5_model.json", "ur5.csv", "--validation", "/dev/urandom", "--out", "r.html"], None, "/dev/urandom is not a regular file"),
+    ("report-fifo-validation", ["report", "ur5_model.json", "ur5.csv", "--validation", "v.json", "--out", "r.html"], "v.json", "v.json is not a regular file"),
+    ("report-folder-validation", ["report", "ur5_model.json", "ur5.csv", "--validation", ".", "--out", "r.html"], None, ". is a directory"),
+    ("simulate-fifo-truth", ["simulate", "ur5", "--errors", "t.json", "--n", "5", "--out", "s.csv"], "t.json", "t.json is not a regular file"),
+    ("fleet-dev-zero", ["fleet", "/dev/zero", "--out", "res"], None, "/dev/zero is not a regular file"),
+    ("import-dev-zero-points", ["import", "--points", "/dev/zero", "--joints", "ur5.csv", "--out", "m.csv"], None, "/dev/zero is not a regular file"),
 ]
 
 
@@ -71,11 +78,16 @@ def test_endless_input_is_refused_without_reading_it(tmp_path, args, fifo, says)
     prepare(tmp_path)
     if fifo:
         _fifo(tmp_path, fifo)
-    before = set(os.listdir(tmp_path))
-    done = run_process(tmp_path, args, timeout=30)
+    _refused_in_one_line(tmp_path, args, says)
+
+
+def _refused_in_one_line(folder, args, says):
+    """``robocal ARGS`` in ``folder``: status 2, one line saying ``says``, no file made."""
+    before = set(os.listdir(folder))
+    done = run_process(folder, args, timeout=60)
     lines = [line for line in (done.stdout + done.stderr).splitlines() if line.strip()]
     assert done.returncode == 2 and len(lines) == 1 and says in lines[0], lines
-    assert set(os.listdir(tmp_path)) == before
+    assert set(os.listdir(folder)) == before
 
 
 def test_stdin_of_zeros_is_refused(tmp_path):
@@ -120,3 +132,51 @@ def test_ctrl_c_while_the_command_line_starts_ends_in_one_line(loaded, tmp_path)
     assert process.returncode == 130 and "Traceback" not in err, err
     assert err.strip().splitlines()[-1].endswith("interrupted")
     assert not (tmp_path / "big.csv").exists()
+
+
+# Files over their kind's size limit, refused from their size alone before a byte is read
+# (sparse files: no test writes megabytes).  A tracker's point export has its own, smaller
+# limit: its lines are split in Python.
+OVERSIZE = [
+    ("import-points-of-a-hundred-megabytes", ["import", "--points", "pts.txt", "--joints", "j.csv", "--out", "m.csv"], "pts.txt", 100 << 20, "pts.txt is 100 MiB, more than any point file robocal reads (32 MiB)"),
+    ("import-joint-log-of-three-gigabytes", ["import", "--points", "p.txt", "--joints", "big.csv", "--out", "m.csv"], "big.csv", 3 << 30, "big.csv is 3,072 MiB, more than any"),
+    ("report-validation-of-twenty-megabytes", ["report", "ur5_model.json", "ur5.csv", "--validation", "v.json", "--out", "r.html"], "v.json", 20 << 20, "v.json is 20 MiB, more than any validation file robocal reads (16 MiB)"),
+]
+
+
+@pytest.mark.parametrize("args, name, size, says", [row[1:] for row in OVERSIZE], ids=[row[0] for row in OVERSIZE])
+def test_a_file_over_its_size_limit_is_refused_unread(tmp_path, args, name, size, says):
+    prepare(tmp_path)
+    (tmp_path / "p.txt").write_text("// units: mm\nQ0 400 100 400\n")
+    (tmp_path / "j.csv").write_text("name,q1,q2,q3,q4,q5,q6\nQ0,0,-80,90,-100,-90,0\n")
+    with open(tmp_path / name, "w") as stream:
+        stream.write("name,q1,q2,q3,q4,q5,q6\n")
+        stream.truncate(size)  # sparse: nothing is written
+    _refused_in_one_line(tmp_path, args, says)
+
+
+def test_joining_many_points_takes_linear_time(tmp_path):
+    # 200,000 points, 10 of them logged: the join looked up each name's first line with a
+    # scan of all the names (quadratic: 3 million points ran for minutes); now whole arrays.
+    import time
+
+    import numpy as np
+
+    from robocal.io.point_join import join
+    from robocal.io.tracker_points import TrackerPoints
+
+    n = 200_000
+    names = np.array([f"Q{k}" for k in range(n)] + ["Q5"])  # Q5 measured twice, 2 mm apart
+    positions = np.tile([400.0, 100.0, 400.0], (n + 1, 1))
+    positions[-1, 0] += 2.0
+    points = TrackerPoints(path="p.txt", names=names, positions=positions, uncertainty=None, temperature=None,
+                           time=None, unit="mm", lines=np.arange(2, n + 3))
+    (tmp_path / "j.csv").write_text("name,q1,q2,q3,q4,q5,q6\n"
+                                    + "".join(f"Q{k},{k},-80,90,-100,-90,0\n" for k in range(10)))
+    start = time.perf_counter()
+    data, report = join(points, tmp_path / "j.csv")
+    assert time.perf_counter() - start < 5.0
+    assert report.matched == 10 and len(report.points_without_joints) == n - 10
+    assert report.duplicates == (("Q5", 2, 1.0),)
+    assert data.positions[5].tolist() == [401.0, 100.0, 400.0]
+    assert report.points_without_joints[0] == (12, "Q10")  # the first line of each unused name

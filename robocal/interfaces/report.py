@@ -7,6 +7,7 @@ import base64
 import datetime as _dt
 import html
 import io
+import os
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -55,15 +56,16 @@ def _png(fig):
 
 
 def _read_validation(path):
-    from ..io.file_kinds import WrongKind
-    from ..io.reading import load_json
+    from ..io.file_kinds import check
+    from ..io.reading import parse_json, read_text
 
-    if not Path(path).is_file():
+    if not os.path.exists(path):
         raise FileFormatError(f"{path} does not exist: write it with 'robocal validate ... --json > FILE'")
+    # A device, a pipe, a folder or a file over the limit: the one bounded reader says which.
+    text = read_text(path, "validation file", "settings", lines=False)
+    check(path, "validation", text=text)  # robocal's files of other kinds, named
     try:
-        doc = load_json(path, "validation file", "settings", reader="validation")
-    except WrongKind:  # says what the file is and what to give
-        raise
+        doc = parse_json(text, path, "validation file")
     except FileFormatError as exc:
         raise FileFormatError(f"{path}: not the JSON 'robocal validate --json' prints ({exc})") from None
     if not isinstance(doc, dict) or "cross_validation" not in doc:

@@ -76,15 +76,16 @@ def _seconds(texts, path, what):
 def _averaged(points):
     """(names, positions, uncertainty, first index per name, duplicates) with repeated
     names averaged."""
-    names, index = np.unique(points.names, return_inverse=True)
+    # Whole-array operations only: a name at a time was quadratic (3 million points ran for
+    # minutes).
+    names, first, index = np.unique(points.names, return_index=True, return_inverse=True)
+    index = index.reshape(-1)
     positions = np.stack([np.bincount(index, weights=points.positions[:, c]) for c in range(3)], axis=1)
     counts = np.bincount(index)
     positions /= counts[:, None]
-    first = np.array([np.flatnonzero(index == k)[0] for k in range(len(names))])
-    duplicates = []
-    for k in np.flatnonzero(counts > 1):
-        spread = float(np.linalg.norm(points.positions[index == k] - positions[k], axis=1).max())
-        duplicates.append((str(names[k]), int(counts[k]), spread))
+    spreads = np.zeros(len(names))
+    np.maximum.at(spreads, index, np.linalg.norm(points.positions - positions[index], axis=1))
+    duplicates = [(str(names[k]), int(counts[k]), float(spreads[k])) for k in np.flatnonzero(counts > 1)]
     uncertainty = None
     if points.uncertainty is not None:
         # The mean of c readings: the single reading's uncertainty over sqrt(c).
@@ -150,7 +151,7 @@ def _by_name(points, table, joints, joint_names, name_column):
             keep.append((row, where))
         else:
             missing.append((table.lines[row], key))
-    unused = [(points.lines[first[k]], str(name)) for k, name in enumerate(names) if name not in seen]
+    unused = [(int(points.lines[first[k]]), str(names[k])) for k in np.flatnonzero(~np.isin(names, list(seen)))]
     rows, found = (np.array(v, dtype=int) for v in zip(*keep)) if keep else (np.zeros(0, int), np.zeros(0, int))
     return _result(points, table, joints, joint_names, rows, positions[found],
                    None if uncertainty is None else uncertainty[found], first[found], "point name", missing,
@@ -161,10 +162,11 @@ def _by_time(points, table, joints, joint_names, time_column, max_dt):
     logged = _seconds(table.column(time_column), table.path, "time")
     measured = _seconds(points.time, points.path, "time")
     order = np.argsort(measured)
+    in_order = measured[order]
     used = np.zeros(len(measured), dtype=bool)
     keep, missing = [], []
     for row, when in enumerate(logged):
-        at = np.searchsorted(measured[order], when)
+        at = np.searchsorted(in_order, when)
         near = [order[k] for k in (at - 1, at) if 0 <= k < len(order) and not used[order[k]]]
         best = min(near, key=lambda k: abs(measured[k] - when), default=None)
         if best is None or abs(measured[best] - when) > max_dt:

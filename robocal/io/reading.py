@@ -35,6 +35,10 @@ MiB = 1 << 20
 # 150 MB; a Vecchia model of 100,000 training poses about 40 MB.
 LIMITS = {
     "table": 2048 * MiB,
+    # A tracker's point export: a line per point, name then x, y, z (about 30 to 80 bytes);
+    # its lines are split in Python, about 15 s a million.  Calibration takes thousands of
+    # points, and a scan of millions is not a point export.
+    "points": 32 * MiB,
     "model": 1024 * MiB,
     "program": 256 * MiB,
     "settings": 16 * MiB,  # robot, fixture, fleet and truth files, URDF
@@ -145,17 +149,18 @@ def read_text(path: str | os.PathLike, what: str, kind: str = "table", *, lines:
     return decode(raw, path, what, form)
 
 
-def read_table_text(path: str | os.PathLike, what: str = "CSV file", reader: str | None = None) -> str:
+def read_table_text(path: str | os.PathLike, what: str = "CSV file", reader: str | None = None,
+                    kind: str = "table") -> str:
     """The text of the table ``path`` (:func:`read_text`), refused in one line when it is
     one of robocal's files that is not a table (:func:`robocal.io.file_kinds.check`) or
     plainly a file of another format (:func:`robocal.io.file_kinds.text_format`: a report,
     a model, a robot or fixture file, a program): every reader of tables (measurements,
     targets, candidates, placements, ISO campaigns, joint logs, tracker points) reads here;
     ``reader``: the :data:`~robocal.io.file_kinds.READERS` entry that names what it wants
-    (default: any CSV table)."""
+    (default: any CSV table); ``kind``: the :data:`LIMITS` entry of its size."""
     from .file_kinds import CSV_TABLE, check, text_format
 
-    text = read_text(path, what, "table", form="CSV")
+    text = read_text(path, what, kind, form="CSV")
     check(path, reader or CSV_TABLE, text=text)  # robocal's own files, named by kind
     found = text_format(text)
     if found is not None:

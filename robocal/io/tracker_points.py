@@ -113,7 +113,7 @@ def read_points(path, units=None) -> TrackerPoints:
     """
     if units is not None and units.lower() not in LENGTHS:
         raise InputError(f"--units {units}: give one of mm, m, cm, in, um")
-    text = read_table_text(path, "point file", reader="points")
+    text = read_table_text(path, "point file", reader="points", kind="points")
     stated, data = set(), []
     for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()

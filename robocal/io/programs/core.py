@@ -224,9 +224,9 @@ def read_text(path) -> str:
 
 
 def model_digest(model_path) -> str:
-    """The first 16 hex digits of the model file's SHA-256."""
-    with open(model_path, "rb") as stream:
-        return hashlib.sha256(stream.read()).hexdigest()[:16]
+    """The first 16 hex digits of the model file's SHA-256 (read by the one bounded reader,
+    as the model was)."""
+    return hashlib.sha256(reading.read_bytes(model_path, "model file", "model")).hexdigest()[:16]
 
 
 def comment_text(model_name, digest) -> str:
