@@ -283,12 +283,15 @@ class Chain:
         and the TCP pose (N, 4, 4).  Joint i turns about the z column of its frame."""
         q2, _ = self._check_q(q)
         names = [f"J{k}" for k in range(1, self.n_joints + 1)]
-        if q2.shape[0] == 1 and np.all(np.isfinite(q2)):
-            # One configuration (a compliant model's torque, a dozen times a target): floats.
-            point = self.__dict__.get("_joint_frames_program")
-            if point is None:
-                point = program.PointProgram(self._compiled[0], self.joint_map, self.revolute, marks=names)
-                self.__dict__["_joint_frames_program"] = point
+        point = self.__dict__.get("_joint_frames_program")
+        if point is None and q2.shape[0] == 1 and self.__dict__.get("_joint_frames_once"):
+            # One configuration again (a compliant model's torque, a dozen times a target):
+            # floats.  Not at the first: building the program costs some 7 ms, and a chain made
+            # for one look at its frames (link lengths, its POE form) would pay it every fit.
+            point = program.PointProgram(self._compiled[0], self.joint_map, self.revolute, marks=names)
+            self.__dict__["_joint_frames_program"] = point
+        self.__dict__["_joint_frames_once"] = True
+        if point is not None and q2.shape[0] == 1 and np.all(np.isfinite(q2)):
             pose, frames = point.pose_marks(q2[0].tolist())
             cols = np.array(frames).reshape(1, -1, 4, 3)  # (1, n, columns x y z t, rows)
             tcp = np.array([*pose[0:3], 0.0, *pose[3:6], 0.0, *pose[6:9], 0.0, *pose[9:], 1.0]).reshape(1, 4, 4)
