@@ -103,3 +103,30 @@ def test_lengths_are_judged_by_the_robots_reach():
         units.check_robot_lengths(kr150, [0.0, 0.0, 0.3], "--tool", position=True)
     with pytest.raises(InputError, match="they are not mm"):
         units.check_lengths(1e-6, 1.0, "--box", "a box")
+
+
+# --------------------------------------------------------------------------- issue 26, pass 5
+# Every number of the same kind meets the same test: a request's rx, ry, rz as a targets file's;
+# a program's joint values as a measurement file's q columns (joint limits, in the program's
+# unit); a robot file's angles as typed angles; a joint log's as a file of configurations; a
+# standard deviation or a tilt typed in metres or radians by its setting's plausible interval.
+
+REQUEST = {"x": -506.815, "y": -242.645, "z": -38.323, "rx": 78.439, "ry": -9.785, "rz": -81.802,
+           "q": [16, -47, 117, -81, 100, 8]}
+
+
+def test_a_request_in_radians_is_answered_with_an_error_line(ur5_files):
+    import json
+
+    from robocal.interfaces.serve import Answerer
+
+    in_radians = {**REQUEST, **{k: float(np.radians(REQUEST[k])) for k in ("rx", "ry", "rz")}}
+    answerer = Answerer(ur5_files / "model.json")
+    answer, ok = answerer.answer(json.dumps(in_radians).encode())
+    assert not ok and "the rx, ry, rz of the request look like radians" in json.loads(answer)["error"], answer
+    answer, ok = answerer.answer(json.dumps(REQUEST).encode())
+    assert ok and len(json.loads(answer)["q"]) == 6, answer
+    csv = Answerer(ur5_files / "model.json", "csv")
+    row = [in_radians[k] for k in ("x", "y", "z", "rx", "ry", "rz")]
+    answer, ok = csv.answer(",".join(map(str, row)).encode())
+    assert not ok and "look like radians" in json.loads(answer)["error"], answer

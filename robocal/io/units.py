@@ -437,14 +437,14 @@ def looks_like_radians(values, bound=RADIAN_HALF_TURN):
     return bool(large.any() or snapped.any())
 
 
-def check_angles(values, what, *, joints=False):
+def check_angles(values, what, *, joints=False, fix="convert with numpy.degrees()"):
     """InputError when the angles ``values`` of ``what`` (``'the angles of --rpy'``, ``'the rx,
     ry, rz of FILE'``) look like radians (:func:`looks_like_radians`; ``joints``: joint values, within
-    one turn)."""
+    one turn); ``fix``: what to do."""
     if looks_like_radians(values, ONE_TURN if joints else RADIAN_HALF_TURN):
         largest = float(np.abs(np.asarray(values, dtype=float)).max())
         raise InputError(f"{what} look like radians (all within one {'turn' if joints else 'half-turn'}, largest "
-                         f"{largest:.6g}), but robocal reads degrees: convert with numpy.degrees()")
+                         f"{largest:.6g}), but robocal reads degrees: {fix}")
 
 
 # Measured orientations of the poses a robot was commanded to (an ISO campaign) lie tenths of
