@@ -110,6 +110,77 @@ def test_lengths_are_judged_by_the_robots_reach():
 # a program's joint values as a measurement file's q columns (joint limits, in the program's
 # unit); a robot file's angles as typed angles; a joint log's as a file of configurations; a
 # standard deviation or a tilt typed in metres or radians by its setting's plausible interval.
+UR5 = builtin("ur5")
+
+
+def _robot(chain=UR5, change=None):
+    """``chain``'s robot TOML, with ``change(key, value)`` applied to every line 'key = value'."""
+    from robocal.io.robot_file import robot_to_toml
+
+    def edit(line):
+        key, _, value = line.partition(" = ")
+        try:
+            return f"{key} = {float(change(key, float(value)))!r}"
+        except ValueError:
+            return line
+
+    return "\n".join(edit(line) if change and " = " in line else line
+                     for line in robot_to_toml(chain).splitlines()) + "\n"
+
+
+def _pass5_inputs():
+    return {
+        "alpha_rad.toml": _robot(change=lambda key, v: np.radians(v) if key == "alpha" else v),
+        "kr_alpha_rad.toml": _robot(builtin("kr150-2"), lambda key, v: np.radians(v) if key == "alpha" else v),
+        "limits_rad.toml": _robot(change=lambda key, v: np.radians(v) if key in ("min", "max") else v),
+        "ur5.toml": _robot(),
+    }
+
+
+PASS5_REFUSED = [
+    # 1. serve: in test_a_request_in_radians_is_answered_with_an_error_line
+    # 4. a robot file's angles in radians
+    ("show alpha_rad.toml", r"alpha_rad.toml: the alpha of the \[\[joints\]\] look like radians .* mm and degrees"),
+    ("simulate kr_alpha_rad.toml --n 10 --out s.csv", "the alpha of the .* look like radians"),
+    ("show limits_rad.toml", "the min and max of the revolute .* look like radians"),
+]
+PASS5_ACCEPTED = [
+    "show ur5.toml",
+]
+
+
+def _pass5_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for name, text in _pass5_inputs().items():
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text(text)
+
+
+def _pass5_args(command, ur5_files):
+    return command.format(model=ur5_files / "model.json", meas=ur5_files / "meas.csv", plate=PLATE).split()
+
+
+@pytest.mark.parametrize("command, says", PASS5_REFUSED, ids=[row[0] for row in PASS5_REFUSED])
+def test_pass5_a_number_in_other_units_is_refused_in_one_line(tmp_path, monkeypatch, ur5_files, command, says):
+    import re
+
+    from refusals import runner
+    from robocal.interfaces.cli import app
+
+    _pass5_folder(tmp_path, monkeypatch)
+    args = _pass5_args(command, ur5_files)
+    result = runner.invoke(app, args)
+    errors = [line for line in result.output.splitlines() if line.lower().startswith("error")]
+    assert result.exit_code != 0 and len(errors) == 1 and re.search(says, errors[0]), result.output
+    assert_refused(args, errors[0][len("error: "):][:30], tmp_path, {p.name: p.stat().st_mtime_ns
+                                                                     for p in tmp_path.iterdir()})
+
+
+@pytest.mark.parametrize("command", PASS5_ACCEPTED)
+def test_pass5_the_same_numbers_in_mm_and_degrees_pass(tmp_path, monkeypatch, ur5_files, command):
+    _pass5_folder(tmp_path, monkeypatch)
+    run_ok(*_pass5_args(command, ur5_files))
+
 
 REQUEST = {"x": -506.815, "y": -242.645, "z": -38.323, "rx": 78.439, "ry": -9.785, "rz": -81.802,
            "q": [16, -47, 117, -81, 100, 8]}
