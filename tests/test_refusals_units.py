@@ -128,12 +128,25 @@ def _robot(chain=UR5, change=None):
                      for line in robot_to_toml(chain).splitlines()) + "\n"
 
 
+def _joint_log(joints, header=None):
+    names = header or [f"q{k}" for k in range(1, joints.shape[1] + 1)]
+    return "\n".join([",".join(["point"] + names)] + [",".join([f"P{i}"] + [repr(float(v)) for v in row])
+                                                      for i, row in enumerate(joints)]) + "\n"
+
+
 def _pass5_inputs():
+    q = UR5.random_configurations(20, rng=3)
+    positions = UR5.fk_positions(q)
+    degrees = UR5.joints_to_file(q)
     return {
         "alpha_rad.toml": _robot(change=lambda key, v: np.radians(v) if key == "alpha" else v),
         "kr_alpha_rad.toml": _robot(builtin("kr150-2"), lambda key, v: np.radians(v) if key == "alpha" else v),
         "limits_rad.toml": _robot(change=lambda key, v: np.radians(v) if key in ("min", "max") else v),
         "ur5.toml": _robot(),
+        "pts.txt": "\n".join(f"P{i} " + " ".join(repr(float(c)) for c in p) for i, p in enumerate(positions)) + "\n",
+        "j_rad.csv": _joint_log(q),
+        "j_deg.csv": _joint_log(degrees),
+        "j_tagged.csv": _joint_log(q, [f"q{k}[rad]" for k in range(1, 7)]),
     }
 
 
@@ -143,9 +156,13 @@ PASS5_REFUSED = [
     ("show alpha_rad.toml", r"alpha_rad.toml: the alpha of the \[\[joints\]\] look like radians .* mm and degrees"),
     ("simulate kr_alpha_rad.toml --n 10 --out s.csv", "the alpha of the .* look like radians"),
     ("show limits_rad.toml", "the min and max of the revolute .* look like radians"),
+    # 5. a joint log in radians, untagged
+    ("import --points pts.txt --joints j_rad.csv --out m.csv", "j_rad.csv lie within ±6.3: they look like radians"),
 ]
 PASS5_ACCEPTED = [
     "show ur5.toml",
+    "import --points pts.txt --joints j_deg.csv --out m.csv",
+    "import --points pts.txt --joints j_tagged.csv --out m.csv",
 ]
 
 

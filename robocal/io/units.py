@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import FileFormatError, InputError
 from ..spatial.transforms import kabsch
 
 # File value x factor = degrees / mm.
@@ -445,6 +445,33 @@ def check_angles(values, what, *, joints=False, fix="convert with numpy.degrees(
         largest = float(np.abs(np.asarray(values, dtype=float)).max())
         raise InputError(f"{what} look like radians (all within one {'turn' if joints else 'half-turn'}, largest "
                          f"{largest:.6g}), but robocal reads degrees: {fix}")
+
+
+# Joint values of many rows without a robot to judge them (a joint log, a file of
+# configurations): radians when every value lies within JOINT_RADIAN_BOUND and some column
+# moves by JOINT_RADIAN_SPREAD over JOINT_RADIAN_ROWS rows or more (a file of tiny degree
+# readings that barely move is not radians).
+JOINT_RADIAN_BOUND = 6.3
+JOINT_RADIAN_SPREAD = 0.5
+JOINT_RADIAN_ROWS = 5
+
+
+def joint_values_look_like_radians(values):
+    """Whether the joint values ``values`` (N, k, as in the file; the columns a robot would
+    read in degrees) of a file judged without a robot look like radians (see above)."""
+    values = np.asarray(values, dtype=float)
+    return bool(len(values) >= JOINT_RADIAN_ROWS and values.size and np.abs(values).max() < JOINT_RADIAN_BOUND
+                and np.ptp(values, axis=0).max() >= JOINT_RADIAN_SPREAD)
+
+
+def check_joint_table(values, path):
+    """FileFormatError when the untagged revolute joint values ``values`` (N, k, as in the file)
+    of ``path`` look like radians (:func:`joint_values_look_like_radians`): a file of
+    configurations, a joint log."""
+    if joint_values_look_like_radians(values):
+        raise FileFormatError(f"all joint values of {path} lie within ±{JOINT_RADIAN_BOUND}: they look like radians, "
+                              "but robocal reads degrees; tag the columns q1[rad] ... or convert them with "
+                              "numpy.degrees()")
 
 
 # Measured orientations of the poses a robot was commanded to (an ISO campaign) lie tenths of
