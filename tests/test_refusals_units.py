@@ -111,6 +111,11 @@ def test_lengths_are_judged_by_the_robots_reach():
 # unit); a robot file's angles as typed angles; a joint log's as a file of configurations; a
 # standard deviation or a tilt typed in metres or radians by its setting's plausible interval.
 UR5 = builtin("ur5")
+HOME_DEG = [0.0, -90.0, 90.0, -90.0, -90.0, 0.0]
+MOVEL = "  movel(p[-0.29802, -0.29810, 0.35729, 2.0194, 2.4066, 0.0], a=1.2, v=0.25)\n"
+KRL_DAT = ("&ACCESS RVP\nDEFDAT cell\n  DECL E6AXIS HOME={{{}}}\n  DECL E6POS XP1={{X 400.0,Y 100.0,Z 300.0,A 0.0,"
+           "B 90.0,C 0.0,S 2,T 10}}\nENDDAT\n")
+KRL_SRC = "&ACCESS RVP\nDEF cell( )\n  PTP HOME\n  LIN XP1\nEND\n"
 
 
 def _robot(chain=UR5, change=None):
@@ -138,7 +143,13 @@ def _pass5_inputs():
     q = UR5.random_configurations(20, rng=3)
     positions = UR5.fk_positions(q)
     degrees = UR5.joints_to_file(q)
+    axes = ",".join(f"A{k} {v}" for k, v in enumerate(np.radians(HOME_DEG), start=1))
     return {
+        "deg.script": f"def prog():\n  movej([139.6318, 101.8499, -267.3761, -81.0, 100.0, 8.0], a=1.4, v=1.05)\n"
+                      f"{MOVEL}end\n",
+        "rad.script": f"def prog():\n  movej([{', '.join(map(str, np.radians(HOME_DEG)))}], a=1.4, v=1.05)\n"
+                      f"{MOVEL}end\n",
+        "cell.src": KRL_SRC, "cell.dat": KRL_DAT.format(axes),
         "alpha_rad.toml": _robot(change=lambda key, v: np.radians(v) if key == "alpha" else v),
         "kr_alpha_rad.toml": _robot(builtin("kr150-2"), lambda key, v: np.radians(v) if key == "alpha" else v),
         "limits_rad.toml": _robot(change=lambda key, v: np.radians(v) if key in ("min", "max") else v),
@@ -147,11 +158,16 @@ def _pass5_inputs():
         "j_rad.csv": _joint_log(q),
         "j_deg.csv": _joint_log(degrees),
         "j_tagged.csv": _joint_log(q, [f"q{k}[rad]" for k in range(1, 7)]),
+        "fo/.keep": "",
     }
 
 
 PASS5_REFUSED = [
     # 1. serve: in test_a_request_in_radians_is_answered_with_an_error_line
+    # 2. a program's joint values: URScript takes radians, KRL degrees
+    ("filter {model} deg.script --out fo",
+     r"deg.script, line 2: q1 = 139.632 rad lies beyond joint 1's limits .* look like degrees; URScript takes radians"),
+    ("filter {model} cell.src --out fo", r"cell.src, line 3: the joint values look like radians .* KRL takes degrees"),
     # 4. a robot file's angles in radians
     ("show alpha_rad.toml", r"alpha_rad.toml: the alpha of the \[\[joints\]\] look like radians .* mm and degrees"),
     ("simulate kr_alpha_rad.toml --n 10 --out s.csv", "the alpha of the .* look like radians"),
@@ -160,6 +176,7 @@ PASS5_REFUSED = [
     ("import --points pts.txt --joints j_rad.csv --out m.csv", "j_rad.csv lie within ±6.3: they look like radians"),
 ]
 PASS5_ACCEPTED = [
+    "filter {model} rad.script --out fo",
     "show ur5.toml",
     "import --points pts.txt --joints j_deg.csv --out m.csv",
     "import --points pts.txt --joints j_tagged.csv --out m.csv",
@@ -171,6 +188,7 @@ def _pass5_folder(tmp_path, monkeypatch):
     for name, text in _pass5_inputs().items():
         (tmp_path / name).parent.mkdir(exist_ok=True)
         (tmp_path / name).write_text(text)
+    (tmp_path / "fo" / ".keep").unlink()
 
 
 def _pass5_args(command, ur5_files):
@@ -191,6 +209,7 @@ def test_pass5_a_number_in_other_units_is_refused_in_one_line(tmp_path, monkeypa
     assert result.exit_code != 0 and len(errors) == 1 and re.search(says, errors[0]), result.output
     assert_refused(args, errors[0][len("error: "):][:30], tmp_path, {p.name: p.stat().st_mtime_ns
                                                                      for p in tmp_path.iterdir()})
+    assert not list((tmp_path / "fo").iterdir())
 
 
 @pytest.mark.parametrize("command", PASS5_ACCEPTED)

@@ -474,6 +474,55 @@ def check_joint_table(values, path):
                               "numpy.degrees()")
 
 
+# Joint readings may pass a limit by a little (limits in data sheets are rounded, encoders
+# overshoot); beyond this they are not the robot's (the packaged Panda data come within
+# 1.1 deg of the limits, the UR data within 55 deg).
+LIMIT_TOLERANCE_DEG = 0.5
+LIMIT_TOLERANCE_MM = 0.5
+
+
+def beyond_limits(chain, joints):
+    """(N, n) bool: which of the joint values ``joints`` (N, n, rad or mm) lie beyond
+    ``chain``'s limits by more than LIMIT_TOLERANCE_DEG / _MM."""
+    tolerance = np.where(chain.revolute, np.radians(LIMIT_TOLERANCE_DEG), LIMIT_TOLERANCE_MM)
+    return (joints < chain.lower - tolerance) | (joints > chain.upper + tolerance)
+
+
+def check_posture_units(chain, values, unit, what, fix):
+    """InputError when the joint values ``values`` (n,) of one posture, written in ``unit`` (a
+    key of :data:`ANGLE_UNITS`; prismatic joints in mm) as ``what`` (``'p.script, line 3:
+    movej'``) gives them, are not in that unit for ``chain``: beyond its limits (the
+    measurement reader's, :func:`beyond_limits`), naming the other unit when it brings them all
+    within; or, in degrees, looking like radians (the one test of typed angles,
+    :func:`check_angles`).  ``fix``: what the file takes and how to convert ('URScript takes
+    radians: convert them with d2r()').  Values that are not finite (a partial posture) are
+    not judged."""
+    values = np.asarray(values, dtype=float)
+    revolute = np.asarray(chain.revolute, dtype=bool)
+    known = np.isfinite(values)
+    if values.shape != (chain.n_joints,) or not known.any():
+        return
+
+    def beyond(reading):
+        degrees = np.where(revolute & known, values * ANGLE_UNITS[reading], np.where(known, values, 0.0))
+        return beyond_limits(chain, chain.joints_from_file(degrees[None]))[0] & known
+
+    outside = beyond(unit)
+    if outside.any():
+        joint = int(np.flatnonzero(outside)[0])
+        shown = ({"degrees": "deg", "radians": "rad"}[unit] if revolute[joint] else "mm")
+        limits = chain.joints_to_file(np.vstack([chain.lower, chain.upper]))[:, joint]
+        if revolute[joint]:
+            limits = limits / ANGLE_UNITS[unit]
+        other = next(name for name in ANGLE_UNITS if name != unit)
+        looks = (f"they look like {other}; {fix}" if not beyond(other).any() else
+                 "fix the posture or the robot file's min and max")
+        raise InputError(f"{what}: q{joint + 1} = {values[joint]:.6g} {shown} lies beyond joint {joint + 1}'s limits "
+                         f"{limits[0]:.6g} to {limits[1]:.6g} {shown} of the robot '{chain.name}': {looks}")
+    if unit == "degrees":
+        check_angles(values[revolute & known], f"{what}: the joint values", joints=True, fix=fix)
+
+
 # Measured orientations of the poses a robot was commanded to (an ISO campaign) lie tenths of
 # a degree from their commands.  Measured in radians and read as degrees, they lie tens of
 # degrees from them; read as radians, within this (median over the visits of the largest of
