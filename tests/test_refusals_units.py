@@ -168,18 +168,30 @@ PASS5_REFUSED = [
     ("filter {model} deg.script --out fo",
      r"deg.script, line 2: q1 = 139.632 rad lies beyond joint 1's limits .* look like degrees; URScript takes radians"),
     ("filter {model} cell.src --out fo", r"cell.src, line 3: the joint values look like radians .* KRL takes degrees"),
+    # 3. standard deviations typed in metres or radians
+    ("calibrate ur5 {meas} --position-sigma 0.00002 --out m.json",
+     r"--position-sigma must be at least 0.001 mm .* is it in metres\? \(2e-05 m is 0.02 mm\)"),
+    ("calibrate ur5 {meas} --orientation-sigma 0.00003 --out m.json", "--orientation-sigma .* is it in radians"),
+    ("design ur5 --n 10 --pool 200 --noise 0.00002 --out p.csv", "--noise must be at least 0.001 mm"),
+    ("simulate ur5 --noise 0.0005 --out s.csv", r"--noise must be 0 or at least 0.001 mm .* is it in metres"),
+    ("design ur5 --n 10 --pool 200 --joint-noise 0.00003 --out p.csv", "--joint-noise .* is it in radians"),
     # 4. a robot file's angles in radians
     ("show alpha_rad.toml", r"alpha_rad.toml: the alpha of the \[\[joints\]\] look like radians .* mm and degrees"),
     ("simulate kr_alpha_rad.toml --n 10 --out s.csv", "the alpha of the .* look like radians"),
     ("show limits_rad.toml", "the min and max of the revolute .* look like radians"),
     # 5. a joint log in radians, untagged
     ("import --points pts.txt --joints j_rad.csv --out m.csv", "j_rad.csv lie within ±6.3: they look like radians"),
+    # 6. a tilt typed in radians
+    (f"{SOCKETS} --max-tilt 0.5236",
+     r"--max-tilt must be 0 or at least 2 deg, .* is it in radians\? \(0.5236 rad is 30"),
 ]
 PASS5_ACCEPTED = [
     "filter {model} rad.script --out fo",
     "show ur5.toml",
     "import --points pts.txt --joints j_deg.csv --out m.csv",
     "import --points pts.txt --joints j_tagged.csv --out m.csv",
+    "design ur5 --n 10 --pool 200 --noise 0.001 --joint-noise 0.002 --out p.csv",
+    "simulate ur5 --n 10 --noise 0 --out s.csv",
 ]
 
 
@@ -237,3 +249,17 @@ def test_a_request_in_radians_is_answered_with_an_error_line(ur5_files):
     row = [in_radians[k] for k in ("x", "y", "z", "rx", "ry", "rz")]
     answer, ok = csv.answer(",".join(map(str, row)).encode())
     assert not ok and "look like radians" in json.loads(answer)["error"], answer
+
+
+@pytest.mark.parametrize("option, text", [
+    ("--position-sigma", "0.001"), ("--position-sigma", "0.02"), ("--orientation-sigma", "0.01"),
+    ("--noise", "0.001"), ("--noise", "0.02"), ("--noise", "20"), ("--joint-noise", "0"), ("--joint-noise", "0.002"),
+    ("--max-tilt", "0"), ("--max-tilt", "2"), ("--max-tilt", "30")])
+def test_plausible_standard_deviations_and_tilts_are_taken(option, text):
+    from robocal.interfaces.cli.plan import DESIGN, SIMULATE
+    from robocal.methods.kinematic import ORIENTATION_SIGMA, POSITION_SIGMA
+
+    settings = [s for s in (POSITION_SIGMA, ORIENTATION_SIGMA, *SIMULATE, *DESIGN) if s.option == option]
+    assert settings
+    for setting in settings:
+        assert setting.parse(text) == float(text) == setting.check(float(text))
