@@ -40,16 +40,16 @@ class Refusal(ValueError):
     """A value its constraint refuses: ``expected`` says what it must be (``'one of a, b'``,
     ``'a whole number >= 2'``).  ``unavailable``: a word typed that is not among the choices."""
 
-    def __init__(self, expected, value, *, unavailable=False):
-        self.expected, self.value, self.unavailable = expected, value, unavailable
+    def __init__(self, expected, value, *, unavailable=False, advice=""):
+        self.expected, self.value, self.unavailable, self.advice = expected, value, unavailable, advice
         super().__init__(self.phrase)
 
     @property
     def phrase(self):
-        """What follows the setting's name: ``must be ..., got ...``."""
+        """What follows the setting's name: ``must be ..., got ...`` (``: advice``)."""
         if self.unavailable:
             return f"must be {self.expected}: {self.value!r} is not available"
-        return f"must be {self.expected}, got {self.value!r}"
+        return f"must be {self.expected}, got {self.value!r}" + (f": {self.advice}" if self.advice else "")
 
 
 class Constraint:
@@ -115,18 +115,56 @@ class Choice(Constraint):
         return Choice(self.values + tuple(v for v in other.values if v not in self.values), self.or_file)
 
 
+# The unit a quantity in mm or degrees was most likely typed in when it is implausibly
+# small, and that unit's size in mm or degrees: a length typed in metres is a thousandth of
+# what it means, an angle typed in radians a 57th.
+SMALLER_BY_MISTAKE = {"mm": ("metres", "m", 1000.0), "deg": ("radians", "rad", 180.0 / math.pi)}
+
+
+@dataclass(frozen=True)
+class Plausible:
+    """The physically plausible least of a quantity in ``unit`` ("mm" or "deg"): a value
+    above zero and below ``least`` is refused, naming the unit that makes it one
+    (:data:`SMALLER_BY_MISTAKE`); ``why``: why nothing smaller is physical.  Zero is left to
+    the constraint's bounds (no noise, a tool straight down)."""
+
+    least: float
+    unit: str
+    why: str = ""
+
+    def refusal(self, number, given, zero):
+        """The :class:`Refusal` of ``number`` (typed ``given``), or None when plausible;
+        ``zero``: whether the setting takes 0."""
+        if not 0.0 < number < self.least:
+            return None
+        word, symbol, size = SMALLER_BY_MISTAKE[self.unit]
+        why = f" ({self.why})" if self.why else ""
+        return Refusal(f"{'0 or ' if zero else ''}at least {self.least:g} {self.unit}{why}", given,
+                       advice=f"is it in {word}? ({number:g} {symbol} is {number * size:.3g} {self.unit}); give it in "
+                              f"{'degrees' if self.unit == 'deg' else self.unit}")
+
+
+# A standard deviation of a length or an angle below these is no instrument's (the best
+# coordinate measuring machines read to a micrometre; the best angle encoders and 6-D probes to
+# tenths of an arcsecond): one typed in metres or radians is.
+LENGTH_SIGMA = Plausible(1e-3, "mm", "no instrument reads to better than a micrometre")
+ANGLE_SIGMA = Plausible(1e-4, "deg", "no instrument or encoder reads an angle to better than 0.4 arcsec")
+
+
 @dataclass(frozen=True)
 class Number(Constraint):
     """A number (``whole``: a whole number) ``>= at_least``, ``<= at_most`` (whole numbers:
     :data:`LARGEST_WHOLE` unless told) or strictly ``between`` two bounds; always finite.
     ``advice``: what the refusal of a value beyond ``at_most`` adds (an amount of work: what
-    the largest costs, what to do instead)."""
+    the largest costs, what to do instead).  ``plausible``: a quantity in mm or degrees whose
+    implausibly small values are refused as another unit (:class:`Plausible`)."""
 
     whole: bool = False
     at_least: float | None = None
     at_most: float | None = None
     between: tuple | None = None
     advice: str = ""
+    plausible: Plausible | None = None
 
     @property
     def _most(self):
@@ -152,6 +190,12 @@ class Number(Constraint):
         if (not math.isfinite(number) or (self.at_least is not None and number < self.at_least)
                 or (self.between is not None and not self.between[0] < number < self.between[1])):
             raise Refusal(self.expected, given)
+        if self.plausible is not None:
+            zero = ((self.at_least is not None and self.at_least <= 0)
+                    or (self.between is not None and self.between[0] < 0 < self.between[1]))
+            refusal = self.plausible.refusal(number, given, zero)
+            if refusal is not None:
+                raise refusal
         return number
 
     def parse(self, text):

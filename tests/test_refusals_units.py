@@ -103,3 +103,163 @@ def test_lengths_are_judged_by_the_robots_reach():
         units.check_robot_lengths(kr150, [0.0, 0.0, 0.3], "--tool", position=True)
     with pytest.raises(InputError, match="they are not mm"):
         units.check_lengths(1e-6, 1.0, "--box", "a box")
+
+
+# --------------------------------------------------------------------------- issue 26, pass 5
+# Every number of the same kind meets the same test: a request's rx, ry, rz as a targets file's;
+# a program's joint values as a measurement file's q columns (joint limits, in the program's
+# unit); a robot file's angles as typed angles; a joint log's as a file of configurations; a
+# standard deviation or a tilt typed in metres or radians by its setting's plausible interval.
+UR5 = builtin("ur5")
+HOME_DEG = [0.0, -90.0, 90.0, -90.0, -90.0, 0.0]
+MOVEL = "  movel(p[-0.29802, -0.29810, 0.35729, 2.0194, 2.4066, 0.0], a=1.2, v=0.25)\n"
+KRL_DAT = ("&ACCESS RVP\nDEFDAT cell\n  DECL E6AXIS HOME={{{}}}\n  DECL E6POS XP1={{X 400.0,Y 100.0,Z 300.0,A 0.0,"
+           "B 90.0,C 0.0,S 2,T 10}}\nENDDAT\n")
+KRL_SRC = "&ACCESS RVP\nDEF cell( )\n  PTP HOME\n  LIN XP1\nEND\n"
+
+
+def _robot(chain=UR5, change=None):
+    """``chain``'s robot TOML, with ``change(key, value)`` applied to every line 'key = value'."""
+    from robocal.io.robot_file import robot_to_toml
+
+    def edit(line):
+        key, _, value = line.partition(" = ")
+        try:
+            return f"{key} = {float(change(key, float(value)))!r}"
+        except ValueError:
+            return line
+
+    return "\n".join(edit(line) if change and " = " in line else line
+                     for line in robot_to_toml(chain).splitlines()) + "\n"
+
+
+def _joint_log(joints, header=None):
+    names = header or [f"q{k}" for k in range(1, joints.shape[1] + 1)]
+    return "\n".join([",".join(["point"] + names)] + [",".join([f"P{i}"] + [repr(float(v)) for v in row])
+                                                      for i, row in enumerate(joints)]) + "\n"
+
+
+def _pass5_inputs():
+    q = UR5.random_configurations(20, rng=3)
+    positions = UR5.fk_positions(q)
+    degrees = UR5.joints_to_file(q)
+    axes = ",".join(f"A{k} {v}" for k, v in enumerate(np.radians(HOME_DEG), start=1))
+    return {
+        "deg.script": f"def prog():\n  movej([139.6318, 101.8499, -267.3761, -81.0, 100.0, 8.0], a=1.4, v=1.05)\n"
+                      f"{MOVEL}end\n",
+        "rad.script": f"def prog():\n  movej([{', '.join(map(str, np.radians(HOME_DEG)))}], a=1.4, v=1.05)\n"
+                      f"{MOVEL}end\n",
+        "cell.src": KRL_SRC, "cell.dat": KRL_DAT.format(axes),
+        "alpha_rad.toml": _robot(change=lambda key, v: np.radians(v) if key == "alpha" else v),
+        "kr_alpha_rad.toml": _robot(builtin("kr150-2"), lambda key, v: np.radians(v) if key == "alpha" else v),
+        "limits_rad.toml": _robot(change=lambda key, v: np.radians(v) if key in ("min", "max") else v),
+        "ur5.toml": _robot(),
+        "pts.txt": "\n".join(f"P{i} " + " ".join(repr(float(c)) for c in p) for i, p in enumerate(positions)) + "\n",
+        "j_rad.csv": _joint_log(q),
+        "j_deg.csv": _joint_log(degrees),
+        "j_tagged.csv": _joint_log(q, [f"q{k}[rad]" for k in range(1, 7)]),
+        "fo/.keep": "",
+    }
+
+
+PASS5_REFUSED = [
+    # 1. serve: in test_a_request_in_radians_is_answered_with_an_error_line
+    # 2. a program's joint values: URScript takes radians, KRL degrees
+    ("filter {model} deg.script --out fo",
+     r"deg.script, line 2: q1 = 139.632 rad lies beyond joint 1's limits .* look like degrees; URScript takes radians"),
+    ("filter {model} cell.src --out fo", r"cell.src, line 3: the joint values look like radians .* KRL takes degrees"),
+    # 3. standard deviations typed in metres or radians
+    ("calibrate ur5 {meas} --position-sigma 0.00002 --out m.json",
+     r"--position-sigma must be at least 0.001 mm .* is it in metres\? \(2e-05 m is 0.02 mm\)"),
+    ("calibrate ur5 {meas} --orientation-sigma 0.00003 --out m.json", "--orientation-sigma .* is it in radians"),
+    ("design ur5 --n 10 --pool 200 --noise 0.00002 --out p.csv", "--noise must be at least 0.001 mm"),
+    ("simulate ur5 --noise 0.0005 --out s.csv", r"--noise must be 0 or at least 0.001 mm .* is it in metres"),
+    ("design ur5 --n 10 --pool 200 --joint-noise 0.00003 --out p.csv", "--joint-noise .* is it in radians"),
+    # 4. a robot file's angles in radians
+    ("show alpha_rad.toml", r"alpha_rad.toml: the alpha of the \[\[joints\]\] look like radians .* mm and degrees"),
+    ("simulate kr_alpha_rad.toml --n 10 --out s.csv", "the alpha of the .* look like radians"),
+    ("show limits_rad.toml", "the min and max of the revolute .* look like radians"),
+    # 5. a joint log in radians, untagged
+    ("import --points pts.txt --joints j_rad.csv --out m.csv", "j_rad.csv lie within ±6.3: they look like radians"),
+    # 6. a tilt typed in radians
+    (f"{SOCKETS} --max-tilt 0.5236",
+     r"--max-tilt must be 0 or at least 2 deg, .* is it in radians\? \(0.5236 rad is 30"),
+]
+PASS5_ACCEPTED = [
+    "filter {model} rad.script --out fo",
+    "show ur5.toml",
+    "import --points pts.txt --joints j_deg.csv --out m.csv",
+    "import --points pts.txt --joints j_tagged.csv --out m.csv",
+    "design ur5 --n 10 --pool 200 --noise 0.001 --joint-noise 0.002 --out p.csv",
+    "simulate ur5 --n 10 --noise 0 --out s.csv",
+]
+
+
+def _pass5_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for name, text in _pass5_inputs().items():
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text(text)
+    (tmp_path / "fo" / ".keep").unlink()
+
+
+def _pass5_args(command, ur5_files):
+    return command.format(model=ur5_files / "model.json", meas=ur5_files / "meas.csv", plate=PLATE).split()
+
+
+@pytest.mark.parametrize("command, says", PASS5_REFUSED, ids=[row[0] for row in PASS5_REFUSED])
+def test_pass5_a_number_in_other_units_is_refused_in_one_line(tmp_path, monkeypatch, ur5_files, command, says):
+    import re
+
+    from refusals import runner
+    from robocal.interfaces.cli import app
+
+    _pass5_folder(tmp_path, monkeypatch)
+    args = _pass5_args(command, ur5_files)
+    result = runner.invoke(app, args)
+    errors = [line for line in result.output.splitlines() if line.lower().startswith("error")]
+    assert result.exit_code != 0 and len(errors) == 1 and re.search(says, errors[0]), result.output
+    assert_refused(args, errors[0][len("error: "):][:30], tmp_path, {p.name: p.stat().st_mtime_ns
+                                                                     for p in tmp_path.iterdir()})
+    assert not list((tmp_path / "fo").iterdir())
+
+
+@pytest.mark.parametrize("command", PASS5_ACCEPTED)
+def test_pass5_the_same_numbers_in_mm_and_degrees_pass(tmp_path, monkeypatch, ur5_files, command):
+    _pass5_folder(tmp_path, monkeypatch)
+    run_ok(*_pass5_args(command, ur5_files))
+
+
+REQUEST = {"x": -506.815, "y": -242.645, "z": -38.323, "rx": 78.439, "ry": -9.785, "rz": -81.802,
+           "q": [16, -47, 117, -81, 100, 8]}
+
+
+def test_a_request_in_radians_is_answered_with_an_error_line(ur5_files):
+    import json
+
+    from robocal.interfaces.serve import Answerer
+
+    in_radians = {**REQUEST, **{k: float(np.radians(REQUEST[k])) for k in ("rx", "ry", "rz")}}
+    answerer = Answerer(ur5_files / "model.json")
+    answer, ok = answerer.answer(json.dumps(in_radians).encode())
+    assert not ok and "the rx, ry, rz of the request look like radians" in json.loads(answer)["error"], answer
+    answer, ok = answerer.answer(json.dumps(REQUEST).encode())
+    assert ok and len(json.loads(answer)["q"]) == 6, answer
+    csv = Answerer(ur5_files / "model.json", "csv")
+    row = [in_radians[k] for k in ("x", "y", "z", "rx", "ry", "rz")]
+    answer, ok = csv.answer(",".join(map(str, row)).encode())
+    assert not ok and "look like radians" in json.loads(answer)["error"], answer
+
+
+@pytest.mark.parametrize("option, text", [
+    ("--position-sigma", "0.001"), ("--position-sigma", "0.02"), ("--orientation-sigma", "0.01"),
+    ("--noise", "0.001"), ("--noise", "0.02"), ("--noise", "20"), ("--joint-noise", "0"), ("--joint-noise", "0.002"),
+    ("--max-tilt", "0"), ("--max-tilt", "2"), ("--max-tilt", "30")])
+def test_plausible_standard_deviations_and_tilts_are_taken(option, text):
+    from robocal.interfaces.cli.plan import DESIGN, SIMULATE
+    from robocal.methods.kinematic import ORIENTATION_SIGMA, POSITION_SIGMA
+
+    settings = [s for s in (POSITION_SIGMA, ORIENTATION_SIGMA, *SIMULATE, *DESIGN) if s.option == option]
+    assert settings
+    for setting in settings:
+        assert setting.parse(text) == float(text) == setting.check(float(text))

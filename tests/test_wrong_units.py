@@ -123,7 +123,7 @@ REFUSED = [
     ("robot-file-metres", ["calibrate", "r.toml", "ur5.csv", "--out", "o.json"], {"r.toml": robot_in_metres}, "its robot file looks like metres"),
     ("design-targets-orientation-radians", ["design", "ur5", "--n", "8", "--pool", "300", "--targets", "t.csv", "--out", "p.csv"], {"t.csv": scaled("targets.csv", RPY, math.pi / 180, keep=XYZ + RPY)}, "the rx, ry, rz of t.csv look like radians"),
     ("frames-measurements-metres", ["calibrate", "ur5_model.json", "m.csv", "--method", "frames", "--out", "o.json"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres; give x, y, z in mm"),
-    ("robot-file-limits-radians", ["calibrate", "r.toml", "ur5.csv", "--out", "o.json"], {"r.toml": robot_limits_in_radians}, "lies beyond joint 1's limits -6.283 to 6.283"),
+    ("robot-file-limits-radians", ["calibrate", "r.toml", "ur5.csv", "--out", "o.json"], {"r.toml": robot_limits_in_radians}, "the min and max of the revolute [[joints]] look like radians"),
 ]
 
 

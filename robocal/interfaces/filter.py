@@ -47,6 +47,7 @@ from ..io.units import LENGTH_UNITS, SMALLEST_REACH_SHARE, check_robot_lengths, 
 from ..io.programs import LANGUAGES, krl, language_of, postures
 from ..io.programs.core import (
     ENCODING,
+    check_joint_targets,
     comment_text,
     is_filtered,
     model_digest,
@@ -340,6 +341,7 @@ def filter_job(model_path, paths, out_dir, *, language=None, config=None, allow_
         raise InputError(f"{len(run_time)} motion(s) are computed at run time and cannot be filtered ({lines}); "
                          "nothing was written; give --allow-unfiltered to write the program with them as they are")
     model, fitted = load_fitted(model_path)
+    check_joint_targets(programs, model.nominal)
     frames = None if config is None else krl.read_config(config)
     prepared = prepare(programs, model, config=frames)
     targets = prepared.targets

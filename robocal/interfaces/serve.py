@@ -35,7 +35,7 @@ from collections import deque
 import numpy as np
 
 from ..errors import RobocalError
-from ..io.units import ONE_TURN, looks_like_radians
+from ..io.units import ONE_TURN, RADIAN_HALF_TURN, check_angles, looks_like_radians
 from ..spatial import pose_to_xyz_rpy
 from .jobs import load_fitted
 
@@ -139,6 +139,11 @@ class Answerer:
     # ------------------------------------------------------------------ answering
     def compute(self, xyz, rxyz, hint):
         """The answer's fields for one target, as ``compensate`` writes them."""
+        # The rx, ry, rz meet the one test of typed angles (robocal.io.units), as a targets file's
+        # do: radians would be answered for another orientation without a word.  Beyond half a
+        # turn they cannot be radians (the usual request, rx = 180, is decided on floats).
+        if max(map(abs, rxyz)) <= RADIAN_HALF_TURN:
+            check_angles(rxyz, "the rx, ry, rz of the request", fix="send them in degrees")
         pose = target_pose(xyz, rxyz)
         revolute_hint = None if hint is None else [v for v, r in zip(hint, self._revolute) if r]
         # A joint beyond one turn cannot be in radians: the usual hint is decided on floats

@@ -23,13 +23,7 @@ from ..spatial import compose_pose, pose_to_xyz_rpy, rpy_to_matrix
 from .fixtures import Fixture, fixture_from_dict, fixture_to_dict, read_fixture
 from .library import load_robot
 from .tables import Measurements, read_measurements, read_targets, write_commands
-from .units import check_measurement_units, check_target_units
-
-# Joint readings may pass a limit by a little (limits in data sheets are rounded, encoders
-# overshoot); beyond this they are not the robot's (the packaged Panda data come within
-# 1.1 deg of the limits, the UR data within 55 deg).
-LIMIT_TOLERANCE_DEG = 0.5
-LIMIT_TOLERANCE_MM = 0.5
+from .units import beyond_limits, check_measurement_units, check_target_units
 # The flange of an industrial robot reaches hundreds of mm from its base; a model that stays
 # within this over every pose has its lengths in metres.
 SMALLEST_REACH_MM = 10.0
@@ -156,7 +150,7 @@ def observations(chain, data: Measurements, fixture: Fixture | None = None, *, b
 
     ``fixture`` is required for ball-in-socket data and refused for instrument data.
     InputError, naming the file rows, for joint values beyond the robot's limits (by more than
-    LIMIT_TOLERANCE_DEG / _MM; ``beyond_limits=True`` accepts them), for measured positions
+    robocal.io.units.LIMIT_TOLERANCE_DEG / _MM; ``beyond_limits=True`` accepts them), for measured positions
     whose spread does not fit the robot's (another length unit), and for a robot whose
     lengths look like metres.
     """
@@ -221,8 +215,7 @@ def read_observations(path, chain, fixture_path=None, *, beyond_limits=False) ->
 
 def _check_limits(chain, data: Measurements, joints):
     """InputError naming the rows whose joint values lie beyond the robot's limits."""
-    tolerance = np.where(chain.revolute, np.radians(LIMIT_TOLERANCE_DEG), LIMIT_TOLERANCE_MM)
-    beyond = (joints < chain.lower - tolerance) | (joints > chain.upper + tolerance)
+    beyond = beyond_limits(chain, joints)
     if not beyond.any():
         return
     rows = np.flatnonzero(beyond.any(axis=1))

@@ -25,6 +25,7 @@ from ..errors import FileFormatError, InputError
 from .csv_table import JOINT_COLUMN, _read_table
 from .file_kinds import check
 from .tables import Measurements
+from .units import check_joint_table
 
 NAME_COLUMNS = ("name", "point", "id", "label", "target")
 TIME_COLUMNS = ("time", "timestamp")
@@ -117,6 +118,11 @@ def join(points, joints_path, *, by=None, max_dt=MAX_DT):
         raise FileFormatError(f"{table.path}: a joint log needs the columns q1..qN (deg, or tagged such as q1[rad])")
     joint_names = [f"q{k}" for k in indices]
     joints = table.numbers(joint_names)
+    # Untagged columns in radians, by the one test of joint values without a robot to judge
+    # them (robocal.io.units), as a file of configurations: refused here, before the
+    # measurement file carries them as degrees.  (The log cannot say which joints are
+    # prismatic; a column in mm beyond one turn clears the file.)
+    check_joint_table(joints[:, [k for k, name in enumerate(joint_names) if name not in table.scales]], table.path)
     name_column, time_column = _column(table, NAME_COLUMNS), _column(table, TIME_COLUMNS)
     if by is None and name_column is None and time_column is None:
         raise FileFormatError(f"{table.path} has no name column ({', '.join(NAME_COLUMNS)}) and no time column "

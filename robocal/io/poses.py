@@ -26,13 +26,8 @@ from .atomic import write_text_atomic
 from .file_kinds import READERS, check, marked
 from .tables import _named_joints
 from .csv_table import _check_header_line, _read_table, _records
-from .units import check_angles
+from .units import check_angles, check_joint_table
 
-# Joint values in a file that all lie within this (and spread by at least RADIAN_SPREAD over
-# RADIAN_ROWS rows or more) are radians, not the degrees robocal reads.
-RADIAN_BOUND = 6.3
-RADIAN_SPREAD = 0.5
-RADIAN_ROWS = 5
 # Joint values this far beyond a limit (deg, mm) are refused, as measurement files' are.
 LIMIT_TOLERANCE = 0.5
 
@@ -98,11 +93,7 @@ def read_joints(path, chain, what="configurations"):
     values = data.numbers(names)
     # Untagged revolute columns only: a column tagged with its unit says what it holds.
     untagged = values[:, [k for k in np.flatnonzero(chain.revolute) if names[k] not in data.scales]]
-    if (len(values) >= RADIAN_ROWS and untagged.size and np.abs(untagged).max() < RADIAN_BOUND
-            and np.ptp(untagged, axis=0).max() >= RADIAN_SPREAD):
-        raise FileFormatError(f"all joint values of {path} lie within ±{RADIAN_BOUND}: they look like radians, but "
-                              "robocal reads degrees; tag the columns q1[rad] ... or convert them with "
-                              "numpy.degrees()")
+    check_joint_table(untagged, path)  # the one test without a robot (robocal.io.units)
     q = chain.joints_from_file(values)
     tolerance = np.where(chain.revolute, np.radians(LIMIT_TOLERANCE), LIMIT_TOLERANCE)
     beyond = np.flatnonzero(np.any((q < chain.lower - tolerance) | (q > chain.upper + tolerance), axis=1))

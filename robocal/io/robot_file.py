@@ -23,6 +23,7 @@ from ..spatial import compose_pose, pose_to_xyz_rpy
 from .atomic import write_text_atomic
 from . import schema
 from .reading import load_toml
+from .units import check_angles
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -101,6 +102,7 @@ def chain_from_dict(doc, path="<robot>"):
         _fail(path, "no [[joints]] tables: list one per joint, base to tip")
     schema.tables(joints, f"{path}: joints", "[[joints]] tables, one per joint, base to tip")
     columns, types, signs = _read_joints(path, joints, convention)
+    _check_angle_units(path, convention, columns, types)
     joint_map = _joint_map(path, doc, signs)
     name = doc.get("name")
     if not isinstance(name, str) or not name:
@@ -185,6 +187,24 @@ def _read_link(path, where, joint, convention, angle, columns):
             columns[key].append(_number(path, f"{where} {key}", joint[key]))
         for key in ("alpha", "beta"):
             columns[key].append(np.radians(_number(path, f"{where} {key}", joint.get(key, 0.0))))
+
+
+def _check_angle_units(path, convention, columns, types):
+    """InputError when the angles of the [[joints]] look like radians, by the one test of typed
+    angles (robocal.io.units.check_angles): the twists alpha (a table of 1.5708 and 0 is
+    radians; degrees write 90 and 0), the link angles alpha, theta, beta together, and the
+    revolute joints' limits (within one turn)."""
+    fix = "a robot file is in mm and degrees: convert them with numpy.degrees()"
+    if convention != "poe":
+        alpha = np.degrees(columns["alpha"])
+        check_angles(alpha, f"{path}: the alpha of the [[joints]]", fix=fix)
+        link = np.concatenate([alpha, np.degrees(columns["theta"]), np.degrees(columns["beta"])])
+        check_angles(link, f"{path}: the alpha, theta and beta of the [[joints]]", fix=fix)
+    revolute = np.array([kind == "revolute" for kind in types])
+    limits = np.degrees(np.concatenate([np.asarray(columns["min"])[revolute], np.asarray(columns["max"])[revolute]]))
+    limits = limits[np.isfinite(limits)]
+    if len(limits) == 2 * revolute.sum():  # every revolute limit given: a robot's range, judged whole
+        check_angles(limits, f"{path}: the min and max of the revolute [[joints]]", joints=True, fix=fix)
 
 
 def _joint_limits(path, where, joint, angle):

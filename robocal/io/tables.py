@@ -28,17 +28,11 @@ from robocal.io.csv_table import (  # noqa: F401  (the column names are this mod
 )
 from robocal.io.csv_writing import write_commands, write_measurements  # noqa: F401  (re-exported)
 from robocal.io.file_kinds import KIND_COLUMN, check
-from robocal.io.units import check_angles
+from robocal.io.units import JOINT_RADIAN_BOUND, check_angles, joint_values_look_like_radians
 
 _NAMED_COLUMNS = POSITION_COLUMNS + ORIENTATION_COLUMNS + SIGMA_COLUMNS + CONSTRAINT_COLUMNS + (KIND_COLUMN,)
 # Joint names offered as spelling suggestions even when the file has fewer joints.
 _SUGGESTED_JOINT_COUNT = 12
-
-# Radian detection: every joint value inside one turn in radians, on enough varied data
-# that a few small moves in degrees near the zero position are not mistaken for radians.
-_RADIAN_BOUND = 6.3
-_RADIAN_MIN_ROWS = 5
-_RADIAN_MIN_SPREAD = 0.5
 
 # How many groups of identical rows a warning spells out before summarising the rest.
 _DUPLICATES_SHOWN = 3
@@ -405,15 +399,11 @@ def _column_group_present(table: _Table, group: tuple[str, ...], meaning: str) -
 
 
 def _warn_if_radians(measurements: Measurements) -> None:
-    joints = measurements.joints
-    if len(joints) < _RADIAN_MIN_ROWS:
-        return
-    inside_one_turn = np.abs(joints).max() < _RADIAN_BOUND
-    varied = np.ptp(joints, axis=0).max() >= _RADIAN_MIN_SPREAD
-    if inside_one_turn and varied:
+    # The one test of joint values without a robot to judge them (robocal.io.units).
+    if joint_values_look_like_radians(measurements.joints):
         warnings.warn(
             RobocalWarning(
-                f"all joint values of {measurements.path} lie within ±{_RADIAN_BOUND}: they look like radians, "
+                f"all joint values of {measurements.path} lie within ±{JOINT_RADIAN_BOUND}: they look like radians, "
                 f"but robocal expects degrees; convert with numpy.degrees() or check the export"
             ),
             stacklevel=3,

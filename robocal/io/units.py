@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import FileFormatError, InputError
 from ..spatial.transforms import kabsch
 
 # File value x factor = degrees / mm.
@@ -437,14 +437,90 @@ def looks_like_radians(values, bound=RADIAN_HALF_TURN):
     return bool(large.any() or snapped.any())
 
 
-def check_angles(values, what, *, joints=False):
+def check_angles(values, what, *, joints=False, fix="convert with numpy.degrees()"):
     """InputError when the angles ``values`` of ``what`` (``'the angles of --rpy'``, ``'the rx,
     ry, rz of FILE'``) look like radians (:func:`looks_like_radians`; ``joints``: joint values, within
-    one turn)."""
+    one turn); ``fix``: what to do."""
     if looks_like_radians(values, ONE_TURN if joints else RADIAN_HALF_TURN):
         largest = float(np.abs(np.asarray(values, dtype=float)).max())
         raise InputError(f"{what} look like radians (all within one {'turn' if joints else 'half-turn'}, largest "
-                         f"{largest:.6g}), but robocal reads degrees: convert with numpy.degrees()")
+                         f"{largest:.6g}), but robocal reads degrees: {fix}")
+
+
+# Joint values of many rows without a robot to judge them (a joint log, a file of
+# configurations): radians when every value lies within JOINT_RADIAN_BOUND and some column
+# moves by JOINT_RADIAN_SPREAD over JOINT_RADIAN_ROWS rows or more (a file of tiny degree
+# readings that barely move is not radians).
+JOINT_RADIAN_BOUND = 6.3
+JOINT_RADIAN_SPREAD = 0.5
+JOINT_RADIAN_ROWS = 5
+
+
+def joint_values_look_like_radians(values):
+    """Whether the joint values ``values`` (N, k, as in the file; the columns a robot would
+    read in degrees) of a file judged without a robot look like radians (see above)."""
+    values = np.asarray(values, dtype=float)
+    return bool(len(values) >= JOINT_RADIAN_ROWS and values.size and np.abs(values).max() < JOINT_RADIAN_BOUND
+                and np.ptp(values, axis=0).max() >= JOINT_RADIAN_SPREAD)
+
+
+def check_joint_table(values, path):
+    """FileFormatError when the untagged revolute joint values ``values`` (N, k, as in the file)
+    of ``path`` look like radians (:func:`joint_values_look_like_radians`): a file of
+    configurations, a joint log."""
+    if joint_values_look_like_radians(values):
+        raise FileFormatError(f"all joint values of {path} lie within ±{JOINT_RADIAN_BOUND}: they look like radians, "
+                              "but robocal reads degrees; tag the columns q1[rad] ... or convert them with "
+                              "numpy.degrees()")
+
+
+# Joint readings may pass a limit by a little (limits in data sheets are rounded, encoders
+# overshoot); beyond this they are not the robot's (the packaged Panda data come within
+# 1.1 deg of the limits, the UR data within 55 deg).
+LIMIT_TOLERANCE_DEG = 0.5
+LIMIT_TOLERANCE_MM = 0.5
+
+
+def beyond_limits(chain, joints):
+    """(N, n) bool: which of the joint values ``joints`` (N, n, rad or mm) lie beyond
+    ``chain``'s limits by more than LIMIT_TOLERANCE_DEG / _MM."""
+    tolerance = np.where(chain.revolute, np.radians(LIMIT_TOLERANCE_DEG), LIMIT_TOLERANCE_MM)
+    return (joints < chain.lower - tolerance) | (joints > chain.upper + tolerance)
+
+
+def check_posture_units(chain, values, unit, what, fix):
+    """InputError when the joint values ``values`` (n,) of one posture, written in ``unit`` (a
+    key of :data:`ANGLE_UNITS`; prismatic joints in mm) as ``what`` (``'p.script, line 3:
+    movej'``) gives them, are not in that unit for ``chain``: beyond its limits (the
+    measurement reader's, :func:`beyond_limits`), naming the other unit when it brings them all
+    within; or, in degrees, looking like radians (the one test of typed angles,
+    :func:`check_angles`).  ``fix``: what the file takes and how to convert ('URScript takes
+    radians: convert them with d2r()').  Values that are not finite (a partial posture) are
+    not judged."""
+    values = np.asarray(values, dtype=float)
+    revolute = np.asarray(chain.revolute, dtype=bool)
+    known = np.isfinite(values)
+    if values.shape != (chain.n_joints,) or not known.any():
+        return
+
+    def beyond(reading):
+        degrees = np.where(revolute & known, values * ANGLE_UNITS[reading], np.where(known, values, 0.0))
+        return beyond_limits(chain, chain.joints_from_file(degrees[None]))[0] & known
+
+    outside = beyond(unit)
+    if outside.any():
+        joint = int(np.flatnonzero(outside)[0])
+        shown = ({"degrees": "deg", "radians": "rad"}[unit] if revolute[joint] else "mm")
+        limits = chain.joints_to_file(np.vstack([chain.lower, chain.upper]))[:, joint]
+        if revolute[joint]:
+            limits = limits / ANGLE_UNITS[unit]
+        other = next(name for name in ANGLE_UNITS if name != unit)
+        looks = (f"they look like {other}; {fix}" if not beyond(other).any() else
+                 "fix the posture or the robot file's min and max")
+        raise InputError(f"{what}: q{joint + 1} = {values[joint]:.6g} {shown} lies beyond joint {joint + 1}'s limits "
+                         f"{limits[0]:.6g} to {limits[1]:.6g} {shown} of the robot '{chain.name}': {looks}")
+    if unit == "degrees":
+        check_angles(values[revolute & known], f"{what}: the joint values", joints=True, fix=fix)
 
 
 # Measured orientations of the poses a robot was commanded to (an ISO campaign) lie tenths of

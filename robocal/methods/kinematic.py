@@ -6,7 +6,7 @@ import warnings
 from ..compensation import Compensator
 from ..estimation.calibration import KinematicCalibration, OutlierError, OutlierWarning
 from ..estimation.metrics import error_stats
-from ..settings import Number, Setting
+from ..settings import ANGLE_SIGMA, LENGTH_SIGMA, Number, Setting
 from .base import LOSS, PARAMETERS, PAYLOAD, PRIOR, REGISTER, TOLERANCE_SCALE, Method, check_parameters, \
     require_positions
 from .candidacy import kinematic_candidates
@@ -21,10 +21,11 @@ from .frames import registered_nominal
 # estimator it reaches takes it as orientation_sigma_deg, the unit in the name.
 POSITION_SIGMA = Setting("position_sigma", 0.02, "--position-sigma",
                          "one standard deviation of a measured x, y or z in mm, weighing positions against "
-                         "orientations (default 0.02; a file's sx, sy, sz take precedence)", Number(between=(0, 1e3)))
+                         "orientations (default 0.02; a file's sx, sy, sz take precedence)",
+                         Number(between=(0, 1e3), plausible=LENGTH_SIGMA))
 ORIENTATION_SIGMA = Setting("orientation_sigma", 0.01, "--orientation-sigma",
                             "one standard deviation of a measured orientation angle in deg, for 6-D data (rx, ry, "
-                            "rz; default 0.01)", Number(between=(0, 90)))
+                            "rz; default 0.01)", Number(between=(0, 90), plausible=ANGLE_SIGMA))
 
 
 class KinematicMethod(Method):

@@ -6,7 +6,7 @@ option from the setting of its name (:func:`.options.declared`).
 """
 from ...errors import InputError
 from ...methods.base import PARAMETERS, PAYLOAD
-from ...settings import Choice, Either, Flag, Number, Numbers, Setting
+from ...settings import ANGLE_SIGMA, LENGTH_SIGMA, Choice, Either, Flag, Number, Numbers, Plausible, Setting
 from ..jobs import SAMPLINGS, simulate_job
 from .app import verb
 from .options import FIXTURE, JSON, ROBOT, ROOT, SEED, TIP, Output, declared, out_option
@@ -24,6 +24,9 @@ MOST_PER_SOCKET = 10_000
 MOST_POOL = 200_000
 # --noise: an instrument this noisy (a metre) measures nothing about a robot.
 LARGEST_NOISE_MM = 1000
+# design --max-tilt: 0 (the tool axis on the fixture normal) or at least this; the whole range of
+# tilts typed in radians (30 deg as 0.5236) lies between.
+TILT = Plausible(2.0, "deg")
 # design's choices, as robocal.planning names them (CRITERIA, SOCKET_CRITERIA, ORDERS and the
 # candidates' SAMPLINGS), spelled here because importing robocal.planning loads scipy.stats:
 # seconds at the start of every command on a busy machine.  design_job refuses any other.
@@ -53,7 +56,7 @@ SIMULATE = (
     Setting("errors", "typical", "--errors", "none, typical, liu2022 (KR150-2 only), or a truth file (JSON, as --truth "
             "writes it) whose deviations you edit, e.g. joint gains in ppm.", Choice(PRESETS, or_file=".json")),
     Setting("noise", None, "--noise", "Measurement noise sigma in mm (overrides the preset); sockets: the ball's "
-            "seating error.", Number(at_least=0, at_most=LARGEST_NOISE_MM)),
+            "seating error.", Number(at_least=0, at_most=LARGEST_NOISE_MM, plausible=LENGTH_SIGMA)),
     Setting("truth", None, "--truth", "Also write the hidden truth (JSON) here.", Output(".json")),
     Setting("orientation", False, "--orientation", "Also write measured rx, ry, rz.", Flag()),
     Setting("placements", None, "--placements", "sockets: number of fixture placements (default 4).",
@@ -63,7 +66,7 @@ SIMULATE = (
             Number(whole=True, at_least=2, at_most=MOST_PER_SOCKET,
                    advice="a real campaign seats the ball tens of times per socket")),
     Setting("joint_noise", None, "--joint-noise", "sockets: noise of the joint readings (deg, default 0).",
-            Number(at_least=0)),
+            Number(at_least=0, plausible=ANGLE_SIGMA)),
 )
 
 DESIGN = (
@@ -102,13 +105,13 @@ DESIGN = (
             "targets (x, y, z, rx, ry, rz; mm, deg, robot base frame). Default: the candidates."),
     Setting("noise", None, "--noise", "Standard deviation of a reading per coordinate in mm (default 0.02): the "
             "tracker's noise, plus what the calibration will not explain if you know it (an earlier calibration's "
-            "residual RMS / 1.73).", Number(at_least=0, at_most=LARGEST_NOISE_MM)),
+            "residual RMS / 1.73).", Number(between=(0, LARGEST_NOISE_MM), plausible=LENGTH_SIGMA)),
     Setting("tracker", None, "--tracker", "The laser tracker's position x,y,z in mm (robot base frame): its noise then "
             "grows with distance.", Numbers(count=3)),
     Setting("joint_noise", 0.0, "--joint-noise", "Standard deviation in deg of an error at every joint that the "
             "calibration does not model (gear backlash or play, e.g. the half-width of the gears' backlash): a pose "
             "then reads noisier the further the arm reaches, and the design and its predicted held-out error count "
-            "it. Default 0: none.", Number(at_least=0, at_most=1)),
+            "it. Default 0: none.", Number(at_least=0, at_most=1, plausible=ANGLE_SIGMA)),
     Setting("sag", 0.0, "--sag", "How far gravity bends the most loaded joint, in deg, when --parameters has no "
             "compliance (e.g. 0.01 for a counterbalanced 150 kg arm, 0.08 for a UR5): the design then also chooses "
             "poses whose sag the geometry absorbs as the targets' would be, and the predicted error counts what it "
@@ -130,7 +133,7 @@ DESIGN = (
             Number(whole=True, at_least=2, at_most=MOST_PER_SOCKET,
                    advice="a real campaign seats the ball tens of times per socket")),
     Setting("max_tilt", None, "--max-tilt", "With --fixture: the largest angle between the tool axis and the fixture "
-            "normal, deg (default 30).", Number(at_least=0, at_most=89)),
+            "normal, deg (default 30).", Number(at_least=0, at_most=89, plausible=TILT)),
 )
 
 
@@ -185,8 +188,6 @@ def design(robot: str = ROBOT, *, n: int,
     from ...planning.job import design_job, socket_job
     from ...planning.workspace import WorkingVolume, parse_floor
 
-    if noise is not None and noise <= 0:
-        raise InputError(f"--noise is a standard deviation and must be > 0 mm, got {noise}")
     socket_options = {"--placements": placements, "--region": region, "--per-socket": per_socket,
                       "--max-tilt": max_tilt}
     if fixture is None and any(v is not None for v in socket_options.values()):

@@ -24,6 +24,7 @@ import numpy as np
 
 from ...errors import FileFormatError
 from .. import reading
+from ..units import ANGLE_UNITS, check_posture_units
 
 ENCODING = "latin-1"
 # A number as the three languages write it: sign, digits, optional fraction and exponent.
@@ -139,11 +140,32 @@ class RunTime:
 
 @dataclass(frozen=True)
 class JointTarget:
-    """A joint-space motion: the posture the robot is in afterwards (controller degrees)."""
+    """A joint-space motion: the posture the robot is in afterwards (controller degrees), at
+    ``line`` of ``file``."""
 
     file: str
     order: float
     joints: tuple
+    line: int = 0
+
+
+def check_joint_targets(programs, chain):
+    """InputError in one line naming the file and line when the joint values of a program's
+    joint motion are not in its language's unit (``JOINT_UNIT``) for ``chain``: beyond the
+    joint limits where the other unit brings them within (degrees in a URScript movej), or,
+    in degrees, looking like radians; :func:`robocal.io.units.check_posture_units`, the one
+    check of a posture's units."""
+    for program in programs:
+        module = program.module
+        revolute = np.asarray(chain.revolute, dtype=bool)
+        for joint in program.joint_targets:
+            values = np.asarray(joint.joints, dtype=float)
+            if values.shape != (chain.n_joints,):
+                continue
+            # The file's numbers: the controller degrees back in the language's unit.
+            written = np.where(revolute, values / ANGLE_UNITS[module.JOINT_UNIT], values)
+            check_posture_units(chain, written, module.JOINT_UNIT, f"{program.path}, line {joint.line}",
+                                module.JOINT_ADVICE)
 
 
 @dataclass

@@ -40,6 +40,9 @@ EXTENSIONS = (".src", ".dat")
 # The unit of the file's positions (a key of robocal.io.units.LENGTH_UNITS), and of its poses.
 LENGTH_UNIT = "mm"
 UNITS = "mm and degrees"
+# The unit of its joint values (a key of robocal.io.units.ANGLE_UNITS), and how to fix others.
+JOINT_UNIT = "degrees"
+JOINT_ADVICE = "KRL takes degrees: convert them with numpy.degrees()"
 # What to add when nothing fixes the arm branch of a program's first motion (filter refuses it).
 POSTURE_ADVICE = ("start the program with a PTP to joint values (an E6AXIS, as a BCO run needs) or give the point "
                   "S and T")
@@ -307,7 +310,7 @@ def _motion(program, text, line, base_offset, number, motion, declared, fdats, s
         if rest[position] == "{":
             end, items = _aggregate(text, rest_at + position)
             if not _is_cartesian(items):
-                program.joint_targets.append(JointTarget(program.path, order, _axes(items)))
+                program.joint_targets.append(JointTarget(program.path, order, _axes(items), number))
             elif all(k in items for k in POSE_KEYS):
                 target = Target(program.path, number, "inline", [items[k] for k in POSE_KEYS],
                                 posture=_posture(items), follows=kind not in POSTURE_MOTIONS, base=base, tool=tool,
@@ -331,7 +334,7 @@ def _motion(program, text, line, base_offset, number, motion, declared, fdats, s
                                                                   "program's files (a global of another data list, "
                                                                   "or assigned at run time)"))
         elif entry[0] == "axis":
-            program.joint_targets.append(JointTarget(program.path, order, _axes(entry[1])))
+            program.joint_targets.append(JointTarget(program.path, order, _axes(entry[1]), number))
         elif entry[0] == "partial":
             program.run_time.append(RunTime(program.path, number, f"{kind} {token.group()}: a partial position"))
         else:

@@ -35,6 +35,9 @@ EXTENSIONS = (".mod", ".modx", ".prg")
 # The unit of the file's positions (a key of robocal.io.units.LENGTH_UNITS), and of its poses.
 LENGTH_UNIT = "mm"
 UNITS = "mm and unit quaternions"
+# The unit of its joint values (a key of robocal.io.units.ANGLE_UNITS), and how to fix others.
+JOINT_UNIT = "degrees"
+JOINT_ADVICE = "RAPID takes degrees: convert them with numpy.degrees()"
 # What to add when nothing fixes the arm branch of a program's first motion (filter refuses it).
 POSTURE_ADVICE = "give the robtarget its confdata"
 # Decimals written at least when a number changes: 0.0001 mm, and 1e-7 of a quaternion (1e-5 deg).
@@ -283,7 +286,7 @@ def _motion(program, text, match, end, declared, order):
                 _, node = _tree(text, text.index("[", at))
                 joints = tuple(v.value for v in node[0]) if isinstance(node[0], list) else None
             if joints is not None:
-                program.joint_targets.append(JointTarget(program.path, order, joints))
+                program.joint_targets.append(JointTarget(program.path, order, joints, line))
         return
     if instruction.lower().startswith("moveext"):
         return

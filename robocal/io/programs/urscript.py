@@ -33,6 +33,9 @@ EXTENSIONS = (".script",)
 # The unit of the file's positions (a key of robocal.io.units.LENGTH_UNITS), and of its poses.
 LENGTH_UNIT = "metres"
 UNITS = "metres and radians"
+# The unit of its joint values (a key of robocal.io.units.ANGLE_UNITS), and how to fix others.
+JOINT_UNIT = "radians"
+JOINT_ADVICE = "URScript takes radians: convert them with d2r()"
 # What to add when nothing fixes the arm branch of a program's first motion (filter refuses it).
 POSTURE_ADVICE = "put a movej([...]) to the joints the robot starts from (radians) before it"
 MOTIONS = ("movel", "movej", "movep", "movec")
@@ -177,12 +180,12 @@ def _parse(program, text):
             lead = at + len(argument) - len(argument.lstrip())
             if word.startswith("["):  # a joint list
                 values = [n.value for n in numbers_in(text, lead, lead + len(word))]
-                program.joint_targets.append(JointTarget(program.path, order, tuple(np.degrees(values))))
+                program.joint_targets.append(JointTarget(program.path, order, tuple(np.degrees(values)), line))
             elif word in joint_lists and word not in named:
                 at_list = joint_lists[word]
                 close = text.index("]", at_list)
                 values = [n.value for n in numbers_in(text, at_list, close)]
-                program.joint_targets.append(JointTarget(program.path, order, tuple(np.degrees(values))))
+                program.joint_targets.append(JointTarget(program.path, order, tuple(np.degrees(values)), line))
             elif lead in literals:
                 literals[lead].order = order
             elif re.fullmatch(r"\w+", word) and word in named:
