@@ -288,6 +288,7 @@ REFUSED = [
     ("q1-turned-by-180", ["calibrate", "ur5", "f.csv", "--out", "m.json"], {"f.csv": measured(cells_changed(["q1"], lambda v: v + 180))}, "lies beyond joint 1's limits -360 to 360 deg"),
     ("ur5-data-as-irb120-hybrid", ["calibrate", "irb120", "ur5.csv", "--method", "hybrid", "--out", "m.json"], None, "lies beyond joint 2's limits -110 to 110 deg of the robot 'ABB IRB 120'"),
     ("kr150-sockets-validated-as-fanuc", ["validate", "fanuc-r2000ic-165f", "sockets.csv", "--method", "constraint", "--fixture", "plate.toml"], None, "of the robot 'FANUC R-2000iC/165F'"),
+    ("ur5-truth-simulated-as-irb120", ["simulate", "irb120", "--n", "10", "--errors", "ur5_truth.json", "--out", "s.csv"], None, "ur5_truth.json describes the robot 'Universal Robots UR5', not 'ABB IRB 120'"),
     ("kriging-five-rows-in-metres", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "m.json"], {"f.csv": measured(cells_changed(["x", "y", "z"], lambda v: v / 1000, 0, 5))}, "the calibration cannot explain these data: rows"),
 ]
 
