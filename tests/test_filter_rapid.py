@@ -139,7 +139,8 @@ REFUSED = [
      "the quaternion of wobjdata wobjTable (uframe)"),
     # hostile pass 5: a module whose robtargets were written in metres
     ("robtargets-in-metres", _robtargets_in_metres,
-     "the target positions of PickPlace.mod (in the robot's base): largest 0.594, where a length about robot 'ABB IRB 120'"),
+     "the target positions of PickPlace.mod (in the robot's base): largest 0.594, where a length about robot "
+     "'ABB IRB 120'"),
 ]
 
 

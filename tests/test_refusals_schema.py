@@ -38,7 +38,8 @@ FILES = {
     "joints.csv": "q1,q2,q3,q4,q5,q6,name\n0,-90,90,0,90,0,P1\n",
     # hostile pass 5
     "placements_nan.csv": "x,y,z,rx,ry,rz\n1500,-300,300,0,0,0\nnan,300,300,0,0,0\n1700,0,300,0,0,45\n",
-    "candidates_word.csv": "q1,q2,q3,q4,q5,q6\n" + "".join(f"{10 * k},-90,{'ninety' if k == 4 else 90},0,90,0\n" for k in range(8)),
+    "candidates_word.csv": "q1,q2,q3,q4,q5,q6\n" + "".join(f"{10 * k},-90,{'ninety' if k == 4 else 90},0,90,0\n"
+                                                         for k in range(8)),
     "joint_log_no_q.csv": "name,a,b,c\nP1,1,2,3\n",
     "points.txt": "// units: mm\nP1 400 100 400\n",
     "existing_empty.csv": "",

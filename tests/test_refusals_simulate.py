@@ -68,8 +68,8 @@ ACCEPTED = [
     ("simulate ur5 --n 10 --orientation --orientation --out s.csv", 10),
     # hostile pass 5
     ("simulate fanuc-r2000ic-165f --n 20 --orientation --out s.csv", 20),
-    ("simulate panda --sampling sockets --fixture {examples}/plate-fixture.toml --placements 2 --per-socket 4 --out s.csv",
-     24),
+    ("simulate panda --sampling sockets --fixture {examples}/plate-fixture.toml --placements 2 --per-socket 4 "
+     "--out s.csv", 24),
 ]
 
 
