@@ -91,6 +91,9 @@ CSV_SAME = [
     ("spaces-after-commas-in-header", with_header(lambda h: h.replace(",", ", "))),
     ("quoted-numbers", ur5(lambda t: "\n".join([t.splitlines()[0]] + [",".join(f'"{v}"' for v in r.split(",")) for r in t.splitlines()[1:]]) + "\n")),
     ("extra-comment-column-latin-1", ur5(lambda t: ("\n".join([t.splitlines()[0] + ",comment"] + [r + ",café" for r in t.splitlines()[1:]]) + "\n").encode("latin-1"))),
+    # hostile pass 5
+    ("utf-16-big-endian-with-bom", ur5(lambda t: ("\ufeff" + t).encode("utf-16-be"))),
+    ("blank-lines-between-rows", ur5(lambda t: t.replace("\n", "\n\n", 20))),
 ]
 
 
@@ -126,6 +129,9 @@ TARGETS_REFUSED = [
     ("truncated", targets(lambda t: t[: len(t) // 2]), "cells but the header has 13 columns"),
     ("utf-16-without-bom", targets(lambda t: t.encode("utf-16-le")), "is not a text CSV file"),
     ("hints-without-orientation", targets(lambda t: "\n".join(",".join(c for i, c in enumerate(r.split(",")) if i not in (3, 4, 5)) for r in t.splitlines()) + "\n"), "lacks columns rx, ry, rz"),
+    # hostile pass 5
+    ("utf-32-little-endian-without-bom", targets(lambda t: t.encode("utf-32-le")), "is not a text CSV file"),
+    ("nan-posture-hint", targets(lambda t: "\n".join(",".join("nan" if (k == 3 and i == 8) else v for i, v in enumerate(r.split(","))) for k, r in enumerate(t.splitlines())) + "\n"), "row 4, column 'q3': 'nan' is not a finite number"),
 ]
 
 
@@ -167,6 +173,8 @@ MODEL_REFUSED = [
     ("no-checksum", edited("checksum", KeyError), "has no 'checksum'"),
     ("checksum-a-number", edited("checksum", 7), "'checksum' in the model file has the wrong type"),
     ("schema-a-number", edited("schema", 7), 'no "schema": "robocal.model"'),
+    # hostile pass 5: one byte that is not UTF-8 in the robot's name
+    ("one-latin-1-byte", lambda b: (b / "ur5_model.json").read_bytes().replace(b"Universal Robots UR5", b"Universal Robots UR5\xe9", 1), "the checksum does not match"),
 ] + [(f"{key}-removed", edited(key, KeyError), "the checksum does not match") for key in MODEL_KEYS] + [
     (f"{key}-a-text", edited(key, "x"), "the checksum does not match") for key in MODEL_KEYS]
 
@@ -223,6 +231,9 @@ ROBOT_REFUSED = [
     ("negative-mass", robot(lambda t: t.replace("mass = 3.7", "mass = -3.7")), "masses must be 6 finite values >= 0 kg"),
     ("poe-axis-of-zero-length", lambda b: POE.replace("axis = [0.0, 1.0, 0.0]", "axis = [0.0, 0.0, 0.0]", 1), "a POE joint axis has zero length"),
     ("twists-in-radians", robot(joint_entries((1, "alpha", "1.5703"), (4, "alpha", "1.5705"), (5, "alpha", "-1.5708"))), "the alpha of the [[joints]] look like radians"),
+    # hostile pass 5
+    ("infinite-joint-limit", robot(lambda t: t.replace("max = 360.0", "max = inf", 1)), "joint 1 max must be finite, got inf"),
+    ("mass-of-one-joint-left-out", robot(lambda t: t.replace("mass = 3.7\n", "", 1)), "mass (kg) is given for 5 of 6 joints: give it for every joint or none"),
 ]
 
 
@@ -248,6 +259,9 @@ URDF_REFUSED = [
     ("decimal-comma", urdf(lambda t: t.replace('xyz="0.0 0.0 1.0"', 'xyz="0,0 0.0 1.0"', 1)), "is not three numbers"),
     ("two-numbers", urdf(lambda t: t.replace('xyz="0.0 0.0 1.0"', 'xyz="0.0 1.0"', 1)), "is not three numbers"),
     ("branch-without-tip", urdf(lambda t: t.replace("</robot>", '<link name="camera"/><joint name="cam" type="fixed"><parent link="base_link"/><child link="camera"/></joint></robot>')), "choose the tip link"),
+    # hostile pass 5
+    ("lower-limit-above-upper", urdf(lambda t: re.sub(r'lower="([^"]*)" upper="([^"]*)"', r'lower="\2" upper="\1"', t, count=1)), "joint 'joint_1' has lower limit 6.283185307179586 above upper limit"),
+    ("quadratic-entity-blowup", lambda b: '<?xml version="1.0"?><!DOCTYPE r [<!ENTITY a "' + "a" * 100000 + '">]><robot name="x">' + "&a;" * 20000 + "</robot>", "is not well-formed XML (limit on input amplification factor"),
 ]
 
 
@@ -303,6 +317,9 @@ FLEET_REFUSED = [
     ("unknown-robot", FLEET.replace('"ur5"', '"ur99"'), "robot 'ur99' is neither a built-in robot"),
     ("truncated", FLEET[:30], "is not valid TOML"),
     ("options-a-text", FLEET + 'options = "parameters=full"\n', "options must be a table of calibrate's options"),
+    # hostile pass 5
+    ("name-dot-dot", FLEET.replace('"a"', '".."'), "name '..' is not a plain file name"),
+    ("option-misspelt", FLEET + '[robot.options]\nparamters = "full"\n', "calibrate has no option --paramters"),
 ]
 
 
@@ -324,6 +341,8 @@ TRUTH_REFUSED = [
     ("version-a-text", truth(lambda t: json.dumps(dict(json.loads(t), version="x"))), "this robocal reads version 1"),
     ("negative-noise", truth(lambda t: json.dumps(dict(json.loads(t), noise=-1.0))), "noise must be a standard deviation >= 0"),
     ("nan-deviation", truth(lambda t: re.sub(r'("a2": )(-?[0-9.e-]+)', r"\1NaN", t, count=1)), "deviations a2 must be finite"),
+    # hostile pass 5
+    ("deviations-a-list", truth(lambda t: json.dumps(dict(json.loads(t), deviations=[1, 2]))), "deviations must be a table, got [1, 2]"),
 ]
 
 
@@ -480,8 +499,18 @@ def cycles_as_text(base):
                                  for r in body]) + "\n"
 
 
+
+def pose_id_emptied(base):
+    """An ISO 9283 campaign whose first visit has lost its pose id."""
+    header, first, *body = campaign()(base).splitlines()
+    k = header.split(",").index("pose")
+    return "\n".join([header, ",".join("" if i == k else v for i, v in enumerate(first.split(",")))] + body) + "\n"
+
+
 ISO_REFUSED = [
     ("cycle-as-text", cycles_as_text, "column 'cycle': 'cycle 1' is not a number"),
+    # hostile pass 5
+    ("pose-id-empty", pose_id_emptied, "row 2, column 'pose' is empty: every row needs a pose id"),
 ]
 
 

@@ -20,11 +20,33 @@ def _planned_points(path, chain):
     return WorkingVolume().points(chain, q)
 
 
-def test_the_readme_design_keeps_every_joint_and_the_tcp_above_the_mounting_plane(tmp_path):
-    result = json.loads(run_ok("design", "ur5", "--n", "30", "--pool", "2000", "--out", tmp_path / "p.csv",
-                               "--json").output)
-    assert _planned_points(tmp_path / "p.csv", builtin("ur5"))[:, :, 2].min() >= 0.0
-    assert "above the mounting plane" in result["working_volume"]
+# (robot, options, the floor, the walls): the README's line first, then hostile pass 5's robots,
+# criteria, samplings, parameter sets, a raised floor and walls.
+DESIGNS = [
+    ("ur5", "--n 30 --pool 2000", 0.0, None),
+    ("ur10", "--n 30 --pool 800", 0.0, None),
+    ("irb120", "--n 20 --pool 800", 0.0, None),
+    ("fanuc-r2000ic-165f", "--n 20 --pool 800", 0.0, None),
+    ("iiwa14", "--n 25 --pool 800", 0.0, None),
+    ("panda", "--n 25 --pool 800", 0.0, None),
+    ("kr150-2", "--n 20 --pool 800 --criterion d-optimal", 0.0, None),
+    ("ur5", "--n 12 --pool 800 --criterion space-filling", 0.0, None),
+    ("ur5", "--n 12 --pool 800 --sampling lhs --order random", 0.0, None),
+    ("ur10", "--n 15 --pool 800 --floor 300", 300.0, None),
+    ("ur5", "--n 12 --pool 800 --parameters offsets", 0.0, None),
+    ("kr150-2", "--n 15 --pool 800 --walls 0,2500,-1500,1500", 0.0, (0.0, 2500.0, -1500.0, 1500.0)),
+]
+
+
+@pytest.mark.parametrize("robot, options, floor, walls", DESIGNS, ids=[f"{r[0]} {r[1]}" for r in DESIGNS])
+def test_a_design_keeps_every_joint_and_the_tcp_above_the_mounting_plane(tmp_path, robot, options, floor, walls):
+    result = json.loads(run_ok("design", robot, *options.split(), "--out", tmp_path / "p.csv", "--json").output)
+    points = _planned_points(tmp_path / "p.csv", builtin(robot))
+    assert points[:, :, 2].min() >= floor
+    assert ("above the mounting plane" if floor == 0.0 else f"above z = {floor:g} mm") in result["working_volume"]
+    if walls is not None:
+        assert walls[0] <= points[:, :, 0].min() and points[:, :, 0].max() <= walls[1]
+        assert walls[2] <= points[:, :, 1].min() and points[:, :, 1].max() <= walls[3]
 
 
 def test_without_a_floor_the_same_design_goes_below_the_base(tmp_path):

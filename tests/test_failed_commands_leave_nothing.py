@@ -13,6 +13,8 @@ from user_files import invoke, prepare, refuse
 
 # A program filter takes: a joint position first fixes the arm branch of the motion after it.
 KRL = Path(__file__).resolve().parent / "data" / "programs" / "krl" / "pallet_cell.src"
+POINTS = "P1 500 100 300\nP2 400 -100 350\n"
+JOINT_LOG = "name,q1,q2,q3,q4,q5,q6\nP1,0,-90,90,0,90,0\nP2,10,-80,80,0,90,0\n"
 URSCRIPT = "def prog():\n  movej([0,-1.57,1.57,-1.57,-1.57,0])\n  movel(p[0.4,0.1,0.3,3.14,0,0])\nend\n"
 REFUSED = [
     ("calibrate-into-missing-folder", ["calibrate", "ur5", "ur5.csv", "--out", "nodir/o.json"], None, "directory nodir does not exist"),
@@ -60,6 +62,23 @@ REFUSED = [
     ("import-into-missing-folder", ["import", "--points", "pts.txt", "--joints", "j.csv", "--out", "nodir/i.csv"], {"pts.txt": "P1 1 2 3\n", "j.csv": "name,q1,q2,q3,q4,q5,q6\nP1,0,0,0,0,0,0\n"}, "directory nodir does not exist"),
     ("import-out-over-its-joint-log", ["import", "--points", "pts.txt", "--joints", "j.csv", "--out", "j.csv"], {"pts.txt": "P1 500 100 300\nP2 400 -100 350\n", "j.csv": "name,q1,q2,q3,q4,q5,q6\nP1,0,-90,90,0,90,0\nP2,10,-80,80,0,90,0\n"}, "j.csv is also an input of this command"),
     ("validate-size-zero", ["validate", "ur5", "ur5.csv", "--folds", "3", "--sizes", "0,10"], None, "--sizes must be comma-separated whole numbers >= 1"),
+    # hostile pass 5: outputs where no file can be made (sysfs, procfs), and outputs that are an input
+    ("export-into-sysfs", ["export", "ur5_model.json", "--out", "/sys/r.toml"], None, "cannot write /sys/r.toml: no permission to create files in /sys"),
+    ("compensate-into-sysfs", ["compensate", "ur5_model.json", "targets.csv", "--out", "/sys/c.csv"], None, "cannot write /sys/c.csv: no permission"),
+    ("design-into-procfs", ["design", "ur5", "--n", "12", "--pool", "300", "--out", "/proc/p.csv"], None, "cannot write /proc/p.csv: No such file or directory"),
+    ("iso-plan-into-sysfs", ["iso9283", "plan", "ur5", "--cycles", "2", "--out", "/sys/plan.csv"], None, "cannot write /sys/plan.csv: no permission"),
+    ("import-into-sysfs", ["import", "--points", "pts.txt", "--joints", "j.csv", "--out", "/sys/m.csv"], {"pts.txt": POINTS, "j.csv": JOINT_LOG}, "cannot write /sys/m.csv: no permission"),
+    ("dataset-into-sysfs", ["dataset", "mukca-panda-1", "--out", "/sys/p1"], None, "cannot write /sys/p1.toml: no permission"),
+    ("simulate-into-sysfs", ["simulate", "ur5", "--n", "10", "--out", "/sys/s.csv"], None, "cannot write /sys/s.csv: no permission"),
+    ("evaluate-per-pose-into-sysfs", ["evaluate", "ur5_model.json", "ur5.csv", "--per-pose", "/sys/pp.csv"], None, "cannot write /sys/pp.csv: no permission"),
+    ("filter-into-sysfs", ["filter", "ur5_model.json", "p.script", "--out", "/sys"], {"p.script": URSCRIPT}, "cannot write /sys/p.script: no permission"),
+    ("simulate-out-and-truth-one-json", ["simulate", "ur5", "--n", "10", "--out", "s.json", "--truth", "s.json"], None, "--out writes CSV, but 's.json' names a JSON file: name it s.csv"),
+    ("import-out-over-its-points", ["import", "--points", "pts.txt", "--joints", "j.csv", "--out", "pts.txt"], {"pts.txt": POINTS, "j.csv": JOINT_LOG}, "pts.txt is also an input of this command"),
+    ("design-out-over-its-targets", ["design", "ur5", "--targets", "t.csv", "--n", "8", "--pool", "400", "--out", "t.csv"], {"t.csv": "x,y,z,rx,ry,rz\n-400,-150,300,180,0,0\n-350,100,350,180,0,90\n"}, "t.csv is also an input of this command"),
+    ("iso-plan-out-over-its-robot-file", ["iso9283", "plan", "ur5_cal.toml", "--out", "ur5_cal.toml"], None, "ur5_cal.toml is also an input of this command"),
+    ("export-urdf-out-over-its-urdf", ["export", "ur5_model.json", "--format", "urdf", "--urdf", "ur5_cal.urdf", "--out", "ur5_cal.urdf"], None, "ur5_cal.urdf is also an input of this command"),
+    ("export-out-is-a-folder", ["export", "ur5_model.json", "--out", "d"], {"d/x": ""}, "d is a directory: give a file name"),
+    ("fleet-out-is-a-file", ["fleet", "fl.toml", "--out", "afile", "--jobs", "1"], {"fl.toml": '[[robot]]\nname = "r1"\nrobot = "ur5"\ntrain = "ur5.csv"\n', "afile": "x"}, "--out afile is a file: give a folder"),
 ]
 
 

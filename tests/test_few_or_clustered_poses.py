@@ -46,6 +46,34 @@ def cluster(degrees, positions_move=False, n=40):
     return make
 
 
+def repeated(n, times):
+    """The first ``n`` measured poses, the list written ``times`` times over."""
+    def make(base):
+        lines = (base / "ur5.csv").read_text().splitlines()
+        return "\n".join(lines[:1] + lines[1:n + 1] * times) + "\n"
+    return make
+
+
+def one_joint_turns(joint, n):
+    """``n`` poses where only ``joint`` turns (-150..150 deg) from the first measured pose,
+    at the nominal robot's TCP plus 0.02 mm noise (seeded)."""
+    def make(base):
+        from robocal.io.library import load_robot
+
+        header, first_row = (base / "ur5.csv").read_text().splitlines()[:2]
+        cells = first_row.split(",")
+        chain = load_robot("ur5")
+        rng = np.random.default_rng(3)
+        rows = []
+        for i in range(n):
+            q = [float(v) for v in cells[:6]]
+            q[joint - 1] = -150 + 300 * i / (n - 1)
+            xyz = chain.fk_positions(np.radians([q]))[0] + rng.normal(0, 0.02, 3)
+            rows.append(",".join([f"{v:.6f}" for v in [*q, *xyz]] + cells[9:]))
+        return header + "\n" + "\n".join(rows) + "\n"
+    return make
+
+
 CAL = ["calibrate", "ur5", "f.csv", "--out", "o.json"]
 REFUSED = [
     ("one-pose", CAL, first(1), "1 distinct poses give 3 equations for 35 parameters"),
@@ -69,6 +97,11 @@ REFUSED = [
     ("cluster-one-degree-kriging", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json"], cluster(1.0, positions_move=True), "poses are clustered"),
     ("cluster-one-degree-frames", ["calibrate", "ur5_model.json", "f.csv", "--method", "frames", "--out", "o.json"], cluster(1.0, positions_move=True), "poses are clustered"),
     ("cluster-validate", ["validate", "ur5", "f.csv", "--folds", "3"], cluster(1.0, positions_move=True), "poses are clustered"),
+    # hostile pass 5
+    ("kriging-four-poses-three-times", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "o.json"], repeated(4, 3), "f.csv holds 4 distinct pose(s) in 12 rows: the kriging method"),
+    ("validate-six-poses-in-three-folds", ["validate", "ur5", "f.csv", "--folds", "3"], first(6), "4 distinct poses give 12 equations for 35 parameters"),
+    ("network-thirty-clustered-poses", ["calibrate", "ur5", "f.csv", "--method", "ann", "--generations", "30", "--out", "o.json"], cluster(2.0, positions_move=True, n=30), "30 poses give 90 equations for the 435 weights"),
+    ("only-the-wrist-turns", CAL, one_joint_turns(6, 30), "the measured points are (nearly) collinear"),
 ]
 
 

@@ -2,6 +2,8 @@
 oversized files, endless lines, UTF-16 and other byte-order marks, binary files and JSON nested
 beyond the parser's depth each give one line naming the file, for every reader."""
 import json
+import os
+import shutil
 from pathlib import Path
 
 import pytest
@@ -117,24 +119,66 @@ def test_line_lengths_are_checked_across_slice_boundaries(monkeypatch):
 
 
 @pytest.fixture(scope="module")
-def model_folder(tmp_path_factory):
+def model_folder(tmp_path_factory, ur5_files):
     root = tmp_path_factory.mktemp("reading")
     run_ok("simulate", "ur5", "--n", "40", "--out", root / "meas.csv")
+    shutil.copy(ur5_files / "model.json", root / "model.json")
+    (root / "FO").mkdir()
+    (root / "long.csv").write_text("x,y,z,rx,ry,rz\n" + "1" * (1 << 20) + ",2,3,180,0,0\n")
     (root / "deep.json").write_text("[" * 200_000 + "]" * 200_000)
     (root / "fixture16.toml").write_bytes(FIXTURE.encode("utf-16"))
     (root / "meas16.csv").write_bytes((root / "meas.csv").read_text().encode("utf-16"))
     return root
 
 
-@pytest.mark.parametrize("args, says", [
+def _sparse(path, size):
+    with open(path, "wb") as stream:
+        stream.truncate(size)
+
+
+# Files no reader may read to the end, made in each row's folder (a copy would read them):
+# links to devices, a named pipe nobody writes, a sparse file of 3 GiB.
+SPECIAL = {
+    "zero.json": lambda path: path.symlink_to("/dev/zero"),
+    "zero.toml": lambda path: path.symlink_to("/dev/zero"),
+    "zero.csv": lambda path: path.symlink_to("/dev/zero"),
+    "zero.urdf": lambda path: path.symlink_to("/dev/zero"),
+    "random.csv": lambda path: path.symlink_to("/dev/urandom"),
+    "fifo.script": os.mkfifo,
+    "big.csv": lambda path: _sparse(path, 3 << 30),
+}
+COMMAND_LINE = [
     ("calibrate ur5 /dev/zero --out m.json", "/dev/zero is not a regular file"),
     ("calibrate /dev/zero meas.csv --out m.json", "must end in .toml or .urdf"),
     ("design ur5 --n 12 --existing /dev/zero --out p.csv", "/dev/zero is not a regular file"),
     ("simulate ur5 --errors deep.json --out s.csv", "nests its lists or objects"),
     ("calibrate ur5 . --out m.json", "is a directory"),
-])
+    # hostile pass 5: every other kind of file, by its reader, a device, a pipe or huge
+    ("serve zero.json --port 0", "zero.json is not a regular file (a device or a pipe): save the model file"),
+    ("show zero.toml", "zero.toml is not a regular file (a device or a pipe): save the robot file"),
+    ("filter model.json fifo.script --out FO",
+     "fifo.script is not a regular file (a device or a pipe): save the program"),
+    ("design ur5 --candidates zero.csv --n 5 --out p.csv", "zero.csv is not a regular file"),
+    ("export zero.json --out r.toml", "zero.json is not a regular file"),
+    ("compare ur5 random.csv", "random.csv is not a regular file"),
+    ("export model.json --format urdf --urdf zero.urdf --out o.urdf",
+     "zero.urdf is not a regular file (a device or a pipe): save the URDF"),
+    ("calibrate ur5 /dev/null --out m.json", "/dev/null is not a regular file"),
+    ("compare ur5 big.csv", "big.csv is 3,072 MiB, more than any CSV file robocal reads (2,048 MiB)"),
+    ("compensate model.json long.csv --out c.csv", "long.csv, line 2 is over 1 MiB long"),
+    ("report model.json meas.csv --validation deep.json --out r.html",
+     "deep.json nests its lists or objects thousands of levels deep"),
+    ("calibrate deep.json meas.csv --method frames --out m2.json",
+     "deep.json: not a robocal model file (its JSON nests thousands"),
+]
+
+
+@pytest.mark.parametrize("args, says", COMMAND_LINE, ids=[row[0] for row in COMMAND_LINE])
 def test_the_command_line_refuses_what_the_reader_refuses(args, says, model_folder, tmp_path, monkeypatch):
     before = copy_inputs(model_folder, tmp_path, monkeypatch)
+    for name, make in SPECIAL.items():
+        make(tmp_path / name)
+        before[name] = (tmp_path / name).stat().st_mtime_ns
     assert_refused(args.split(), says, tmp_path, before)
 
 

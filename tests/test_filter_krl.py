@@ -197,6 +197,11 @@ REFUSED = [
      ["p.src", "pallet_cell.dat"], "p.src line 2 (inline): no joint position comes before this motion"),
     ("first-lin-without-s-and-t", lambda: {"p.src": f"DEF p( )\nLIN {FIRST_POINT}\nPTP {HOME}\nEND\n"}, ["p.src"],
      "start the program with a PTP to joint values (an E6AXIS"),
+    # hostile pass 5
+    ("ptp-rel", lambda: {"p.src": f"DEF p( )\nPTP {HOME}\nPTP_REL {{A1 10}}\nEND\n"}, ["p.src"],
+     "1 motion(s) are computed at run time and cannot be filtered (p.src line 3: PTP_REL"),
+    ("dat-saved-as-utf-16", lambda: _cell(lambda t: t.encode("utf-16-le").decode("latin-1")), ["pallet_cell.src"],
+     "pallet_cell.dat is not a text program (it holds NUL bytes"),
 ]
 
 

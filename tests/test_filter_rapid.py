@@ -1,6 +1,8 @@
 """robocal filter on an ABB RAPID module: every robtarget is what compensate gives in its
 tooldata and wobjdata, every other byte stays, a nominal model changes nothing, run-time
 motions and filtered modules are refused."""
+import re
+
 import numpy as np
 import pytest
 from filter_support import (
@@ -109,6 +111,19 @@ def _module(old, new):
     return {"PickPlace.mod": text.replace(old, new)}
 
 
+def _robtargets_in_metres():
+    """A module moving tool0 in the base frame through four of PickPlace's robtargets, their
+    x, y, z written in metres."""
+    lines = [line.strip() for line in MODULE.read_bytes().decode("latin-1").splitlines()
+             if line.strip().startswith(("CONST robtarget", "PERS robtarget"))][:4]
+    names = [re.match(r"\w+ robtarget (\w+):=", line).group(1) for line in lines]
+    metres = [re.sub(r":=\[\[([-\d.]+),([-\d.]+),([-\d.]+)\]",
+                     lambda m: ":=[[" + ",".join(f"{float(v) / 1000:.3f}" for v in m.groups()) + "]", line)
+              for line in lines]
+    return {"PickPlace.mod": "MODULE Pick\n" + "".join(f"    {line}\n" for line in metres) + "    PROC main()\n"
+            + "".join(f"        MoveJ {name},v100,fine,tool0;\n" for name in names) + "    ENDPROC\nENDMODULE\n"}
+
+
 # An ABB controller refuses an orientation that is not normalised: robocal refuses it too,
 # rather than writing a unit quaternion in its place.
 REFUSED = [
@@ -122,6 +137,10 @@ REFUSED = [
      "PickPlace.mod line 6: the quaternion of tooldata tGripper [2, 0, 0, 0] has norm 2"),
     ("wobjdata-quaternion", lambda: _module("[0.9659258,0,0,0.258819]", "[0.9659258,0,0,0.358819]"),
      "the quaternion of wobjdata wobjTable (uframe)"),
+    # hostile pass 5: a module whose robtargets were written in metres
+    ("robtargets-in-metres", _robtargets_in_metres,
+     "the target positions of PickPlace.mod (in the robot's base): largest 0.594, where a length about robot "
+     "'ABB IRB 120'"),
 ]
 
 

@@ -105,6 +105,9 @@ REFUSED = [
                                 "movel(p[-314.53, -307.63, 296.08, 2.0194, 2.4066, 0])"),
      "530310 to 552572 mm from its base: URScript positions are in metres, these look like mm (divide them by 1000); "
      "nothing was written"),
+    # hostile pass 5: a pose read from the robot when the program runs
+    ("pose-read-at-run-time", _script(HOME, "p9 = get_actual_tcp_pose()", f"movel({ABOVE})", "movel(p9)"),
+     "2 motion(s) are computed at run time and cannot be filtered (p.script line 3: p9 = get_actual_tcp_pose()"),
 ]
 
 

@@ -22,10 +22,22 @@ def folder(tmp_path_factory, ur5_files):
     new = list(csv.reader(open(root / "new.csv", newline="")))
     with open(root / "mixed.csv", "w", newline="") as stream:
         csv.writer(stream).writerows([train[0]] + new[1:21] + train[1:11][::-1])
+    # hostile pass 5: the training file as a controller or a script rewrites it, and half of it
+    joints, xyz = range(6), [train[0].index(c) for c in "xyz"]
+    with open(root / "rounded.csv", "w", newline="") as stream:
+        csv.writer(stream).writerows([train[0]] + [[f"{float(v):.3f}" if k in joints else v for k, v in enumerate(row)]
+                                                   for row in train[1:]])
+    with open(root / "metres.csv", "w", newline="") as stream:
+        csv.writer(stream).writerows([[f"{c}[m]" if k in xyz else c for k, c in enumerate(train[0])]]
+                                     + [[repr(float(v) / 1000) if k in xyz else v for k, v in enumerate(row)]
+                                        for row in train[1:]])
+    with open(root / "half.csv", "w", newline="") as stream:
+        csv.writer(stream).writerows([train[0]] + train[1:31] + new[1:31])
     return root
 
 
-@pytest.mark.parametrize("name, training", [("copy.csv", 60), ("mixed.csv", 10), ("new.csv", 0)])
+@pytest.mark.parametrize("name, training", [("copy.csv", 60), ("mixed.csv", 10), ("new.csv", 0),
+                                            ("rounded.csv", 60), ("metres.csv", 60), ("half.csv", 30)])
 def test_evaluate_counts_the_training_poses_by_content(folder, name, training):
     result = json.loads(run_ok("evaluate", folder / "model.json", folder / name, "--json").output)
     assert result["training_poses"] == training

@@ -70,6 +70,13 @@ RUNS = [
     # Titles longer than the console (the console prints text unwrapped, titles too): wrapped.
     ("design-fixture", ["design", "kr150-2", "--fixture", "plate.toml", "--region", "1200,2000,-500,500,200,800", "--n", "72", "--out", "p.csv"]),
     ("design-long-name", ["design", "ur5", "--n", "12", "--pool", "200", "--out", "the-poses-to-measure-on-the-second-day-of-the-campaign.csv"]),
+    # hostile pass 5: what an 80-column log of the printing verbs, a URDF export and unreachable targets holds
+    ("show-kr150", ["show", "kr150-2"]),
+    ("show-iiwa14", ["show", "iiwa14"]),
+    ("show-ur10", ["show", "ur10"]),
+    ("robots", ["robots"]),
+    ("methods", ["methods"]),
+    ("export-kr150-urdf", ["export", "kr_model.json", "--format", "urdf", "--out", "r.urdf"]),
 ]
 
 

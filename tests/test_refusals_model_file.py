@@ -69,6 +69,11 @@ CORRUPTED = [
     ("model.json", "method", "teleport", "unknown method 'teleport'"),
     ("model.json", "domain.joints.min", [1.0, 2.0], "the domain of validity is damaged"),
     ("cmodel.json", "method", "teleport", "unknown method 'teleport'"),
+    # hostile pass 5: a whole section of the wrong type
+    ("model.json", "kinematics", [1, 2], "'kinematics' has the wrong type (a table expected, got a list)"),
+    ("model.json", "robot", "ur5", "'robot' has the wrong type (a table expected, got text)"),
+    ("model.json", "domain", "everywhere", "'domain' has the wrong type (a table or null expected, got text)"),
+    ("model.json", "options", ["full"], "'options' has the wrong type (a table or null expected, got a list)"),
 ]
 
 VERBS = {

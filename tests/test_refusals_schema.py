@@ -36,6 +36,14 @@ FILES = {
     "existing_text.csv": "q1,q2,q3,q4,q5,q6\n0,-90,[90],0,90,0\n",
     "points_no_z.txt": "name;x;y\nP1;1;2\n",
     "joints.csv": "q1,q2,q3,q4,q5,q6,name\n0,-90,90,0,90,0,P1\n",
+    # hostile pass 5
+    "placements_nan.csv": "x,y,z,rx,ry,rz\n1500,-300,300,0,0,0\nnan,300,300,0,0,0\n1700,0,300,0,0,45\n",
+    "candidates_word.csv": "q1,q2,q3,q4,q5,q6\n" + "".join(f"{10 * k},-90,{'ninety' if k == 4 else 90},0,90,0\n"
+                                                         for k in range(8)),
+    "joint_log_no_q.csv": "name,a,b,c\nP1,1,2,3\n",
+    "points.txt": "// units: mm\nP1 400 100 400\n",
+    "existing_empty.csv": "",
+    "points_utf16be.txt": "name x y z\nP1 400 100 400\n".encode("utf-16-be"),
 }
 REFUSED = [
     ("show r_convention_list.toml", "convention must be one of 'dh', 'mdh', 'poe', got []"),
@@ -62,6 +70,13 @@ REFUSED = [
     ("simulate ur5 --errors truth_robot_number.json --out s.csv", "robot must be a non-empty text"),
     ("simulate ur5 --errors truth_seed_huge.json --out s.csv", "truth_seed_huge.json"),
     ("simulate ur5 --errors truth_deviation_list.json --out s.csv", "truth_deviation_list.json"),
+    # hostile pass 5
+    (f"design kr150-2 --fixture {PLATE} --placements placements_nan.csv --n 18 --out p.csv",
+     "placements_nan.csv row 3, column x: 'nan' is not a finite number"),
+    ("design ur5 --candidates candidates_word.csv --n 5 --out p.csv", "row 6, column 'q3': 'ninety' is not a number"),
+    ("import --points points.txt --joints joint_log_no_q.csv --out m.csv", "a joint log needs the columns q1..qN"),
+    ("design ur5 --existing existing_empty.csv --n 5 --pool 300 --out p.csv", "existing_empty.csv is empty"),
+    ("import --points points_utf16be.txt --joints joints.csv --out m.csv", "points_utf16be.txt is not a text CSV file"),
 ]
 
 
@@ -74,7 +89,7 @@ def truth(tmp_path_factory):
 
 def _write(folder, truth):
     for name, text in FILES.items():
-        (folder / name).write_text(text)
+        (folder / name).write_bytes(text if isinstance(text, bytes) else text.encode())
     broken = {"robot_number": {"robot": 5}, "seed_huge": {"seed": float("inf")},
               "deviation_list": {"deviations": {"a2": [1, 2]}}}
     for name, change in broken.items():

@@ -63,15 +63,21 @@ def test_simulate_refuses_in_one_line(refusal_inputs, tmp_path, monkeypatch, com
 
 
 ACCEPTED = [
-    "simulate ur5 --sampling grid --n 2 --box -600,-300,-200,200,0,300 --out s.csv",
-    "simulate ur5 --n 10 --orientation --orientation --out s.csv",
+    # (the command, the data rows of s.csv it writes)
+    ("simulate ur5 --sampling grid --n 2 --box -600,-300,-200,200,0,300 --out s.csv", None),
+    ("simulate ur5 --n 10 --orientation --orientation --out s.csv", 10),
+    # hostile pass 5
+    ("simulate fanuc-r2000ic-165f --n 20 --orientation --out s.csv", 20),
+    ("simulate panda --sampling sockets --fixture {examples}/plate-fixture.toml --placements 2 --per-socket 4 "
+     "--out s.csv", 24),
 ]
 
 
-@pytest.mark.parametrize("command", ACCEPTED)
-def test_legitimate_simulate_variant_is_accepted(refusal_inputs, tmp_path, monkeypatch, command):
+@pytest.mark.parametrize("command, rows", ACCEPTED, ids=[row[0] for row in ACCEPTED])
+def test_legitimate_simulate_variant_is_accepted(refusal_inputs, tmp_path, monkeypatch, command, rows):
     copy_inputs(refusal_inputs, tmp_path, monkeypatch)
     assert_accepted(command.format(examples=EXAMPLES).split())
+    assert rows is None or len((tmp_path / "s.csv").read_text().splitlines()) == rows + 1
 
 
 def test_simulate_refuses_zero_poses(tmp_path):

@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from user_files import prepare, refuse, run_process
+from user_files import EXAMPLES, prepare, refuse, run_process
 
 HUGE = [
     ("simulate-n", ["simulate", "ur5", "--n", "1000000000", "--out", "s.csv"], "--n must be a whole number >= 1 and <= 1,000,000"),
@@ -33,6 +33,12 @@ HUGE = [
     ("calibrate-dash-as-stdin", ["calibrate", "ur5", "-", "--out", "o.json"], "- does not exist"),
     ("calibrate-proc-file", ["calibrate", "ur5", "/proc/self/status", "--out", "o.json"], "/proc/self/status is not comma-separated"),
     ("calibrate-dev-zero-robot", ["calibrate", "/dev/zero", "ur5.csv", "--out", "o.json"], "a robot file must end in .toml or .urdf"),
+    # hostile pass 5
+    ("validate-jobs", ["validate", "ur5", "ur5.csv", "--jobs", "100000"], "--jobs must be a whole number >= 1 and <= 1,024"),
+    ("fleet-jobs", ["fleet", str(EXAMPLES / "fleet" / "fleet.toml"), "--out", "res", "--jobs", "50000"], "--jobs must be a whole number >= 1 and <= 1,024"),
+    ("import-max-dt", ["import", "--points", "pts.txt", "--joints", "j.csv", "--out", "m.csv", "--by", "time", "--max-dt", "1e300"], "--max-dt must be a number >= 0 and <= 3,600"),
+    ("iso-edge-a-trillion-mm", ["iso9283", "plan", "kr150-2", "--edge", "1e12", "--out", "i.csv"], "no ISO 9283 cube of edge 1e+12 mm is reachable by 'KUKA KR 150-2'"),
+    ("genetic-generations", ["calibrate", "ur5", "ur5.csv", "--method", "ann", "--trainer", "ga", "--generations", "2000000000", "--out", "o.json"], "--generations must be a whole number >= 0 and <= 10,000"),
 ]
 
 

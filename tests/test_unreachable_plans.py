@@ -47,6 +47,7 @@ REFUSED = [
     ("iso-kr150-cube-through-the-floor", ["iso9283", "plan", "kr150-2", "--centre", "1500,0,100", "--edge", "1000", "--out", "i.csv"], None, "no ISO 9283 cube of edge 1000 mm"),
     ("iso-zero-cycles", ["iso9283", "plan", "ur5", "--cycles", "0", "--out", "i.csv"], None, "--cycles must be a whole number >= 2"),
     ("iso-negative-cycles", ["iso9283", "plan", "ur5", "--cycles", "-3", "--out", "i.csv"], None, "--cycles must be a whole number >= 2"),
+    ("iso-zero-edge", ["iso9283", "plan", "ur5", "--edge", "0", "--out", "i.csv"], None, "--edge must be a number >= 1, got '0'"),
     ("simulate-box-below-the-floor", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", "--box", "-400,400,-400,400,-900,-600", "--out", "s.csv"], None, "cannot be reached by robot"),
     ("simulate-box-out-of-reach", ["simulate", "ur5", "--sampling", "lhs", "--n", "10", "--box", "3000,3500,-200,200,0,400", "--out", "s.csv"], None, "10 of 10 points in the box"),
     ("simulate-grid-below-the-floor", ["simulate", "ur5", "--sampling", "grid", "--n", "8", "--box", "-400,400,-400,400,-900,-600", "--out", "s.csv"], None, "cannot be reached by robot"),

@@ -64,6 +64,43 @@ def measured_campaign(base):
     return _text(out)
 
 
+def measured(change):
+    """ur5.csv with ``change(header, rows)`` applied (its cells as text), as a user's script
+    mangles a measurement file: columns swapped, negated, renamed, rows out of step."""
+    def make(base):
+        rows = _rows(base, "ur5.csv")
+        header, body = change(rows[0], rows[1:])
+        return _text([header] + body)
+    return make
+
+
+def columns_swapped(a, b):
+    def change(header, rows):
+        i, j = header.index(a), header.index(b)
+        return header, [[row[j] if k == i else row[i] if k == j else v for k, v in enumerate(row)] for row in rows]
+    return change
+
+
+def cells_changed(columns, change, rows_from=0, rows_to=None):
+    """``change`` applied to the cells of ``columns`` in the data rows rows_from..rows_to."""
+    def apply(header, rows):
+        idx = [header.index(c) for c in columns]
+        return header, [[repr(change(float(v))) if i in idx and rows_from <= k < (rows_to or len(rows)) else v
+                         for i, v in enumerate(row)] for k, row in enumerate(rows)]
+    return apply
+
+
+def positions_one_row_late(header, rows):
+    """x, y, z (and sx, sy, sz) one row later than their joints: a join off by one."""
+    idx = [header.index(c) for c in ("x", "y", "z", "sx", "sy", "sz")]
+    moved = rows[1:] + rows[:1]
+    return header, [[other[i] if i in idx else v for i, v in enumerate(row)] for row, other in zip(rows, moved)]
+
+
+def joints_reversed(header, rows):
+    return [f"q{7 - int(c[1:])}" if c[:1] == "q" else c for c in header], rows
+
+
 PLACEMENTS = "fixture,x,y,z,rx,ry,rz\nA,1500,0,300,0,0,0\nB,1400,300,250,0,0,30\n"
 UR5_PLACEMENTS = ["design", "ur5", "--fixture", "plate.toml", "--placements", "p.csv", "--n", "12", "--per-socket", "2",
                   "--out", "plan2.csv"]
@@ -231,6 +268,28 @@ REFUSED = [
     ("calibrate-no-prior-nominal-fk", ["calibrate", "ur5", "fk.csv", "--prior", "none", "--out", "m.json"], {"fk.csv": lambda base: nominal_fk(base)}, "the nominal robot's own forward kinematics"),
     ("evaluate-nominal-fk", ["evaluate", "ur5_model.json", "fk.csv"], {"fk.csv": lambda base: nominal_fk(base)}, "the nominal robot's own forward kinematics"),
     ("validate-nominal-fk", ["validate", "ur5", "fk.csv", "--folds", "3"], {"fk.csv": lambda base: nominal_fk(base)}, "the nominal robot's own forward kinematics"),
+    # hostile pass 5 (class 1): robocal's own files given back under another guise
+    ("calibrate-commands-kind-column-renamed", ["calibrate", "ur5", "f.csv", "--out", "m.json"], {"f.csv": lambda base: (base / "cmds.csv").read_text().replace(",robocal_file\n", ",kind\n", 1)}, "written by 'robocal compensate', not a measurement file"),
+    ("calibrate-kriging-commands-unlabelled", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "m.json"], {"f.csv": unlabelled("cmds.csv")}, "written by 'robocal compensate', not a measurement file"),
+    ("compare-commands", ["compare", "ur5", "cmds.csv", "--folds", "3", "--no-network"], None, "written by 'robocal compensate', not a measurement file"),
+    ("report-per-pose-as-measurements", ["report", "ur5_model.json", "perpose.csv", "--out", "r.html"], None, "written by 'robocal evaluate --per-pose', not a measurement file"),
+    ("calibrate-per-pose-measured-renamed-x", ["calibrate", "ur5", "f.csv", "--out", "m.json"], {"f.csv": lambda base: (base / "perpose.csv").read_text().replace("x_measured,y_measured,z_measured", "x,y,z", 1)}, "written by 'robocal evaluate --per-pose', not a measurement file"),
+    ("design-existing-iso-plan", ["design", "ur5", "--n", "5", "--pool", "300", "--existing", "iso.csv", "--out", "p.csv"], None, "written by 'robocal iso9283 plan', not a file of measured poses"),
+    ("design-placements-iso-plan", ["design", "kr150-2", "--fixture", "plate.toml", "--placements", "iso.csv", "--n", "12", "--out", "p.csv"], None, "written by 'robocal iso9283 plan', not a placements file"),
+    ("design-candidates-iso-plan", ["design", "ur5", "--candidates", "iso.csv", "--n", "6", "--out", "p.csv"], None, "written by 'robocal iso9283 plan', not a file of candidates"),
+    ("compensate-ur-yaml-as-model", ["compensate", "k.yaml", "targets.csv", "--out", "c.csv"], {"k.yaml": "kinematics:\n  shoulder:\n    x: 0\n    y: 0\n    z: 0.089159\n  hash: calib_1\n"}, "k.yaml: not a robocal model file (not JSON"),
+    ("filter-report-renamed-as-program", ["filter", "ur5_model.json", "r.script", "--out", "FO"], {"r.script": lambda base: (base / "report.html").read_text(), "FO/x": ""}, "no motion found in r.script: is it a URScript program?"),
+    # hostile pass 5 (class 9): the right robot's data mangled, another robot's data
+    ("positions-one-row-late", ["calibrate", "ur5", "f.csv", "--out", "m.json"], {"f.csv": measured(positions_one_row_late)}, "explains 0% of the error"),
+    ("x-and-y-swapped", ["calibrate", "ur5", "f.csv", "--out", "m.json"], {"f.csv": measured(columns_swapped("x", "y"))}, "explains 0% of the error"),
+    ("validate-z-negated", ["validate", "ur5", "f.csv", "--folds", "3"], {"f.csv": measured(cells_changed(["z"], lambda v: -v))}, "explains 0% of the error"),
+    ("kriging-q3-counted-the-other-way", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "m.json"], {"f.csv": measured(cells_changed(["q3"], lambda v: -v))}, "explains 0% of the error"),
+    ("joint-columns-reversed", ["calibrate", "ur5", "f.csv", "--out", "m.json"], {"f.csv": measured(joints_reversed)}, "explains 0% of the error"),
+    ("q1-turned-by-180", ["calibrate", "ur5", "f.csv", "--out", "m.json"], {"f.csv": measured(cells_changed(["q1"], lambda v: v + 180))}, "lies beyond joint 1's limits -360 to 360 deg"),
+    ("ur5-data-as-irb120-hybrid", ["calibrate", "irb120", "ur5.csv", "--method", "hybrid", "--out", "m.json"], None, "lies beyond joint 2's limits -110 to 110 deg of the robot 'ABB IRB 120'"),
+    ("kr150-sockets-validated-as-fanuc", ["validate", "fanuc-r2000ic-165f", "sockets.csv", "--method", "constraint", "--fixture", "plate.toml"], None, "of the robot 'FANUC R-2000iC/165F'"),
+    ("ur5-truth-simulated-as-irb120", ["simulate", "irb120", "--n", "10", "--errors", "ur5_truth.json", "--out", "s.csv"], None, "ur5_truth.json describes the robot 'Universal Robots UR5', not 'ABB IRB 120'"),
+    ("kriging-five-rows-in-metres", ["calibrate", "ur5", "f.csv", "--method", "kriging", "--out", "m.json"], {"f.csv": measured(cells_changed(["x", "y", "z"], lambda v: v / 1000, 0, 5))}, "the calibration cannot explain these data: rows"),
 ]
 
 

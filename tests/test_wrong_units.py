@@ -21,6 +21,7 @@ from user_files import EXAMPLES, campaign, invoke, prepare, refuse, text
 Q = [f"q{i}" for i in range(1, 7)]
 XYZ = ["x", "y", "z"]
 RPY = ["rx", "ry", "rz"]
+SXYZ = ["sx", "sy", "sz"]
 
 
 def scaled(name, columns, factor, unit=None, keep=None):
@@ -124,6 +125,22 @@ REFUSED = [
     ("design-targets-orientation-radians", ["design", "ur5", "--n", "8", "--pool", "300", "--targets", "t.csv", "--out", "p.csv"], {"t.csv": scaled("targets.csv", RPY, math.pi / 180, keep=XYZ + RPY)}, "the rx, ry, rz of t.csv look like radians"),
     ("frames-measurements-metres", ["calibrate", "ur5_model.json", "m.csv", "--method", "frames", "--out", "o.json"], {"m.csv": scaled("ur5.csv", XYZ, 1e-3)}, "they look like metres; give x, y, z in mm"),
     ("robot-file-limits-radians", ["calibrate", "r.toml", "ur5.csv", "--out", "o.json"], {"r.toml": robot_limits_in_radians}, "the min and max of the revolute [[joints]] look like radians"),
+    # hostile pass 5: the same units in other verbs, methods, robots and options
+    ("compare-metres", ["compare", "ur5", "m.csv", "--folds", "3", "--no-network"], {"m.csv": scaled("ur5.csv", XYZ + SXYZ, 1e-3)}, "spread 0.545 over these poses where the model of 'Universal Robots UR5' spreads 544 mm: they look like metres"),
+    ("validate-kriging-micrometres", ["validate", "ur5", "m.csv", "--folds", "3", "--method", "kriging"], {"m.csv": scaled("ur5.csv", XYZ + SXYZ, 1e3)}, "they look like micrometres"),
+    ("hybrid-cm", ["calibrate", "ur5", "m.csv", "--method", "hybrid", "--out", "o.json"], {"m.csv": scaled("ur5.csv", XYZ + SXYZ, 0.1)}, "they look like cm"),
+    ("ann-inches", ["calibrate", "ur5", "m.csv", "--method", "ann", "--generations", "20", "--out", "o.json"], {"m.csv": scaled("ur5.csv", XYZ, 1 / 25.4)}, "they look like inches"),
+    ("auto-joints-radians", ["calibrate", "ur5", "m.csv", "--method", "auto", "--out", "o.json"], {"m.csv": scaled("ur5.csv", Q, math.pi / 180)}, "the joint values look like radians: read so, the nominal 'Universal Robots UR5' misses them by 0.1%"),
+    ("design-existing-metres", ["design", "ur5", "--existing", "m.csv", "--n", "5", "--pool", "300", "--out", "p.csv"], {"m.csv": scaled("ur5.csv", XYZ + SXYZ, 1e-3)}, "they look like metres"),
+    ("design-candidates-radians", ["design", "ur5", "--candidates", "c.csv", "--n", "6", "--out", "p.csv"], {"c.csv": scaled("ur5.csv", Q, math.pi / 180, keep=Q)}, "all joint values of c.csv lie within ±6.3: they look like radians"),
+    ("fixture-cm", ["calibrate", "kr150-2", "sockets.csv", "--method", "constraint", "--fixture", "fc.toml", "--out", "o.json"], {"fc.toml": lambda b: (b / "plate.toml").read_text().replace("150.0", "15.0").replace("120.0", "12.0")}, "its socket distances are 0.1 of what the robot's poses put between the sockets: they look like cm"),
+    ("kr150-design-box-metres", ["design", "kr150-2", "--box", "1.2,1.8,-0.4,0.4,0.6,1.2", "--n", "8", "--pool", "400", "--out", "p.csv"], None, "--box: largest 1.8, where a length about robot 'KUKA KR 150-2' (reach 3346 mm)"),
+    ("kr150-design-tool-metres", ["design", "kr150-2", "--tool", "0,0,0.35", "--n", "8", "--pool", "400", "--out", "p.csv"], None, "--tool: distance from the origin 0.35"),
+    ("kr150-design-walls-cm", ["design", "kr150-2", "--walls", "-250,250,-250,250", "--n", "8", "--pool", "400", "--out", "p.csv"], None, "hardly any configuration of robot 'KUKA KR 150-2' keeps the arm in the working volume"),
+    ("kr150-iso-centre-cm", ["iso9283", "plan", "kr150-2", "--centre", "150,0,90", "--out", "i.csv"], None, "about 150, 0, 90 mm is reachable by 'KUKA KR 150-2'"),
+    ("simulate-grid-hint-radians", ["simulate", "ur5", "--sampling", "grid", "--box", "200,450,-250,250,150,450", "--hint", "0,-1.5708,1.5708,-1.5708,-1.5708,0", "--n", "8", "--out", "s.csv"], None, "the joint values of --hint look like radians"),
+    ("design-payload-grams", ["design", "ur5", "--parameters", "full+compliance", "--payload", "3000", "--n", "12", "--pool", "400", "--out", "p.csv"], None, "give the payload in kg (grams divided by 1000)"),
+    ("validate-payload-grams", ["validate", "ur5", "ur5.csv", "--parameters", "full+compliance", "--payload", "4500", "--folds", "3"], None, "--payload 4500 kg is more than 5 times the arm's own 17.0 kg"),
 ]
 
 
@@ -160,6 +177,7 @@ REFUSED_WITHOUT_ROBOT = [
     ("report-iso-campaign-metres", ["report", "ur5_model.json", "ur5.csv", "--iso", "f.csv", "--out", "r.html"], {"f.csv": campaign(1e-3, 1e-3)}, "the commanded x_cmd, y_cmd, z_cmd of f.csv: largest"),
     ("import-points-metres-unstated", IMPORT, tracker_points(1e-3), "no unit stated, read as mm"),
     ("import-points-metres-unstated-names-fix", IMPORT, tracker_points(1e-3), "they look like metres; state the unit (--units m"),
+    ("iso-campaign-commanded-metres-measured-mm", ["iso9283", "f.csv"], {"f.csv": campaign(1e-3, 1.0)}, "the commanded x_cmd, y_cmd, z_cmd of f.csv: largest 0.643"),
 ]
 
 
