@@ -59,6 +59,15 @@ def to_poe(chain: Chain) -> Chain:
     """The same robot as a product of exponentials (axes in the base frame at q = 0)."""
     if chain.convention == "poe":
         return chain
+    # A chain is frozen: its POE form is made once (a calibration asks for it several times).
+    cached = chain.__dict__.get("_poe_form")
+    if cached is not None:
+        return cached
+    chain.__dict__["_poe_form"] = poe = _to_poe(chain)
+    return poe
+
+
+def _to_poe(chain: Chain) -> Chain:
     # Frames right before each joint's motion with every link variable at zero: evaluate
     # the chain at the configuration that cancels the offsets, on a copy with no base/tool.
     bare = chain.replace(base=np.eye(4), tool=np.eye(4), theta=np.zeros(chain.n_joints),

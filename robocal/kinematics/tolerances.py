@@ -107,7 +107,11 @@ def default_tolerances(chain):
     length tolerance a hundredfold and let the data check pass them."""
     from .gravity import size_factor
 
-    size = float(size_factor(chain.rigid.replace(tool=np.eye(4))))
+    # A chain is frozen: its size to the flange is measured once (a fit asks for it twice).
+    rigid = chain.rigid
+    size = rigid.__dict__.get("_flange_size")
+    if size is None:
+        size = rigid.__dict__["_flange_size"] = float(size_factor(rigid.replace(tool=np.eye(4))))
     return Tolerances(length=max(LENGTH_FLOOR_MM, LENGTH_PER_SIZE_MM * size), joint_zero=np.radians(JOINT_ZERO_DEG),
                       axis_angle=np.radians(AXIS_ANGLE_DEG), gain=GAIN_PPM * 1e-6,
                       compliance_bend=np.radians(COMPLIANCE_BEND_DEG))
