@@ -502,9 +502,9 @@ def test_twelve_thousand_rows_read_quickly(tmp_path):
         sigmas=np.full((count, 3), 0.01),
     )
     path = write_measurements(tmp_path / "big.csv", original)
-    start = time.perf_counter()
+    start = time.process_time()  # the reader's work, not what else the machine runs meanwhile
     loaded = read_quietly(path)
-    elapsed = time.perf_counter() - start
+    elapsed = time.process_time() - start
     np.testing.assert_array_equal(loaded.positions, original.positions)
     assert elapsed < 1.0
 

@@ -179,9 +179,9 @@ def test_joining_many_points_takes_linear_time(tmp_path):
                            time=None, unit="mm", lines=np.arange(2, n + 3))
     (tmp_path / "j.csv").write_text("name,q1,q2,q3,q4,q5,q6\n"
                                     + "".join(f"Q{k},{k},-80,90,-100,-90,0\n" for k in range(10)))
-    start = time.perf_counter()
+    start = time.process_time()  # the join's work (quadratic: 12 s), not the machine's load
     data, report = join(points, tmp_path / "j.csv")
-    assert time.perf_counter() - start < 5.0
+    assert time.process_time() - start < 5.0
     assert report.matched == 10 and len(report.points_without_joints) == n - 10
     assert report.duplicates == (("Q5", 2, 1.0),)
     assert data.positions[5].tolist() == [401.0, 100.0, 400.0]
