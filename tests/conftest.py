@@ -61,8 +61,11 @@ def refusal_inputs(tmp_path_factory, ur5_files, kr150_socket_files):
 # and pytest-xdist's own order (most tests first) hands out the files of a few long tests
 # (test_serve.py, test_report.py, test_network_cli.py) last, where one worker runs them while
 # the other has nothing left.  The other files follow, most tests first, as pytest-xdist orders
-# them; a file missing here only starts later, which costs time, never a test.
-LONGEST_FIRST = ["test_fleet.py", "test_pipe_output.py", "test_failed_commands_leave_nothing.py", "test_serve.py",
+# them; a file missing here only starts later, which costs time, never a test.  test_readme.py
+# (its walkthrough, 44 s) runs only where the robocal command is installed, as in CI: started
+# last there, it ran while the other worker had nothing left.
+LONGEST_FIRST = ["test_fleet.py", "test_readme.py", "test_pipe_output.py", "test_failed_commands_leave_nothing.py",
+                 "test_serve.py",
                  "test_small_campaigns.py", "test_training_poses_recognised.py", "test_report.py",
                  "test_parallel_fits.py", "test_network_cli.py", "test_wrong_kind_of_file.py", "test_bound.py",
                  "test_moved_bound.py", "test_cli_conventions.py", "test_unbounded_work.py"]
