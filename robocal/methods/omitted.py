@@ -123,21 +123,22 @@ class Omitted:
     payload: float | None = None
     anchors: np.ndarray | None = field(default=None, repr=False)
     scale: float | None = None
-    _compliant: dict = field(default_factory=dict, repr=False, compare=False)
+    # The compliant chain and the anchors' tree, built at first use; a copy (dataclasses.replace) starts empty.
+    _cache: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def _chain(self, chain):
         if not self.compliant or hasattr(chain, "mass_model"):
             return chain
         # Built once per chain: building compiles its programs (some 3 ms), which a served
         # target outside the domain would otherwise pay at every request.
-        cached = self._compliant.get("chain")
+        cached = self._cache.get("chain")
         if cached is not None and cached[0] is chain:
             return cached[1]
         from ..kinematics.compliant import CompliantChain
         from ..kinematics.gravity import default_mass_model
 
         compliant = CompliantChain(chain, default_mass_model(chain, self.payload), np.zeros(chain.n_joints))
-        self._compliant["chain"] = (chain, compliant)
+        self._cache["chain"] = (chain, compliant)
         return compliant
 
     def sigma(self, chain, joints):
@@ -162,12 +163,12 @@ class Omitted:
 
     def _nearest_anchor(self, chain, joints):
         """(M,) the index of the anchor whose nominal TCP lies nearest each configuration's."""
-        cached = self._compliant.get("anchors")
+        cached = self._cache.get("anchors")
         if cached is None or cached[0] is not chain:
             from scipy.spatial import cKDTree
 
             cached = (chain, cKDTree(chain.fk_positions(self.anchors)))
-            self._compliant["anchors"] = cached
+            self._cache["anchors"] = cached
         return cached[1].query(chain.fk_positions(joints))[1]
 
     def to_dict(self):
