@@ -17,6 +17,7 @@ comes from.  This module runs the rest the same way for both:
 Names of the base frame and tool position parameters are defined here, once.
 """
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 from collections.abc import Callable
 
 import numpy as np
@@ -106,6 +107,15 @@ def tolerance_prior(start, names, joints, prior, scale, deviation):
     return Prior({n: float(s) for n, s in zip(names, sigmas) if np.isfinite(s)}, deviation)
 
 
+@lru_cache(maxsize=None)
+def _plausible_distance(dof):
+    """The chi-square quantile of ``dof`` degrees of freedom at PLAUSIBLE_PROBABILITY (scipy's
+    quantile costs a fit more than its check)."""
+    from scipy.stats import chi2
+
+    return float(chi2.isf(PLAUSIBLE_PROBABILITY, dof))
+
+
 def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, tolerance_rms, space, *, override,
                     distances=None):
     """The one-line reason a maximum a posteriori fit is not this robot's data, or None.
@@ -138,14 +148,12 @@ def implausible_fit(names, values, prior_std, before_rms, after_rms, noise_rms, 
     says nothing of a fixture whose distances are wrong: the fit bends the robot toward them
     and keeps its sockets consistent).
     """
-    from scipy.stats import chi2
-
     values = np.asarray(values, dtype=float)
     prior = np.asarray(prior_std, dtype=float)
     held = np.isfinite(prior)
     z = np.where(held, values / np.where(held, prior, 1.0), 0.0)
     distance = float(np.sum(z ** 2))
-    limit = float(chi2.isf(PLAUSIBLE_PROBABILITY, max(int(held.sum()), 1)))
+    limit = _plausible_distance(max(int(held.sum()), 1))
     if distance > limit and np.max(np.abs(z)) > GROSS_TOLERANCES:
         worst = np.argsort(-np.abs(z))[:3]
         said = ", ".join(f"{names[k]} by {_shown(space, names[k], values[k])} ({abs(z[k]):.0f} tolerances)"

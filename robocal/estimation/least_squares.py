@@ -329,6 +329,11 @@ def damped_least_squares(chain, names, linearise, residual, *, max_iterations=50
             new_cost = float(new @ new) + (prior_cost(offset + step, noise, tau) if prior is not None else 0.0)
             if new_cost <= cost or damping > 1e10 or np.linalg.norm(step_s) <= 1e-12 * size:
                 break
+            # A rejected step whose linearised model promised less than the stopping tolerance
+            # failed by rounding: more damping only shrinks the promise (converged here).
+            promised = 2.0 * float(gradient @ step_s) - float(step_s @ normal @ step_s)
+            if promised <= tolerance * cost:
+                break
             damping *= 10.0
         if new_cost > cost:
             converged = True

@@ -105,16 +105,31 @@ def default_tolerances(chain):
     before its prior is built, and another robot's data registered to this one can take a tool
     of any length (a UR10's ISO cubes fitted as a UR5's: 121 m), which would loosen every
     length tolerance a hundredfold and let the data check pass them."""
-    from .gravity import size_factor
-
-    # A chain is frozen: its size to the flange is measured once (a fit asks for it twice).
-    rigid = chain.rigid
-    size = rigid.__dict__.get("_flange_size")
-    if size is None:
-        size = rigid.__dict__["_flange_size"] = float(size_factor(rigid.replace(tool=np.eye(4))))
+    size = _flange_size(chain.rigid)
     return Tolerances(length=max(LENGTH_FLOOR_MM, LENGTH_PER_SIZE_MM * size), joint_zero=np.radians(JOINT_ZERO_DEG),
                       axis_angle=np.radians(AXIS_ANGLE_DEG), gain=GAIN_PPM * 1e-6,
                       compliance_bend=np.radians(COMPLIANCE_BEND_DEG))
+
+
+# Sizes by arm geometry: every fit measures the size of its registered start, a new chain that
+# differs from the user's only in base and tool, which do not change the size.
+_SIZES = {}
+_SIZES_KEPT = 64
+_NOT_THE_ARM = {"name", "base", "tool", "masses", "tolerances", "joint_names", "lower", "upper"}
+
+
+def _flange_size(rigid):
+    """The arm's size (:func:`~robocal.kinematics.gravity.size_factor`) to the flange."""
+    from .gravity import size_factor
+
+    key = tuple(value.tobytes() if isinstance(value, np.ndarray) else value
+                for f in fields(rigid) if f.name not in _NOT_THE_ARM for value in (getattr(rigid, f.name),))
+    size = _SIZES.get(key)
+    if size is None:
+        if len(_SIZES) >= _SIZES_KEPT:
+            _SIZES.clear()
+        size = _SIZES[key] = float(size_factor(rigid.replace(tool=np.eye(4))))
+    return size
 
 
 def tolerances_of(chain, scale=1.0):
