@@ -23,7 +23,7 @@ from ..methods.bound import NO_BOUND, bound_of_model
 from ..methods.socket_bound import fit_model_bound
 from ..methods.moved_bound import reregistered_bound
 from ..estimation.plausibility import check_model_data
-from ..methods.expectation import expected_error, refuse_if_worse_than_nominal
+from ..methods.expectation import expected_error, fall_back_outside_if_worse, refuse_if_worse_than_nominal
 from ..methods.reregistration import FRAMES  # noqa: F401  (the command line and fleet files name it here)
 from ..methods.selection import AUTO, choose, compare
 from ..methods.validation import cross_validate
@@ -36,7 +36,9 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
     its ``settings``) to a measurement file and save the model file.  ``progress(**info)`` is
     called as the method reports its steps.  The error to expect where the robot will work is
     kept in the record; a model predicted to do worse there than the registered nominal robot
-    is refused unless ``accept_extrapolation``.  ``folds``: auto's comparison folds (default
+    answers outside its training domain with the rigid kinematic calibration if that is not
+    predicted worse (:func:`~robocal.methods.expectation.fall_back_outside_if_worse`), else is
+    refused, unless ``accept_extrapolation``.  ``folds``: auto's comparison folds (default
     5; leave-one-out on a small campaign)."""
     auto = method == AUTO
     if folds is not None and not auto:
@@ -61,6 +63,7 @@ def calibrate_job(robot, measurements, out, *, method=DEFAULT_METHOD, settings=N
         fitter.fit(chain, observations, progress=progress)
     predicted = expected_error(fitter, chain, observations)
     if not accept_extrapolation:
+        predicted = fall_back_outside_if_worse(fitter, chain, observations, predicted)
         refuse_if_worse_than_nominal(predicted, getattr(fitter, "domain_", None))
     if predicted is not None:
         fitter.record_ = fitter.record_.replace(predicted_error=predicted.to_dict())

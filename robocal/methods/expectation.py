@@ -127,6 +127,50 @@ def held_out_errors(method, chain, observations, seed=0):
     return fold_errors(method, chain, observations, random_split(count, folds, seed))
 
 
+# What answers outside the training domain of an error model predicted worse than the nominal
+# robot there: the rigid kinematic calibration, auto's fallback when no region split can tell
+# whether the compliance carries (robocal.methods.selection.outside_choice).
+OUTSIDE_FALLBACK = ("kinematic", {"parameters": "full"})
+
+
+def fall_back_outside_if_worse(method, chain, observations, predicted, seed=0):
+    """The :class:`PredictedError` of what will answer: ``method`` itself, or, when it has an
+    error model that is predicted (``predicted``) to do worse over the working range than the
+    registered nominal robot, ``method`` answering outside its training domain with the rigid
+    kinematic calibration (:func:`~robocal.methods.fallback.wrap`, changed in place, with a
+    warning) if that is not predicted worse.
+
+    Outside their poses an error model extrapolates (a Kriging its trend, a network its
+    output): trained on a random half of UR5 Tsinghua, whose poses cover a corner of the joint
+    space, the Kriging was predicted to miss by 4.6 mm over the joint range and the network by
+    5.7, the registered nominal robot by 3.2; with the fallback 0.165 (bench/predicted_error.py).
+    """
+    from . import make_method
+    from .fallback import DomainFallback, wrap
+
+    if (predicted is None or not predicted.worse_than_nominal or getattr(method, "domain_", None) is None
+            or method.compensator_.error_model is None or isinstance(method.compensator_, DomainFallback)):
+        return predicted
+    name, settings = OUTSIDE_FALLBACK
+    try:
+        fallback = make_method(name, **settings).fit(chain, observations)
+    except InputError:
+        return predicted  # too few poses for it: the refusal stands
+    alone = method.compensator_
+    label = f"{name} {settings['parameters']}"
+    wrap(method, fallback, label)
+    answered = expected_error(method, chain, observations, seed=seed)
+    if answered is None or answered.worse_than_nominal:
+        method.compensator_ = alone
+        return predicted
+    warnings.warn(RobocalWarning(
+        f"outside its training domain this {method.name} model was predicted to miss by {predicted.mean_mm:.3g} mm "
+        f"on average over {predicted.where}, worse than the registered nominal robot ({predicted.nominal_mean_mm:.3g} "
+        f"mm): the {label} calibration answers there ({answered.mean_mm:.3g} mm predicted in all); "
+        "--accept-extrapolation keeps the model's own extrapolation"))
+    return answered
+
+
 def refuse_if_worse_than_nominal(predicted, domain=None):
     """InputError in one line when ``predicted`` says the model does worse than the registered
     nominal robot over the working range: what the poses cover, and where to measure."""
