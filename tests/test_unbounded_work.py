@@ -105,9 +105,9 @@ def test_stdin_of_zeros_is_refused(tmp_path):
     assert not (tmp_path / "o.json").exists()
 
 
-@pytest.mark.parametrize("loaded", ["_multiarray_umath", "_ufuncs"])
+@pytest.mark.parametrize("loaded", ["_multiarray_umath", "_flapack"])
 def test_ctrl_c_while_the_command_line_starts_ends_in_one_line(loaded, tmp_path):
-    # SIGINT while the command line imports NumPy, then SciPy, before its own handling is in
+    # SIGINT while the command line imports NumPy, then SciPy's LAPACK, before its own handling is in
     # place (a second or more on a busy machine): one line and status 130, no
     # KeyboardInterrupt traceback, no file.  Sent when that library's extension is mapped, not
     # after a fixed delay: under load 50 ms fell in the interpreter's own start-up (its site

@@ -17,7 +17,7 @@ comes from.  This module runs the rest the same way for both:
 Names of the base frame and tool position parameters are defined here, once.
 """
 from dataclasses import dataclass, field, replace
-from functools import lru_cache
+from functools import cache
 from collections.abc import Callable
 
 import numpy as np
@@ -107,7 +107,7 @@ def tolerance_prior(start, names, joints, prior, scale, deviation):
     return Prior({n: float(s) for n, s in zip(names, sigmas) if np.isfinite(s)}, deviation)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _plausible_distance(dof):
     """The chi-square quantile of ``dof`` degrees of freedom at PLAUSIBLE_PROBABILITY (scipy's
     quantile costs a fit more than its check)."""

@@ -21,7 +21,6 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..errors import FileFormatError, InputError
 from ..kinematics import Chain
@@ -186,6 +185,7 @@ def ipa_ur10(series="B", root=None):
     Returns a :class:`Dataset` ("ipa-ur10-a", "-b" or "-d") with the measured orientations
     (robocal rpy in its measurements, in deg) and, for series A, the acquisition times.
     """
+    from scipy.spatial.transform import Rotation  # loaded when used: the command line starts faster
     series = str(series).upper()
     files = {"A": "Series_A/measurements_grid.csv", "B": "Series_B/measurements_joint_configurations.csv",
              "D": "Series_D/measurements_iso_cubes.csv"}

@@ -15,7 +15,6 @@ z, robocal's UR10 frame), so that robocal's UR10 model predicts them from ``q1..
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..spatial import compose_pose, rot_z, so3_exp
 from ..spatial.transforms import kabsch
@@ -54,6 +53,8 @@ def series_d_campaign(root=None):
 def _register(commanded, measured):
     """(R (3, 3), t (3,), probe (3,), residuals (3N,) mm) with measured ≈ R (C_R probe +
     C_t) + t: the tracker -> base transform and the probe in the commanded TCP frame."""
+    from scipy.optimize import least_squares  # loaded when used: the command line starts faster
+
     start_rotation, start_shift = kabsch(commanded[:, :3, 3], measured)
 
     def unpack(v):

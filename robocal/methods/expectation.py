@@ -167,7 +167,7 @@ def fall_back_outside_if_worse(method, chain, observations, predicted, seed=0):
         f"outside its training domain this {method.name} model was predicted to miss by {predicted.mean_mm:.3g} mm "
         f"on average over {predicted.where}, worse than the registered nominal robot ({predicted.nominal_mean_mm:.3g} "
         f"mm): the {label} calibration answers there ({answered.mean_mm:.3g} mm predicted in all); "
-        "--accept-extrapolation keeps the model's own extrapolation"))
+        "--accept-extrapolation keeps the model's own extrapolation"), stacklevel=2)
     return answered
 
 

@@ -11,7 +11,6 @@
 Joint values are controller joints in rad (mm for prismatic joints).
 """
 import numpy as np
-from scipy.stats import qmc
 
 from ..errors import InputError
 from ..kinematics.ik import closed_form, ik_all, solve_ik
@@ -56,6 +55,7 @@ def joint_candidates(chain, count, seed=0, *, sampling="uniform", margin_deg=MAR
     (``lhs``) within the limits less ``margin_deg``, those near a singularity (see
     :func:`usable`) or, with ``volume`` (a :class:`~robocal.planning.workspace.WorkingVolume`),
     outside the working volume replaced by further draws; reproducible for ``seed``."""
+    from scipy.stats import qmc  # loaded when used: the command line starts faster
     if sampling not in SAMPLINGS:
         raise InputError(f"sampling must be one of {', '.join(SAMPLINGS)}, got {sampling!r}")
     lower, upper = _limits(chain, np.radians(margin_deg))
@@ -101,6 +101,8 @@ def box_candidates(chain, count, low, high, orientation, seed=0, *, hint=None, m
     on one IK branch (the ``hint`` posture's, rad, else the one reaching most points), kept
     where they are reachable, ``margin_deg`` inside the joint limits and away from
     singularities.  InputError when too little of the box is reachable so."""
+    from scipy.stats import qmc  # loaded when used: the command line starts faster
+
     low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
     if np.any(low > high):
         raise InputError(f"box low {low.tolist()} must not exceed high {high.tolist()} in any coordinate (mm)")

@@ -30,7 +30,6 @@ sliding theta5 by 11-32 deg along a valley of the UR5's model that the data hard
 little behind at 15 and 20 poses, ahead from 30 on.
 """
 import numpy as np
-from scipy.cluster.vq import kmeans2, vq
 
 from ..errors import InputError
 
@@ -146,6 +145,7 @@ def strata(points, count, seed=0, reference=None):
     (the targets' points, default ``points`` themselves) into ``count`` clusters, each of
     ``points`` (N, d) in the stratum of its nearest centre; numbered 0 .. count-1 (a stratum
     may be empty)."""
+    from scipy.cluster.vq import kmeans2, vq  # loaded when used: the command line starts faster
     points = np.asarray(points, dtype=float)
     reference = points if reference is None else np.asarray(reference, dtype=float)
     if reference is points and count >= len(points):

@@ -13,7 +13,6 @@ Joint values are controller joints in rad (mm for prismatic joints); positions a
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import qmc
 
 from ..errors import InputError
 from ..io.observations import Observations
@@ -39,6 +38,7 @@ def latin_hypercube_box(chain, n, low, high, orientation, seed=0, hint=None):
     Returns q (n, n_joints) and targets (n, 4, 4).  Raises InputError if some points have
     no solution on that branch within the joint limits.
     """
+    from scipy.stats import qmc  # loaded when used: the command line starts faster
     n = _count(n)
     low, high = _box(low, high)
     unit = qmc.LatinHypercube(d=3, seed=seed).random(n)

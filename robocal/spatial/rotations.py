@@ -4,7 +4,6 @@ rpy = [rx, ry, rz] means R = Rz(rz) @ Ry(ry) @ Rx(rx): fixed axes X, then Y, the
 URDF and equal to KUKA's (A, B, C) = (rz, ry, rx).
 """
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 
 def rot_x(angle):
@@ -30,6 +29,7 @@ def rot_z(angle):
 
 def rpy_to_matrix(rpy):
     """(..., 3) roll, pitch, yaw (rad) -> (..., 3, 3) rotation matrices."""
+    from scipy.spatial.transform import Rotation  # loaded when used: the command line starts faster
     rpy = np.asarray(rpy, dtype=float)
     flat = rpy.reshape(-1, 3)
     # Extrinsic 'xyz' in SciPy is exactly Rz @ Ry @ Rx.

@@ -11,7 +11,6 @@ of outputs), so that OPTIONS' tolerances and RESTART_GRADIENT do not depend on n
 import math
 
 import numpy as np
-from scipy.optimize import minimize
 
 from ... import parallel
 from ...errors import InputError
@@ -303,6 +302,7 @@ def _lbfgsb(objective, start, bounds, options, restarts, noisy):
     within ``bounds`` ((lower, upper)) with ``options``, run again from its end at most
     ``restarts`` times while it stopped early where the likelihood is not ``noisy`` (params ↦
     bool; see RESTARTS) and the runs gain."""
+    from scipy.optimize import minimize  # loaded when used: the command line starts faster
     pairs = list(zip(*bounds))
     result = minimize(objective, start, jac=True, method="L-BFGS-B", bounds=pairs, options=options)
     for _ in range(restarts):

@@ -54,7 +54,6 @@ ordering was not measured here.
 import math
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from .bordered import _back_substitute, _bordered_factor, _Failed, _squared_distances
 from .correlation import JITTER_START, MAX_CONDITION, correlation_from_squared, matern52_slope
@@ -204,6 +203,7 @@ def previous_neighbours(Z, m):
     is queried for more than m neighbours, and those not earlier than the row are dropped
     (at most a fifth of the tree lies after any row of the block); a row left with fewer
     than m is queried again with more."""
+    from scipy.spatial import cKDTree  # loaded when used: the command line starts faster
     n = len(Z)
     m = int(min(m, max(n - 1, 0)))
     neighbours = np.full((n, m), -1, dtype=np.int64)

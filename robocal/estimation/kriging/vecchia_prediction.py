@@ -39,7 +39,6 @@ import math
 
 import numpy as np
 from scipy.linalg import cho_solve
-from scipy.spatial import cKDTree
 
 from .bordered import _back_substitute, _factor_in_prediction, _Failed, _forward_substitute, _squared_distances
 from .correlation import correlation_from_squared
@@ -127,6 +126,7 @@ class VecchiaState:
         converge, w = ỹ and A_j = C[S_j, S_j].  With k ≥ n both are the exact predictor: R C⁻¹ỹ = (C − τ²I)C⁻¹ỹ.
         ``exact_factor`` (the lower Cholesky factor of C in the problem's order, its jitter),
         when the search left one at θ with this state's jitter, gives C⁻¹ỹ directly."""
+        from scipy.spatial import cKDTree  # loaded when used: the command line starts faster
         Z = self._X * np.sqrt(self.theta)
         self._Z, self._tree = Z, cKDTree(Z)
         n, q = self._residual.shape

@@ -22,7 +22,6 @@ import numbers
 import time
 
 import numpy as np
-from scipy.optimize import minimize
 
 from ...errors import InputError
 from ..arrays import (as_matrix, check_choice, check_header, check_random_state, check_whole,
@@ -279,6 +278,7 @@ class NetworkErrorModel:
 
     def _lbfgs(self, layout, theta, mask, X, Y, y_scale, e0):
         """Minimise (E/E₀)² from θ with the structure ``mask`` fixed: (θ, objective)."""
+        from scipy.optimize import minimize  # loaded when used: the command line starts faster
         weights = y_scale**2 / (len(X) * e0**2)
         result = minimize(lambda x: loss_and_gradient(layout, x, mask, X, Y, weights),
                           np.asarray(theta, dtype=float), jac=True, method="L-BFGS-B",

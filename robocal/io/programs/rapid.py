@@ -15,7 +15,6 @@ import bisect
 import re
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ...errors import FileFormatError
 from .core import (
@@ -119,6 +118,7 @@ def _is_robtarget(node):
 
 def poses_of(values):
     """(N, 7) x, y, z mm, q1 (scalar), q2, q3, q4 -> (N, 4, 4)."""
+    from scipy.spatial.transform import Rotation  # loaded when used: the command line starts faster
     poses = np.tile(np.eye(4), (len(values), 1, 1))
     poses[:, :3, :3] = Rotation.from_quat(values[:, [4, 5, 6, 3]]).as_matrix()
     poses[:, :3, 3] = values[:, :3]
@@ -326,6 +326,7 @@ def new_numbers(targets, poses):
     """[(Number, text)] writing ``poses`` into x, y, z and the quaternions (the sign nearest
     the file's); a quaternion that has not turned keeps its characters (written to few
     decimals, it is not quite unit)."""
+    from scipy.spatial.transform import Rotation  # loaded when used: the command line starts faster
     if not targets:
         return []
     old = np.array([[n.value for n in t.numbers[3:]] for t in targets])

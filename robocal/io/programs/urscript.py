@@ -14,7 +14,6 @@ from __future__ import annotations
 import re
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ...errors import InputError
 from .core import (
@@ -103,6 +102,7 @@ def _arguments(text, start):
 
 def poses_of(values):
     """(N, 6) x, y, z m, rotation vector rad -> (N, 4, 4) mm."""
+    from scipy.spatial.transform import Rotation  # loaded when used: the command line starts faster
     poses = np.tile(np.eye(4), (len(values), 1, 1))
     poses[:, :3, :3] = Rotation.from_rotvec(values[:, 3:]).as_matrix()
     poses[:, :3, 3] = values[:, :3] * 1000.0
@@ -206,6 +206,7 @@ def _parse(program, text):
 def new_numbers(targets, poses):
     """[(Number, text)] writing ``poses`` into x, y, z (m) and the rotation vectors (rad),
     each the equivalent vector nearest the file's."""
+    from scipy.spatial.transform import Rotation  # loaded when used: the command line starts faster
     if not targets:
         return []
     old = np.array([[n.value for n in t.numbers[3:]] for t in targets])
