@@ -112,7 +112,9 @@ def default_tolerances(chain):
 
 
 # Sizes by arm geometry: every fit measures the size of its registered start, a new chain that
-# differs from the user's only in base and tool, which do not change the size.
+# differs from the user's only in base and tool, which do not change the size.  It is measured
+# without them, so that its last bits do not depend on which base the cache first saw (a Dask
+# worker's cross-validation printed figures 1e-16 apart from the same run here).
 _SIZES = {}
 _SIZES_KEPT = 64
 _NOT_THE_ARM = {"name", "base", "tool", "masses", "tolerances", "joint_names", "lower", "upper"}
@@ -128,7 +130,7 @@ def _flange_size(rigid):
     if size is None:
         if len(_SIZES) >= _SIZES_KEPT:
             _SIZES.clear()
-        size = _SIZES[key] = float(size_factor(rigid.replace(tool=np.eye(4))))
+        size = _SIZES[key] = float(size_factor(rigid.replace(base=np.eye(4), tool=np.eye(4))))
     return size
 
 
