@@ -105,7 +105,9 @@ BEYOND_LIMITS = typer.Option(False, "--beyond-limits", help="Accept joint values
                              "than 0.5 deg) instead of refusing those rows.")
 ACCEPT_EXTRAPOLATION = typer.Option(False, "--accept-extrapolation", help="Keep a model predicted to miss by more "
                                     "than the registered nominal robot over the working range (poses that cover too "
-                                    "little of it); filter: compensate targets outside its domain of validity too.")
+                                    "little of it) as fitted: without it an error model answers beyond its poses "
+                                    "with the kinematic calibration, or is refused; filter: compensate targets "
+                                    "outside its domain of validity too.")
 ITERATE = typer.Option(False, "--iterate", help="Solve c = P - e(c) to a fixed point.")
 JOBS = typer.Option(None, help="Run the independent fits (the folds of a comparison or a cross-validation, each "
                     "error component's likelihood search of kriging and hybrid, the robots of a fleet) on a local "
