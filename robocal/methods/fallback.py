@@ -1,5 +1,6 @@
 """Outside its training domain, a model answers with another: the domain fallback of
-``calibrate --method auto``.
+``calibrate --method auto``, and of an error model predicted to do worse there than the
+registered nominal robot (:func:`robocal.methods.expectation.fall_back_outside_if_worse`).
 
 Cross-validation can only judge a model where the training data are. Beyond them — another
 arm branch, a joint beyond its measured range — two kinds of model are known to fail:
@@ -136,7 +137,7 @@ def from_fallback_document(compensator, outside, domain, path):
     :func:`robocal.io.model_file.load_model`) and the file's ``domain``."""
     if domain is None:
         raise FileFormatError(f"{path}: the model answers with another outside its domain of validity, but the file "
-                              "records no domain; regenerate it with 'robocal calibrate --method auto'")
+                              "records no domain; regenerate it with 'robocal calibrate'")
     label, chain, reference = outside
     fallback = Compensator(chain, None, nominal=chain.rigid, controller=compensator.controller, reference=reference)
     return DomainFallback(compensator, fallback, domain, label)
