@@ -85,6 +85,12 @@ def socket_scores(fitted, observations):
             f"'{obs.fixture.name}' the one it was measured on?"), stacklevel=2)
     # The share of configurations within the model's 95 % bound of the socket consistency.
     bound = socket_bound_scores(fitted, obs)
+    for off in (bound.get("bound95") or {}).get("placements_off", []):
+        warnings.warn(RobocalWarning(
+            f"fixture placement {off['placement']}: {off['within_share']:.0%} of its configurations lie within their "
+            f"95 % bound (median deviation {off['median_error_mm']:.3g} mm, bound {off['median_bound_mm']:.3g} mm): "
+            "its seatings are not what the model expects there; check that placement (ball and socket clean, "
+            "fixture clamped) and measure it again"), stacklevel=2)
     return {"metric": SOCKET_METRIC, **after, "nominal": socket_errors(fitted.reference_, *args), **bound}
 
 
