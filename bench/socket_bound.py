@@ -41,7 +41,7 @@ from robocal.io.datasets import mukca  # noqa: E402
 from robocal.io.library import load_robot  # noqa: E402
 from robocal.io.observations import read_observations  # noqa: E402
 from robocal.methods import make_method  # noqa: E402
-from robocal.methods.socket_bound import fit_socket_bound, held_out_deviations, socket_groups  # noqa: E402
+from robocal.methods.socket_bound import placements_off, fit_socket_bound, held_out_deviations, socket_groups  # noqa: E402
 from robocal.simulation import read_truth  # noqa: E402
 
 FIXTURE = Path(__file__).resolve().parent.parent / "examples" / "plate-fixture.toml"
@@ -101,6 +101,12 @@ def main():
         rows = placements_left_out(chain, obs)
         line(f"MUKCa {unit}: socket consistency ({len(rows)} placements)", sum(len(r["bound"]) for r in rows),
              summary(rows, "deviation"))
+        # The placements evaluate names as off (robocal.methods.socket_bound.placements_off).
+        named = [off[0] for r in rows
+                 for off in placements_off(r["deviation"], r["bound"], np.full(len(r["bound"]), r["placement"]))]
+        shares = sorted((float(np.mean(r["deviation"] <= r["bound"])), r["placement"]) for r in rows)
+        print(f"{'':<52} named by evaluate: {', '.join(named) or 'none'}; lowest shares "
+              + ", ".join(f"{label} {share:.3f}" for share, label in shares[:2]))
         print(f"{'':<52} ({time.perf_counter() - start:.0f} s)")
     robot = load_robot("kr150-2")
     for seed in (1,) if args.quick else (1, 2, 3):
