@@ -129,8 +129,10 @@ def held_out_errors(method, chain, observations, seed=0):
 
 # What answers outside the training domain of an error model predicted worse than the nominal
 # robot there: the rigid kinematic calibration, auto's fallback when no region split can tell
-# whether the compliance carries (robocal.methods.selection.outside_choice).
-OUTSIDE_FALLBACK = ("kinematic", {"parameters": "full"})
+# whether the compliance carries (robocal.methods.selection.outside_choice), with the
+# parameters of the calibration its prediction is anchored on (the data check's: "offsets"
+# below some 30 poses), so that what answers is what the prediction drew the robot from.
+OUTSIDE_FALLBACK = "full"
 
 
 def fall_back_outside_if_worse(method, chain, observations, predicted, seed=0):
@@ -153,13 +155,16 @@ def fall_back_outside_if_worse(method, chain, observations, predicted, seed=0):
     if (predicted is None or not predicted.worse_than_nominal or getattr(method, "domain_", None) is None
             or method.compensator_.error_model is None or isinstance(method.compensator_, DomainFallback)):
         return predicted
-    name, settings = OUTSIDE_FALLBACK
+    anchor = getattr(method, "data_check_", None)
+    parameters = getattr(anchor, "parameters", OUTSIDE_FALLBACK) if anchor is not None else OUTSIDE_FALLBACK
+    if parameters not in ("full", "offsets"):
+        parameters = OUTSIDE_FALLBACK
     try:
-        fallback = make_method(name, **settings).fit(chain, observations)
+        fallback = make_method("kinematic", parameters=parameters).fit(chain, observations)
     except InputError:
         return predicted  # too few poses for it: the refusal stands
     alone = method.compensator_
-    label = f"{name} {settings['parameters']}"
+    label = f"kinematic {parameters}"
     wrap(method, fallback, label)
     answered = expected_error(method, chain, observations, seed=seed)
     if answered is None or answered.worse_than_nominal:
