@@ -131,7 +131,7 @@ def held_out_errors(method, chain, observations, seed=0):
 # robot there: the rigid kinematic calibration, auto's fallback when no region split can tell
 # whether the compliance carries (robocal.methods.selection.outside_choice), with the
 # parameters of the calibration its prediction is anchored on (the data check's: "offsets"
-# below some 30 poses), so that what answers is what the prediction drew the robot from.
+# below some 35 poses), so that what answers is what the prediction drew the robot from.
 OUTSIDE_FALLBACK = "full"
 
 
