@@ -150,3 +150,25 @@ def test_a_placement_whose_seatings_the_model_does_not_expect_is_named(left_out,
         assert any(f"fixture placement {left_out}:" in line and "check that placement" in line for line in said), said
     else:
         assert off == [] and not any("fixture placement" in line for line in said), said
+
+
+def test_evaluate_names_a_placement_whose_seatings_are_off_from_the_command_line(tmp_path):
+    # The same from the command line: MUKCa Panda 2 calibrated without placement `high`, then
+    # evaluated on it: exit 0, one warning naming the placement, and --json lists it.
+    from user_files import invoke
+
+    assert invoke(tmp_path, ["dataset", "mukca-panda-2", "--out", "p2"]).code == 0
+    rows = list(csv.reader(open(tmp_path / "p2.csv")))
+    column = rows[0].index("fixture")
+    for name, held in (("train.csv", False), ("high.csv", True)):
+        kept = [rows[0]] + [row for row in rows[1:] if (row[column] == "high") == held]
+        (tmp_path / name).write_text("\n".join(",".join(row) for row in kept) + "\n")
+    fixture = ["--fixture", "p2_fixture.toml"]
+    assert invoke(tmp_path, ["calibrate", "p2.toml", "train.csv", "--method", "constraint", "--out", "m.json",
+                             *fixture]).code == 0
+    done = invoke(tmp_path, ["evaluate", "m.json", "high.csv", "--json", *fixture])
+    assert done.code == 0, done.lines
+    named = [line for line in done.lines if "fixture placement high:" in line]
+    assert len(named) == 1 and "check that placement" in named[0], done.lines
+    off = json.loads(done.result.stdout)["bound95"]["placements_off"]
+    assert [entry["placement"] for entry in off] == ["high"] and off[0]["within_share"] < 0.5
